@@ -1,0 +1,1 @@
+//! Cable–cabin model (in progress).

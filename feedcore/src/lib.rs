@@ -1,0 +1,18 @@
+//! Shared pieces of the feed-positioning models.
+//!
+//! * [`scene`]: the scene file (TOML) both models and the master read, with validation;
+//! * [`rigid`]: rotations on SO(3) and rigid-body mass properties;
+//! * [`stewart_geometry`]: where the Stewart platform's joints and masses sit on the cabin;
+//! * [`genalpha`]: coefficients of the generalized-α integrator.
+
+pub mod genalpha;
+pub mod rigid;
+pub mod scene;
+pub mod stewart_geometry;
+
+pub use nalgebra;
+
+/// Vectors and matrices of the models: small, fixed-size, `f64`.
+pub type Vec3 = nalgebra::Vector3<f64>;
+pub type Mat3 = nalgebra::Matrix3<f64>;
+pub type Quat = nalgebra::UnitQuaternion<f64>;

@@ -1,0 +1,509 @@
+//! The scene file: every number of a simulation, read from TOML and validated.
+//!
+//! A scene is parsed into plain structs (unknown keys and missing keys are errors), then
+//! [`Scene::validate`] rejects non-physical values with an error that names the file, the key
+//! and the value. Geometry comes out through accessors ([`Scene::anchors`], ...) so that the
+//! models never re-derive it differently.
+
+use std::fmt;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::rigid::MassProperties;
+use crate::{Mat3, Quat, Vec3};
+
+/// A rejected scene: which file, which key, which value, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneError {
+    pub file: String,
+    pub key: String,
+    pub value: String,
+    pub reason: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.key.is_empty() {
+            write!(f, "{}: {}", self.file, self.reason)
+        } else {
+            write!(f, "{}: `{}` = {}: {}", self.file, self.key, self.value, self.reason)
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// Points on a horizontal circle: `(r cos φ, r sin φ, z)` for each angle φ (degrees).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ring {
+    pub radius_m: f64,
+    pub z_m: f64,
+    pub angle_deg: Vec<f64>,
+}
+
+impl Ring {
+    pub fn points(&self) -> Vec<Vec3> {
+        self.angle_deg
+            .iter()
+            .map(|a| {
+                let (s, c) = a.to_radians().sin_cos();
+                Vec3::new(self.radius_m * c, self.radius_m * s, self.z_m)
+            })
+            .collect()
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Cables {
+    pub area_m2: f64,
+    pub density_kg_m3: f64,
+    pub youngs_modulus_pa: f64,
+    /// Two-node bar elements per cable (the paper's k − 1).
+    pub elements: usize,
+}
+
+impl Cables {
+    pub fn mass_per_length(&self) -> f64 {
+        self.area_m2 * self.density_kg_m3
+    }
+    pub fn axial_stiffness(&self) -> f64 {
+        self.area_m2 * self.youngs_modulus_pa
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Cabin {
+    pub mass_kg: f64,
+    /// Centre of mass in the body frame (from the cabin centre point).
+    pub center_of_mass_m: [f64; 3],
+    /// Inertia about the centre of mass, body frame (rows).
+    pub inertia_kg_m2: [[f64; 3]; 3],
+    /// Cable attachment points in the body frame; cable i ends at attachment i.
+    pub attachments: Ring,
+}
+
+/// Pose of the cabin centre point: position, and orientation (body to world) given either as a
+/// unit quaternion or as a unit axis and an angle.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pose {
+    pub position_m: [f64; 3],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub orientation_wxyz: Option<[f64; 4]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation_axis: Option<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation_angle_deg: Option<f64>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LegPart {
+    pub mass_kg: f64,
+    pub length_m: f64,
+    /// Distance of the centre of mass from this part's own joint centre (Hooke joint for the
+    /// upper part, spherical joint for the lower part), along the leg axis.
+    pub com_from_joint_m: f64,
+    pub inertia_transverse_kg_m2: f64,
+    pub inertia_axial_kg_m2: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Platform {
+    pub mass_kg: f64,
+    /// Inertia about the centre of mass, platform frame (rows).
+    pub inertia_kg_m2: [[f64; 3]; 3],
+    /// Centre of the circle motion, in the cabin frame. The platform frame is parallel to the
+    /// cabin frame and its origin is the platform's centre of mass.
+    pub nominal_center_m: [f64; 3],
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Stewart {
+    /// Hooke joint centres on the cabin, cabin frame; leg k starts at base joint k.
+    pub base_joints: Ring,
+    /// Spherical joint centres on the moving platform, platform frame; leg k ends at platform joint k.
+    pub platform_joints: Ring,
+    pub platform: Platform,
+    pub upper_leg: LegPart,
+    pub lower_leg: LegPart,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Start {
+    /// Full speed at t = 0 (the paper).
+    Abrupt,
+    /// Speed ramped smoothly from 0 over `ramp_time_s`.
+    Ramp,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Motion {
+    /// The platform centre moves on this circle (cabin frame, plane parallel to the base).
+    pub radius_m: f64,
+    pub speed_m_s: f64,
+    pub start: Start,
+    /// Used when `start = "ramp"`.
+    pub ramp_time_s: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Damping {
+    /// Modal damping ratio reached at the two fit frequencies (Rayleigh damping).
+    pub ratio: f64,
+    /// Natural modes (1-based) of the cable–cabin system at the static equilibrium whose
+    /// frequencies the Rayleigh coefficients are fitted at. Give this or `fit_frequencies_hz`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit_modes: Option<[usize; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit_frequencies_hz: Option<[f64; 2]>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Solver {
+    pub dt_s: f64,
+    pub t_end_s: f64,
+    /// Spectral radius at infinite frequency of the generalized-α integrator, in [0, 1].
+    pub rho_inf: f64,
+    /// Newton converged when the correction is below this, relative to the step's displacement scale.
+    pub newton_tol: f64,
+    pub newton_max_iter: usize,
+}
+
+/// How the Stewart platform takes part.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StewartMode {
+    /// A moving multibody system coupled to the cabin.
+    Coupled,
+    /// A rigid mass attached to the cabin at the platform's starting pose.
+    Locked,
+    /// No Stewart platform at all.
+    Absent,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Analyses {
+    pub stewart: StewartMode,
+    /// Number of natural modes computed and reported (0: no eigen solve).
+    pub modes: usize,
+}
+
+/// Output quantities a scene may ask for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    CabinDisplacement,
+    CabinRotation,
+    CableTensions,
+    Wrench,
+    ActuatorForces,
+    PlatformPose,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Outputs {
+    pub sample_interval_s: f64,
+    pub quantities: Vec<Quantity>,
+}
+
+/// A whole scene. Field names are the TOML keys.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// Magnitude of gravity, acting along −Z of the world frame.
+    pub gravity_m_s2: f64,
+    /// Tower tops (fixed cable ends), world frame; cable i starts at anchor i.
+    pub anchors: Ring,
+    pub cables: Cables,
+    pub cabin: Cabin,
+    /// Target pose of the cabin centre point for the form-finding statics.
+    pub pose: Pose,
+    pub stewart: Stewart,
+    pub motion: Motion,
+    pub damping: Damping,
+    pub solver: Solver,
+    pub analyses: Analyses,
+    pub outputs: Outputs,
+}
+
+/// Tolerance on the norm of a unit quaternion or a unit axis given in a scene.
+const UNIT_TOLERANCE: f64 = 1e-6;
+/// Number of legs of a Stewart platform.
+pub const LEGS: usize = 6;
+
+impl Scene {
+    /// Reads and validates a scene file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        let path = path.as_ref();
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+            file: file.clone(),
+            key: String::new(),
+            value: String::new(),
+            reason: format!("cannot read the scene file: {e}"),
+        })?;
+        Scene::from_toml(&text, &file)
+    }
+
+    /// Parses and validates scene text; `file` names the source in error messages.
+    pub fn from_toml(text: &str, file: &str) -> Result<Scene, SceneError> {
+        let scene: Scene = toml::from_str(text).map_err(|e| SceneError {
+            file: file.to_string(),
+            key: String::new(),
+            value: String::new(),
+            reason: format!("not a valid scene: {}", e.to_string().trim_end()),
+        })?;
+        scene.validate(file)?;
+        Ok(scene)
+    }
+
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("a scene always serializes")
+    }
+
+    /// Rejects non-physical values; `file` names the source in error messages.
+    pub fn validate(&self, file: &str) -> Result<(), SceneError> {
+        let c = Check { file };
+        c.finite_nonneg("gravity_m_s2", self.gravity_m_s2)?;
+
+        c.ring("anchors", &self.anchors, None)?;
+        let n = self.anchors.angle_deg.len();
+        if n == 0 {
+            return Err(c.err("anchors.angle_deg", "[]", "at least one cable is needed"));
+        }
+        c.positive("cables.area_m2", self.cables.area_m2)?;
+        c.positive("cables.density_kg_m3", self.cables.density_kg_m3)?;
+        c.positive("cables.youngs_modulus_pa", self.cables.youngs_modulus_pa)?;
+        if self.cables.elements < 1 {
+            return Err(c.err("cables.elements", &self.cables.elements.to_string(), "a cable needs at least one element"));
+        }
+
+        c.positive("cabin.mass_kg", self.cabin.mass_kg)?;
+        c.vector("cabin.center_of_mass_m", &self.cabin.center_of_mass_m)?;
+        c.inertia("cabin.inertia_kg_m2", &self.cabin.inertia_kg_m2)?;
+        c.ring("cabin.attachments", &self.cabin.attachments, Some(n))?;
+
+        c.vector("pose.position_m", &self.pose.position_m)?;
+        self.pose_orientation_checked(&c)?;
+        let (p, r) = (self.target_position(), self.target_orientation());
+        for (i, (a, b)) in self.anchors().iter().zip(self.attachments_body()).enumerate() {
+            let attach = p + r * b;
+            if (a - attach).norm() < 1e-6 {
+                return Err(c.err(
+                    &format!("anchors.angle_deg[{i}]"),
+                    &self.anchors.angle_deg[i].to_string(),
+                    &format!("anchor {} coincides with its attachment point at the target pose {:?}", i + 1, attach.as_slice()),
+                ));
+            }
+        }
+
+        let s = &self.stewart;
+        c.ring("stewart.base_joints", &s.base_joints, Some(LEGS))?;
+        c.ring("stewart.platform_joints", &s.platform_joints, Some(LEGS))?;
+        c.positive("stewart.platform.mass_kg", s.platform.mass_kg)?;
+        c.inertia("stewart.platform.inertia_kg_m2", &s.platform.inertia_kg_m2)?;
+        c.vector("stewart.platform.nominal_center_m", &s.platform.nominal_center_m)?;
+        for (name, part) in [("stewart.upper_leg", &s.upper_leg), ("stewart.lower_leg", &s.lower_leg)] {
+            c.positive(&format!("{name}.mass_kg"), part.mass_kg)?;
+            c.positive(&format!("{name}.length_m"), part.length_m)?;
+            c.finite_nonneg(&format!("{name}.com_from_joint_m"), part.com_from_joint_m)?;
+            if part.com_from_joint_m > part.length_m {
+                return Err(c.err(&format!("{name}.com_from_joint_m"), &part.com_from_joint_m.to_string(), "the centre of mass lies beyond the end of the part"));
+            }
+            c.positive(&format!("{name}.inertia_transverse_kg_m2"), part.inertia_transverse_kg_m2)?;
+            c.positive(&format!("{name}.inertia_axial_kg_m2"), part.inertia_axial_kg_m2)?;
+        }
+
+        c.finite_nonneg("motion.radius_m", self.motion.radius_m)?;
+        c.finite_nonneg("motion.speed_m_s", self.motion.speed_m_s)?;
+        if self.motion.start == Start::Ramp {
+            c.positive("motion.ramp_time_s", self.motion.ramp_time_s)?;
+        } else {
+            c.finite_nonneg("motion.ramp_time_s", self.motion.ramp_time_s)?;
+        }
+
+        c.finite_nonneg("damping.ratio", self.damping.ratio)?;
+        if self.damping.ratio >= 1.0 {
+            return Err(c.err("damping.ratio", &self.damping.ratio.to_string(), "a damping ratio must be below 1"));
+        }
+        match (&self.damping.fit_modes, &self.damping.fit_frequencies_hz) {
+            (Some(m), None) => {
+                if m[0] < 1 || m[1] <= m[0] {
+                    return Err(c.err("damping.fit_modes", &format!("{m:?}"), "two ascending 1-based mode numbers are needed, e.g. [1, 6]"));
+                }
+            }
+            (None, Some(f)) => {
+                c.positive("damping.fit_frequencies_hz[0]", f[0])?;
+                c.positive("damping.fit_frequencies_hz[1]", f[1])?;
+                if f[1] <= f[0] {
+                    return Err(c.err("damping.fit_frequencies_hz", &format!("{f:?}"), "two ascending frequencies are needed"));
+                }
+            }
+            _ => return Err(c.err("damping", "", "give exactly one of `fit_modes` and `fit_frequencies_hz`")),
+        }
+
+        c.positive("solver.dt_s", self.solver.dt_s)?;
+        c.positive("solver.t_end_s", self.solver.t_end_s)?;
+        if !(0.0..=1.0).contains(&self.solver.rho_inf) {
+            return Err(c.err("solver.rho_inf", &self.solver.rho_inf.to_string(), "must lie in [0, 1]"));
+        }
+        c.positive("solver.newton_tol", self.solver.newton_tol)?;
+        if self.solver.newton_max_iter < 1 {
+            return Err(c.err("solver.newton_max_iter", "0", "at least one Newton iteration is needed"));
+        }
+        c.positive("outputs.sample_interval_s", self.outputs.sample_interval_s)?;
+        Ok(())
+    }
+
+    fn pose_orientation_checked(&self, c: &Check) -> Result<Quat, SceneError> {
+        match (&self.pose.orientation_wxyz, &self.pose.rotation_axis, &self.pose.rotation_angle_deg) {
+            (Some(q), None, None) => {
+                c.vector("pose.orientation_wxyz", q)?;
+                let norm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if (norm - 1.0).abs() > UNIT_TOLERANCE {
+                    return Err(c.err("pose.orientation_wxyz", &format!("{q:?}"), &format!("not a unit quaternion (norm {norm})")));
+                }
+                Ok(Quat::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3])))
+            }
+            (None, Some(axis), Some(angle)) => {
+                c.vector("pose.rotation_axis", axis)?;
+                if !angle.is_finite() {
+                    return Err(c.err("pose.rotation_angle_deg", &angle.to_string(), "must be finite"));
+                }
+                let a = Vec3::from(*axis);
+                let norm = a.norm();
+                if (norm - 1.0).abs() > UNIT_TOLERANCE {
+                    return Err(c.err("pose.rotation_axis", &format!("{axis:?}"), &format!("not a unit axis (norm {norm})")));
+                }
+                Ok(Quat::from_axis_angle(&nalgebra::Unit::new_normalize(a), angle.to_radians()))
+            }
+            _ => Err(c.err(
+                "pose",
+                "",
+                "give the orientation either as `orientation_wxyz` or as `rotation_axis` with `rotation_angle_deg`",
+            )),
+        }
+    }
+
+    // --- Derived geometry -------------------------------------------------------------------
+
+    pub fn gravity(&self) -> Vec3 {
+        Vec3::new(0.0, 0.0, -self.gravity_m_s2)
+    }
+
+    pub fn cable_count(&self) -> usize {
+        self.anchors.angle_deg.len()
+    }
+
+    /// Cable anchors (tower tops), world frame.
+    pub fn anchors(&self) -> Vec<Vec3> {
+        self.anchors.points()
+    }
+
+    /// Cable attachment points, cabin body frame.
+    pub fn attachments_body(&self) -> Vec<Vec3> {
+        self.cabin.attachments.points()
+    }
+
+    pub fn target_position(&self) -> Vec3 {
+        Vec3::from(self.pose.position_m)
+    }
+
+    /// Target orientation of the cabin (body to world); the scene must be valid.
+    pub fn target_orientation(&self) -> Quat {
+        self.pose_orientation_checked(&Check { file: "" }).expect("validated scene")
+    }
+
+    /// Mass properties of the cabin alone, body frame.
+    pub fn cabin_mass_properties(&self) -> MassProperties {
+        MassProperties {
+            mass: self.cabin.mass_kg,
+            com: Vec3::from(self.cabin.center_of_mass_m),
+            inertia_com: Mat3::from_row_slice(self.cabin.inertia_kg_m2.as_flattened()),
+        }
+    }
+}
+
+/// Validation helpers that know the file name.
+struct Check<'a> {
+    file: &'a str,
+}
+
+impl Check<'_> {
+    fn err(&self, key: &str, value: &str, reason: &str) -> SceneError {
+        SceneError { file: self.file.to_string(), key: key.to_string(), value: value.to_string(), reason: reason.to_string() }
+    }
+
+    fn finite(&self, key: &str, x: f64) -> Result<(), SceneError> {
+        if x.is_finite() { Ok(()) } else { Err(self.err(key, &x.to_string(), "must be a finite number")) }
+    }
+
+    fn positive(&self, key: &str, x: f64) -> Result<(), SceneError> {
+        self.finite(key, x)?;
+        if x > 0.0 { Ok(()) } else { Err(self.err(key, &x.to_string(), "must be positive")) }
+    }
+
+    fn finite_nonneg(&self, key: &str, x: f64) -> Result<(), SceneError> {
+        self.finite(key, x)?;
+        if x >= 0.0 { Ok(()) } else { Err(self.err(key, &x.to_string(), "must not be negative")) }
+    }
+
+    fn vector(&self, key: &str, v: &[f64]) -> Result<(), SceneError> {
+        for (i, x) in v.iter().enumerate() {
+            self.finite(&format!("{key}[{i}]"), *x)?;
+        }
+        Ok(())
+    }
+
+    fn ring(&self, key: &str, ring: &Ring, count: Option<usize>) -> Result<(), SceneError> {
+        self.positive(&format!("{key}.radius_m"), ring.radius_m)?;
+        self.finite(&format!("{key}.z_m"), ring.z_m)?;
+        self.vector(&format!("{key}.angle_deg"), &ring.angle_deg)?;
+        if let Some(n) = count {
+            if ring.angle_deg.len() != n {
+                return Err(self.err(
+                    &format!("{key}.angle_deg"),
+                    &format!("{:?}", ring.angle_deg),
+                    &format!("{n} points are needed, one per {}", if n == LEGS && key.starts_with("stewart") { "leg" } else { "cable" }),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// A physical inertia tensor: finite, symmetric, positive definite, triangle inequality.
+    fn inertia(&self, key: &str, rows: &[[f64; 3]; 3]) -> Result<(), SceneError> {
+        self.vector(key, rows.as_flattened())?;
+        let m = Mat3::from_row_slice(rows.as_flattened());
+        let shown = format!("{rows:?}");
+        if (m - m.transpose()).abs().max() > 1e-9 * m.abs().max() {
+            return Err(self.err(key, &shown, "an inertia tensor must be symmetric"));
+        }
+        let eig = m.symmetric_eigenvalues();
+        if eig.iter().any(|&l| l <= 0.0) {
+            return Err(self.err(key, &shown, "an inertia tensor must be positive definite (no zero or negative principal moment)"));
+        }
+        let (a, b, c) = (eig[0], eig[1], eig[2]);
+        let tol = 1e-12 * (a + b + c);
+        if a + b < c - tol || b + c < a - tol || a + c < b - tol {
+            return Err(self.err(key, &shown, "principal moments violate the triangle inequality (no real body has them)"));
+        }
+        Ok(())
+    }
+}

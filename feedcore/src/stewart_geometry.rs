@@ -1,0 +1,103 @@
+//! Geometry and mass distribution of the Stewart platform, relative to the cabin.
+//!
+//! Shared by the cable model (which carries the platform as a rigid mass at its starting pose)
+//! and the Stewart multibody model. Everything here is in the cabin body frame.
+
+use crate::rigid::MassProperties;
+use crate::scene::{LegPart, Scene, LEGS};
+use crate::{Mat3, Vec3};
+
+/// The 13 moving bodies, in this order everywhere: platform, upper parts 1–6, lower parts 1–6.
+pub const BODIES: usize = 1 + 2 * LEGS;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct StewartGeometry {
+    /// Hooke joint centres on the cabin.
+    pub base_joints: [Vec3; LEGS],
+    /// Spherical joint centres relative to the platform centre (platform frame ∥ cabin frame).
+    pub platform_joints: [Vec3; LEGS],
+    /// Centre of the circle motion.
+    pub nominal_center: Vec3,
+    /// Platform centre at t = 0: on the circle, along the cabin's x axis.
+    pub start_center: Vec3,
+    pub platform_mass: f64,
+    pub platform_inertia: Mat3,
+    pub upper: LegPart,
+    pub lower: LegPart,
+}
+
+impl StewartGeometry {
+    pub fn from_scene(scene: &Scene) -> Self {
+        let s = &scene.stewart;
+        let nominal_center = Vec3::from(s.platform.nominal_center_m);
+        Self {
+            base_joints: to_array(s.base_joints.points()),
+            platform_joints: to_array(s.platform_joints.points()),
+            nominal_center,
+            start_center: nominal_center + Vec3::x() * scene.motion.radius_m,
+            platform_mass: s.platform.mass_kg,
+            platform_inertia: Mat3::from_row_slice(s.platform.inertia_kg_m2.as_flattened()),
+            upper: s.upper_leg.clone(),
+            lower: s.lower_leg.clone(),
+        }
+    }
+
+    /// First Hooke axis of leg `k`: fixed in the cabin, in the base plane, tangential to the
+    /// base circle.
+    pub fn hooke_first_axis(&self, k: usize) -> Vec3 {
+        let b = self.base_joints[k];
+        Vec3::new(-b.y, b.x, 0.0).normalize()
+    }
+
+    /// Vector from the Hooke centre to the spherical joint centre of leg `k`.
+    pub fn leg_vector(&self, k: usize, platform_center: &Vec3) -> Vec3 {
+        platform_center + self.platform_joints[k] - self.base_joints[k]
+    }
+
+    /// Shortest and longest leg (joint centre to joint centre) for which the two parts still
+    /// overlap and neither part reaches past the other's joint.
+    pub fn leg_length_range(&self) -> (f64, f64) {
+        (self.upper.length_m.max(self.lower.length_m), self.upper.length_m + self.lower.length_m)
+    }
+
+    /// Mass properties (cabin frame) of the 13 bodies with the platform centre at
+    /// `platform_center`, in the order of [`BODIES`].
+    pub fn body_mass_properties(&self, platform_center: &Vec3) -> [MassProperties; BODIES] {
+        let mut bodies = [MassProperties::ZERO; BODIES];
+        bodies[0] = MassProperties { mass: self.platform_mass, com: *platform_center, inertia_com: self.platform_inertia };
+        for k in 0..LEGS {
+            let d = self.leg_vector(k, platform_center);
+            let u = d.normalize();
+            let b = self.base_joints[k];
+            bodies[1 + k] = leg_part(&self.upper, b + u * self.upper.com_from_joint_m, &u);
+            bodies[1 + LEGS + k] = leg_part(&self.lower, b + d - u * self.lower.com_from_joint_m, &u);
+        }
+        bodies
+    }
+
+    /// The platform with its legs, frozen with the platform centre at `platform_center`.
+    pub fn locked_mass_properties(&self, platform_center: &Vec3) -> MassProperties {
+        self.body_mass_properties(platform_center).into_iter().sum()
+    }
+
+    pub fn total_mass(&self) -> f64 {
+        self.platform_mass + LEGS as f64 * (self.upper.mass_kg + self.lower.mass_kg)
+    }
+}
+
+/// A slender leg part with its axis along `u`: inertia transverse about any axis ⊥ u.
+fn leg_part(part: &LegPart, com: Vec3, u: &Vec3) -> MassProperties {
+    let uu = u * u.transpose();
+    let inertia = (Mat3::identity() - uu) * part.inertia_transverse_kg_m2 + uu * part.inertia_axial_kg_m2;
+    MassProperties { mass: part.mass_kg, com, inertia_com: inertia }
+}
+
+fn to_array(points: Vec<Vec3>) -> [Vec3; LEGS] {
+    points.try_into().expect("a validated scene has six Stewart joints")
+}
+
+impl Scene {
+    pub fn stewart_geometry(&self) -> StewartGeometry {
+        StewartGeometry::from_scene(self)
+    }
+}

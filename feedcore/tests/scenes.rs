@@ -1,0 +1,131 @@
+//! The reference scenes load, hold the numbers of lt50m.md, and bad scenes are rejected with
+//! an error naming the file, the key and the value.
+
+use approx::assert_relative_eq;
+use feedcore::scene::{Scene, SceneError};
+use feedcore::Vec3;
+
+fn scene_path(name: &str) -> String {
+    format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn text(name: &str) -> String {
+    std::fs::read_to_string(scene_path(name)).unwrap()
+}
+
+#[test]
+fn reference_scenes_load_with_the_stated_geometry() {
+    let b = Scene::load(scene_path("lt50m_B.toml")).unwrap();
+    let c = Scene::load(scene_path("lt50m_C.toml")).unwrap();
+    // Quaternion at B as given in lt50m.md (9 digits).
+    let q = b.target_orientation();
+    let given = [0.939692621, 0.326011192, 0.103414124, 0.0];
+    for (x, y) in [q.w, q.i, q.j, q.k].iter().zip(given) {
+        assert!((x - y).abs() < 1e-9, "{x} vs {y}");
+    }
+    assert_eq!(c.target_orientation(), feedcore::Quat::identity());
+    // EA and mass per length as stated.
+    assert_relative_eq!(b.cables.axial_stiffness(), 1.0247e7, max_relative = 1e-4);
+    assert_relative_eq!(b.cables.mass_per_length(), 0.81300, max_relative = 1e-4);
+    // Anchor 0 at azimuth 20°, attachment 0 at 30°.
+    assert_relative_eq!(b.anchors()[0], Vec3::new(30.0 * 20f64.to_radians().cos(), 30.0 * 20f64.to_radians().sin(), 30.0));
+    assert_relative_eq!(b.attachments_body()[1], Vec3::new(70f64.to_radians().cos(), 70f64.to_radians().sin(), -0.25));
+}
+
+#[test]
+fn stewart_geometry_matches_lt50m() {
+    let s = Scene::load(scene_path("lt50m_C.toml")).unwrap();
+    let g = s.stewart_geometry();
+    // Nominal leg length at the circle centre, every leg (three-fold symmetric geometry).
+    for k in 0..6 {
+        assert_relative_eq!(g.leg_vector(k, &g.nominal_center).norm(), 1.27296, epsilon = 5e-6);
+    }
+    assert_relative_eq!(g.total_mass(), 184.8, epsilon = 1e-12);
+    // Cabin + Stewart locked at the start: 904.8 kg, centre of mass ≈ (0.011, 0, −0.252) m.
+    let all = s.cabin_mass_properties().combined(&g.locked_mass_properties(&g.start_center));
+    assert_relative_eq!(all.mass, 904.8, epsilon = 1e-9);
+    assert!((all.com - Vec3::new(0.011, 0.0, -0.252)).norm() < 1e-3, "{:?}", all.com);
+    // The Hooke first axis is tangential to the base circle.
+    for k in 0..6 {
+        assert!(g.hooke_first_axis(k).dot(&g.base_joints[k]).abs() < 1e-15);
+    }
+}
+
+/// Replaces `from` (exactly once) in scene C and expects an error naming `key`.
+fn rejected(from: &str, to: &str) -> SceneError {
+    let original = text("lt50m_C.toml");
+    assert_eq!(original.matches(from).count(), 1, "pattern {from:?} must occur once");
+    let edited = original.replace(from, to);
+    Scene::from_toml(&edited, "edited.toml").expect_err(&format!("{from:?} -> {to:?} must be rejected"))
+}
+
+#[test]
+fn non_physical_values_are_rejected_by_key_and_value() {
+    let cases = [
+        ("mass_kg = 720.0", "mass_kg = -720.0", "cabin.mass_kg", "-720"),
+        ("mass_kg = 720.0", "mass_kg = 0.0", "cabin.mass_kg", "0"),
+        ("area_m2 = 8.539e-5", "area_m2 = 0.0", "cables.area_m2", "0"),
+        ("youngs_modulus_pa = 1.2e11", "youngs_modulus_pa = nan", "cables.youngs_modulus_pa", "NaN"),
+        ("density_kg_m3 = 9521.02", "density_kg_m3 = inf", "cables.density_kg_m3", "inf"),
+        ("elements = 20", "elements = 0", "cables.elements", "0"),
+        ("orientation_wxyz = [1.0, 0.0, 0.0, 0.0]", "orientation_wxyz = [1.0, 0.1, 0.0, 0.0]", "pose.orientation_wxyz", "[1.0, 0.1, 0.0, 0.0]"),
+        ("orientation_wxyz = [1.0, 0.0, 0.0, 0.0]", "orientation_wxyz = [0.0, 0.0, 0.0, 0.0]", "pose.orientation_wxyz", "[0.0, 0.0, 0.0, 0.0]"),
+        ("mass_kg = 16.8", "mass_kg = -16.8", "stewart.platform.mass_kg", "-16.8"),
+        ("rho_inf = 0.9", "rho_inf = 1.5", "solver.rho_inf", "1.5"),
+        ("dt_s = 0.01", "dt_s = -0.01", "solver.dt_s", "-0.01"),
+        ("ratio = 0.005", "ratio = -0.005", "damping.ratio", "-0.005"),
+        ("fit_modes = [1, 6]", "fit_modes = [6, 1]", "damping.fit_modes", "[6, 1]"),
+        ("[[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, 360.0]]", "[[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, -360.0]]", "cabin.inertia_kg_m2", "-360"),
+        ("[[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, 360.0]]", "[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 360.0]]", "cabin.inertia_kg_m2", "360"),
+        ("angle_deg = [-45.0, 45.0, 75.0, 165.0, 195.0, 285.0]", "angle_deg = [-45.0, 45.0, 75.0]", "stewart.platform_joints.angle_deg", "75"),
+    ];
+    for (from, to, key, value) in cases {
+        let e = rejected(from, to);
+        let msg = e.to_string();
+        assert_eq!(e.file, "edited.toml");
+        assert_eq!(e.key, key, "{msg}");
+        assert!(msg.contains(value), "message must show the value {value}: {msg}");
+    }
+}
+
+#[test]
+fn orientation_axis_must_be_unit() {
+    let original = text("lt50m_B.toml");
+    let edited = original.replace("rotation_axis = [0.953192958, 0.302362671, 0.0]", "rotation_axis = [0.0, 0.0, 0.0]");
+    let e = Scene::from_toml(&edited, "b.toml").unwrap_err();
+    assert_eq!(e.key, "pose.rotation_axis");
+    assert!(e.to_string().contains("not a unit axis"), "{e}");
+}
+
+#[test]
+fn anchor_on_its_attachment_point_is_rejected() {
+    // Move the cabin so that attachment 1 (at 30°, z −0.25) sits exactly on anchor 1.
+    let original = text("lt50m_C.toml");
+    let a = 30f64.to_radians();
+    let b = 20f64.to_radians();
+    let p = [30.0 * b.cos() - a.cos(), 30.0 * b.sin() - a.sin(), 30.25];
+    let edited = original.replace("position_m = [0.0, 0.0, 9.8]", &format!("position_m = [{:.17}, {:.17}, {:.17}]", p[0], p[1], p[2]));
+    let e = Scene::from_toml(&edited, "c.toml").unwrap_err();
+    assert_eq!(e.key, "anchors.angle_deg[0]");
+    assert!(e.to_string().contains("coincides"), "{e}");
+}
+
+#[test]
+fn unknown_and_missing_keys_are_named() {
+    let original = text("lt50m_C.toml");
+    let e = Scene::from_toml(&original.replace("elements = 20", "elements = 20\nelement_count = 3"), "x.toml").unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.starts_with("x.toml"), "{msg}");
+    assert!(msg.contains("element_count"), "{msg}");
+
+    let e = Scene::from_toml(&original.replace("youngs_modulus_pa = 1.2e11\n", ""), "y.toml").unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.contains("youngs_modulus_pa"), "{msg}");
+}
+
+#[test]
+fn scene_round_trips_through_toml() {
+    let s = Scene::load(scene_path("lt50m_B.toml")).unwrap();
+    let again = Scene::from_toml(&s.to_toml(), "round trip").unwrap();
+    assert_eq!(s, again);
+}

@@ -1,0 +1,10 @@
+//! `master statics` (not implemented yet).
+
+use super::CmdResult;
+
+#[derive(clap::Args)]
+pub struct Args {}
+
+pub fn run(_args: &Args) -> CmdResult {
+    Err("`master statics` is not implemented yet".into())
+}

@@ -1,0 +1,53 @@
+//! `master`: the command-line tool of the feed-positioning co-simulation toolkit.
+//!
+//! Every subcommand lives in its own module under `commands/`; this file only parses the
+//! command line and reports errors.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod commands;
+
+#[derive(Parser)]
+#[command(
+    name = "master",
+    version,
+    about = "Co-simulation of a cable-suspended feed cabin with a Stewart platform (LT50m scenes)",
+    long_about = "Co-simulation of a cable-suspended feed cabin with a Stewart platform.\n\n\
+                  Each command reads a scene file (see scenes/*.toml) and prints readable tables, \
+                  or JSON with --json."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Form-finding statics: unstretched cable lengths that hold the cabin at the scene's target pose.
+    Statics(commands::statics::Args),
+    /// Natural frequencies and mode shapes of the cable–cabin system about its static equilibrium.
+    Modes(commands::modes::Args),
+    /// Stewart platform on a fixed cabin: added mass, static wrench, wrench range over one circle.
+    Stewart(commands::stewart::Args),
+    /// Build the FMI 2.0 Co-Simulation archives cable_fmu.fmu and stewart_fmu.fmu.
+    Package(commands::package::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Statics(args) => commands::statics::run(&args),
+        Command::Modes(args) => commands::modes::run(&args),
+        Command::Stewart(args) => commands::stewart::run(&args),
+        Command::Package(args) => commands::package::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,1 @@
+//! The stewart_fmu model exported through the shared FMI 2.0 layer (in progress).

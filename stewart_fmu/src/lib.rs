@@ -1,0 +1,1 @@
+//! Stewart platform model (in progress).
