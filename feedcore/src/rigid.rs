@@ -41,7 +41,11 @@ pub struct MassProperties {
 }
 
 impl MassProperties {
-    pub const ZERO: Self = Self { mass: 0.0, com: Vec3::new(0.0, 0.0, 0.0), inertia_com: Mat3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0) };
+    pub const ZERO: Self = Self {
+        mass: 0.0,
+        com: Vec3::new(0.0, 0.0, 0.0),
+        inertia_com: Mat3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+    };
 
     pub fn point(mass: f64, at: Vec3) -> Self {
         Self { mass, com: at, inertia_com: Mat3::zeros() }

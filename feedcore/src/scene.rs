@@ -291,7 +291,11 @@ impl Scene {
         c.positive("cables.density_kg_m3", self.cables.density_kg_m3)?;
         c.positive("cables.youngs_modulus_pa", self.cables.youngs_modulus_pa)?;
         if self.cables.elements < 1 {
-            return Err(c.err("cables.elements", &self.cables.elements.to_string(), "a cable needs at least one element"));
+            return Err(c.err(
+                "cables.elements",
+                &self.cables.elements.to_string(),
+                "a cable needs at least one element",
+            ));
         }
 
         c.positive("cabin.mass_kg", self.cabin.mass_kg)?;
@@ -308,7 +312,11 @@ impl Scene {
                 return Err(c.err(
                     &format!("anchors.angle_deg[{i}]"),
                     &self.anchors.angle_deg[i].to_string(),
-                    &format!("anchor {} coincides with its attachment point at the target pose {:?}", i + 1, attach.as_slice()),
+                    &format!(
+                        "anchor {} coincides with its attachment point at the target pose {:?}",
+                        i + 1,
+                        attach.as_slice()
+                    ),
                 ));
             }
         }
@@ -324,7 +332,11 @@ impl Scene {
             c.positive(&format!("{name}.length_m"), part.length_m)?;
             c.finite_nonneg(&format!("{name}.com_from_joint_m"), part.com_from_joint_m)?;
             if part.com_from_joint_m > part.length_m {
-                return Err(c.err(&format!("{name}.com_from_joint_m"), &part.com_from_joint_m.to_string(), "the centre of mass lies beyond the end of the part"));
+                return Err(c.err(
+                    &format!("{name}.com_from_joint_m"),
+                    &part.com_from_joint_m.to_string(),
+                    "the centre of mass lies beyond the end of the part",
+                ));
             }
             c.positive(&format!("{name}.inertia_transverse_kg_m2"), part.inertia_transverse_kg_m2)?;
             c.positive(&format!("{name}.inertia_axial_kg_m2"), part.inertia_axial_kg_m2)?;
@@ -345,14 +357,22 @@ impl Scene {
         match (&self.damping.fit_modes, &self.damping.fit_frequencies_hz) {
             (Some(m), None) => {
                 if m[0] < 1 || m[1] <= m[0] {
-                    return Err(c.err("damping.fit_modes", &format!("{m:?}"), "two ascending 1-based mode numbers are needed, e.g. [1, 6]"));
+                    return Err(c.err(
+                        "damping.fit_modes",
+                        &format!("{m:?}"),
+                        "two ascending 1-based mode numbers are needed, e.g. [1, 6]",
+                    ));
                 }
             }
             (None, Some(f)) => {
                 c.positive("damping.fit_frequencies_hz[0]", f[0])?;
                 c.positive("damping.fit_frequencies_hz[1]", f[1])?;
                 if f[1] <= f[0] {
-                    return Err(c.err("damping.fit_frequencies_hz", &format!("{f:?}"), "two ascending frequencies are needed"));
+                    return Err(c.err(
+                        "damping.fit_frequencies_hz",
+                        &format!("{f:?}"),
+                        "two ascending frequencies are needed",
+                    ));
                 }
             }
             _ => return Err(c.err("damping", "", "give exactly one of `fit_modes` and `fit_frequencies_hz`")),
@@ -377,7 +397,11 @@ impl Scene {
                 c.vector("pose.orientation_wxyz", q)?;
                 let norm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
                 if (norm - 1.0).abs() > UNIT_TOLERANCE {
-                    return Err(c.err("pose.orientation_wxyz", &format!("{q:?}"), &format!("not a unit quaternion (norm {norm})")));
+                    return Err(c.err(
+                        "pose.orientation_wxyz",
+                        &format!("{q:?}"),
+                        &format!("not a unit quaternion (norm {norm})"),
+                    ));
                 }
                 Ok(Quat::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3])))
             }
@@ -389,7 +413,11 @@ impl Scene {
                 let a = Vec3::from(*axis);
                 let norm = a.norm();
                 if (norm - 1.0).abs() > UNIT_TOLERANCE {
-                    return Err(c.err("pose.rotation_axis", &format!("{axis:?}"), &format!("not a unit axis (norm {norm})")));
+                    return Err(c.err(
+                        "pose.rotation_axis",
+                        &format!("{axis:?}"),
+                        &format!("not a unit axis (norm {norm})"),
+                    ));
                 }
                 Ok(Quat::from_axis_angle(&nalgebra::Unit::new_normalize(a), angle.to_radians()))
             }
@@ -447,7 +475,12 @@ struct Check<'a> {
 
 impl Check<'_> {
     fn err(&self, key: &str, value: &str, reason: &str) -> SceneError {
-        SceneError { file: self.file.to_string(), key: key.to_string(), value: value.to_string(), reason: reason.to_string() }
+        SceneError {
+            file: self.file.to_string(),
+            key: key.to_string(),
+            value: value.to_string(),
+            reason: reason.to_string(),
+        }
     }
 
     fn finite(&self, key: &str, x: f64) -> Result<(), SceneError> {
@@ -480,7 +513,10 @@ impl Check<'_> {
                 return Err(self.err(
                     &format!("{key}.angle_deg"),
                     &format!("{:?}", ring.angle_deg),
-                    &format!("{n} points are needed, one per {}", if n == LEGS && key.starts_with("stewart") { "leg" } else { "cable" }),
+                    &format!(
+                        "{n} points are needed, one per {}",
+                        if n == LEGS && key.starts_with("stewart") { "leg" } else { "cable" }
+                    ),
                 ));
             }
         }
@@ -497,12 +533,20 @@ impl Check<'_> {
         }
         let eig = m.symmetric_eigenvalues();
         if eig.iter().any(|&l| l <= 0.0) {
-            return Err(self.err(key, &shown, "an inertia tensor must be positive definite (no zero or negative principal moment)"));
+            return Err(self.err(
+                key,
+                &shown,
+                "an inertia tensor must be positive definite (no zero or negative principal moment)",
+            ));
         }
         let (a, b, c) = (eig[0], eig[1], eig[2]);
         let tol = 1e-12 * (a + b + c);
         if a + b < c - tol || b + c < a - tol || a + c < b - tol {
-            return Err(self.err(key, &shown, "principal moments violate the triangle inequality (no real body has them)"));
+            return Err(self.err(
+                key,
+                &shown,
+                "principal moments violate the triangle inequality (no real body has them)",
+            ));
         }
         Ok(())
     }

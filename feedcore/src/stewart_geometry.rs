@@ -4,7 +4,7 @@
 //! and the Stewart multibody model. Everything here is in the cabin body frame.
 
 use crate::rigid::MassProperties;
-use crate::scene::{LegPart, Scene, LEGS};
+use crate::scene::{LEGS, LegPart, Scene};
 use crate::{Mat3, Vec3};
 
 /// The 13 moving bodies, in this order everywhere: platform, upper parts 1–6, lower parts 1–6.
@@ -64,7 +64,8 @@ impl StewartGeometry {
     /// `platform_center`, in the order of [`BODIES`].
     pub fn body_mass_properties(&self, platform_center: &Vec3) -> [MassProperties; BODIES] {
         let mut bodies = [MassProperties::ZERO; BODIES];
-        bodies[0] = MassProperties { mass: self.platform_mass, com: *platform_center, inertia_com: self.platform_inertia };
+        bodies[0] =
+            MassProperties { mass: self.platform_mass, com: *platform_center, inertia_com: self.platform_inertia };
         for k in 0..LEGS {
             let d = self.leg_vector(k, platform_center);
             let u = d.normalize();

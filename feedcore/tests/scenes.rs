@@ -2,8 +2,8 @@
 //! an error naming the file, the key and the value.
 
 use approx::assert_relative_eq;
-use feedcore::scene::{Scene, SceneError};
 use feedcore::Vec3;
+use feedcore::scene::{Scene, SceneError};
 
 fn scene_path(name: &str) -> String {
     format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))
@@ -28,7 +28,10 @@ fn reference_scenes_load_with_the_stated_geometry() {
     assert_relative_eq!(b.cables.axial_stiffness(), 1.0247e7, max_relative = 1e-4);
     assert_relative_eq!(b.cables.mass_per_length(), 0.81300, max_relative = 1e-4);
     // Anchor 0 at azimuth 20°, attachment 0 at 30°.
-    assert_relative_eq!(b.anchors()[0], Vec3::new(30.0 * 20f64.to_radians().cos(), 30.0 * 20f64.to_radians().sin(), 30.0));
+    assert_relative_eq!(
+        b.anchors()[0],
+        Vec3::new(30.0 * 20f64.to_radians().cos(), 30.0 * 20f64.to_radians().sin(), 30.0)
+    );
     assert_relative_eq!(b.attachments_body()[1], Vec3::new(70f64.to_radians().cos(), 70f64.to_radians().sin(), -0.25));
 }
 
@@ -68,16 +71,41 @@ fn non_physical_values_are_rejected_by_key_and_value() {
         ("youngs_modulus_pa = 1.2e11", "youngs_modulus_pa = nan", "cables.youngs_modulus_pa", "NaN"),
         ("density_kg_m3 = 9521.02", "density_kg_m3 = inf", "cables.density_kg_m3", "inf"),
         ("elements = 20", "elements = 0", "cables.elements", "0"),
-        ("orientation_wxyz = [1.0, 0.0, 0.0, 0.0]", "orientation_wxyz = [1.0, 0.1, 0.0, 0.0]", "pose.orientation_wxyz", "[1.0, 0.1, 0.0, 0.0]"),
-        ("orientation_wxyz = [1.0, 0.0, 0.0, 0.0]", "orientation_wxyz = [0.0, 0.0, 0.0, 0.0]", "pose.orientation_wxyz", "[0.0, 0.0, 0.0, 0.0]"),
+        (
+            "orientation_wxyz = [1.0, 0.0, 0.0, 0.0]",
+            "orientation_wxyz = [1.0, 0.1, 0.0, 0.0]",
+            "pose.orientation_wxyz",
+            "[1.0, 0.1, 0.0, 0.0]",
+        ),
+        (
+            "orientation_wxyz = [1.0, 0.0, 0.0, 0.0]",
+            "orientation_wxyz = [0.0, 0.0, 0.0, 0.0]",
+            "pose.orientation_wxyz",
+            "[0.0, 0.0, 0.0, 0.0]",
+        ),
         ("mass_kg = 16.8", "mass_kg = -16.8", "stewart.platform.mass_kg", "-16.8"),
         ("rho_inf = 0.9", "rho_inf = 1.5", "solver.rho_inf", "1.5"),
         ("dt_s = 0.01", "dt_s = -0.01", "solver.dt_s", "-0.01"),
         ("ratio = 0.005", "ratio = -0.005", "damping.ratio", "-0.005"),
         ("fit_modes = [1, 6]", "fit_modes = [6, 1]", "damping.fit_modes", "[6, 1]"),
-        ("[[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, 360.0]]", "[[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, -360.0]]", "cabin.inertia_kg_m2", "-360"),
-        ("[[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, 360.0]]", "[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 360.0]]", "cabin.inertia_kg_m2", "360"),
-        ("angle_deg = [-45.0, 45.0, 75.0, 165.0, 195.0, 285.0]", "angle_deg = [-45.0, 45.0, 75.0]", "stewart.platform_joints.angle_deg", "75"),
+        (
+            "[[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, 360.0]]",
+            "[[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, -360.0]]",
+            "cabin.inertia_kg_m2",
+            "-360",
+        ),
+        (
+            "[[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, 360.0]]",
+            "[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 360.0]]",
+            "cabin.inertia_kg_m2",
+            "360",
+        ),
+        (
+            "angle_deg = [-45.0, 45.0, 75.0, 165.0, 195.0, 285.0]",
+            "angle_deg = [-45.0, 45.0, 75.0]",
+            "stewart.platform_joints.angle_deg",
+            "75",
+        ),
     ];
     for (from, to, key, value) in cases {
         let e = rejected(from, to);
@@ -104,7 +132,8 @@ fn anchor_on_its_attachment_point_is_rejected() {
     let a = 30f64.to_radians();
     let b = 20f64.to_radians();
     let p = [30.0 * b.cos() - a.cos(), 30.0 * b.sin() - a.sin(), 30.25];
-    let edited = original.replace("position_m = [0.0, 0.0, 9.8]", &format!("position_m = [{:.17}, {:.17}, {:.17}]", p[0], p[1], p[2]));
+    let edited = original
+        .replace("position_m = [0.0, 0.0, 9.8]", &format!("position_m = [{:.17}, {:.17}, {:.17}]", p[0], p[1], p[2]));
     let e = Scene::from_toml(&edited, "c.toml").unwrap_err();
     assert_eq!(e.key, "anchors.angle_deg[0]");
     assert!(e.to_string().contains("coincides"), "{e}");
@@ -113,7 +142,8 @@ fn anchor_on_its_attachment_point_is_rejected() {
 #[test]
 fn unknown_and_missing_keys_are_named() {
     let original = text("lt50m_C.toml");
-    let e = Scene::from_toml(&original.replace("elements = 20", "elements = 20\nelement_count = 3"), "x.toml").unwrap_err();
+    let e =
+        Scene::from_toml(&original.replace("elements = 20", "elements = 20\nelement_count = 3"), "x.toml").unwrap_err();
     let msg = e.to_string();
     assert!(msg.starts_with("x.toml"), "{msg}");
     assert!(msg.contains("element_count"), "{msg}");
