@@ -1,0 +1,1 @@
+//! Progress bar for long runs (in progress).
