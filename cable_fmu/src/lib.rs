@@ -1,1 +1,14 @@
-//! Cable–cabin model (in progress).
+//! The cable–cabin model of the coarse-tuning system (paper eqs. 1–2): six long sagging cables,
+//! each a chain of tension-only bar elements with lumped nodal masses, carrying a rigid cabin.
+//!
+//! * [`element`]: the tension-only bar;
+//! * [`shooting`]: statics of one cable between fixed points;
+//! * [`catenary`]: Irvine's elastic catenary, the analytic reference;
+//! * [`net`]: the net's geometry, material and rigid bodies;
+//! * [`statics`]: form finding of the unstretched lengths for a target cabin pose.
+
+pub mod catenary;
+pub mod element;
+pub mod net;
+pub mod shooting;
+pub mod statics;
