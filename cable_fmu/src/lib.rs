@@ -8,7 +8,9 @@
 //! * [`statics`]: form finding of the unstretched lengths for a target cabin pose.
 
 pub mod catenary;
+pub mod chain_matrix;
 pub mod element;
 pub mod net;
 pub mod shooting;
 pub mod statics;
+pub mod system;

@@ -1,0 +1,356 @@
+//! The cable–cabin system in motion: configuration, the residual of the equations of motion
+//! and its exact tangent, in the structure of [`ChainMatrix`].
+//!
+//! Coordinates: the free (interior) nodes of every cable, and the cabin's centre point `r` with
+//! orientation `R` (unit quaternion, body to world). The end node of each cable is eliminated
+//! into the cabin: it sits on its attachment point `r + R a_i` and its lumped mass (half an
+//! element) rides on the cabin as a point mass — the spherical joint of the paper, solved
+//! exactly. Velocities: node velocities, the centre point's velocity `v` and the world-frame
+//! angular velocity `ω`; rotation increments are world-frame rotation vectors (`R' = exp(θ) R`).
+//!
+//! The residual is `M(q) v̇ + g(q, v) − f(q, v, t)`: lumped node masses and the cabin's rigid-body
+//! inertia about its centre point (its centre of mass need not be there), gyroscopic terms,
+//! element forces, gravity, Rayleigh damping, and the external wrench on the cabin.
+
+use feedcore::rigid::{MassProperties, skew};
+use feedcore::{Mat3, Quat, Vec3};
+use nalgebra::{Matrix3x6, Matrix6, Vector6};
+
+use crate::chain_matrix::{ChainMatrix, add3, get3};
+use crate::element::Bar;
+use crate::net::CableNet;
+use crate::statics::Equilibrium;
+
+/// Whether the cabin moves or is held at its pose (a cable between two fixed points).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Support {
+    Free,
+    Fixed,
+}
+
+/// Positions: free nodes (world) and the cabin pose.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Config {
+    pub nodes: Vec<Vec3>,
+    pub position: Vec3,
+    pub orientation: Quat,
+}
+
+impl Config {
+    /// Moves by a velocity-level increment `du` (nodes, cabin translation, world rotation vector)
+    /// applied to `base`: `x = x₀ + du`, `R = exp(du_θ) R₀`. Writes into `self` (no allocation).
+    pub fn set_displaced(&mut self, base: &Config, du: &[f64]) {
+        for (k, (x, x0)) in self.nodes.iter_mut().zip(&base.nodes).enumerate() {
+            *x = x0 + get3(du, k);
+        }
+        let c0 = 3 * base.nodes.len();
+        self.position = base.position + Vec3::new(du[c0], du[c0 + 1], du[c0 + 2]);
+        self.orientation = feedcore::rigid::exp_so3(&Vec3::new(du[c0 + 3], du[c0 + 4], du[c0 + 5])) * base.orientation;
+    }
+}
+
+/// Coefficients of the matrix to assemble: `m·M + c·C + k·K·T`, where `T` maps increments of
+/// the rotation coordinates to world-frame rotations (identity for a plain tangent).
+#[derive(Clone, Copy, Debug)]
+pub struct Coefficients {
+    pub mass: f64,
+    pub damping: f64,
+    pub stiffness: f64,
+    pub rotation_tangent: Mat3,
+}
+
+impl Coefficients {
+    pub const MASS: Coefficients = Coefficients {
+        mass: 1.0,
+        damping: 0.0,
+        stiffness: 0.0,
+        rotation_tangent: Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+    };
+    pub const STIFFNESS: Coefficients = Coefficients {
+        mass: 0.0,
+        damping: 0.0,
+        stiffness: 1.0,
+        rotation_tangent: Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+    };
+    pub const DAMPING: Coefficients = Coefficients {
+        mass: 0.0,
+        damping: 1.0,
+        stiffness: 0.0,
+        rotation_tangent: Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+    };
+}
+
+/// The cable–cabin system with fixed unstretched lengths.
+#[derive(Clone, Debug)]
+pub struct System {
+    pub net: CableNet,
+    pub lengths: Vec<f64>,
+    /// Unstretched element length per cable.
+    pub element_length: Vec<f64>,
+    /// Lumped mass of each free node, per cable.
+    pub node_mass: Vec<f64>,
+    /// The rigid body the cabin is: the cabin, the cables' end nodes, and the Stewart platform
+    /// when it is locked; body frame, relative to the cabin centre point.
+    pub body: MassProperties,
+    pub support: Support,
+    /// Constant damping matrix (Rayleigh), if any.
+    pub damping: Option<ChainMatrix>,
+}
+
+/// Elastic and gravitational potential energy, and kinetic energy.
+#[derive(Clone, Copy, Debug)]
+pub struct Energy {
+    pub kinetic: f64,
+    pub strain: f64,
+    pub gravity: f64,
+}
+
+impl Energy {
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.strain + self.gravity
+    }
+}
+
+impl System {
+    /// A system with the given lengths. `locked_payload`: the net's payload (the Stewart platform
+    /// at its starting pose) rides on the cabin as a rigid mass; otherwise it is left to an
+    /// external wrench.
+    pub fn new(net: CableNet, lengths: Vec<f64>, locked_payload: bool, support: Support) -> System {
+        let n = net.spec.elements as f64;
+        let element_length: Vec<f64> = lengths.iter().map(|l| l / n).collect();
+        let node_mass: Vec<f64> = element_length.iter().map(|le| net.spec.mass_per_length * le).collect();
+        let mut body = if locked_payload { net.suspended() } else { net.cabin };
+        for (a, l) in net.attachments.iter().zip(&lengths) {
+            body = body.combined(&MassProperties::point(net.end_node_mass(*l), *a));
+        }
+        System { net, lengths, element_length, node_mass, body, support, damping: None }
+    }
+
+    pub fn cables(&self) -> usize {
+        self.net.cable_count()
+    }
+
+    /// Free nodes per cable.
+    pub fn free_nodes(&self) -> usize {
+        self.net.spec.elements - 1
+    }
+
+    /// Number of velocity-level unknowns: 3 per free node, 6 for the cabin.
+    pub fn dim(&self) -> usize {
+        3 * self.cables() * self.free_nodes() + 6
+    }
+
+    pub fn cabin_offset(&self) -> usize {
+        3 * self.cables() * self.free_nodes()
+    }
+
+    pub fn new_matrix(&self) -> ChainMatrix {
+        ChainMatrix::zeros(self.cables(), self.free_nodes())
+    }
+
+    /// The configuration of a static equilibrium found by form finding (same net).
+    pub fn config_from(&self, eq: &Equilibrium) -> Config {
+        let nodes = eq.cables.iter().flat_map(|c| c.shape.nodes[1..c.shape.nodes.len() - 1].iter().copied()).collect();
+        Config { nodes, position: eq.position, orientation: eq.orientation }
+    }
+
+    /// Attachment point of cable `i` in the world, and its arm from the cabin centre point.
+    pub fn attachment(&self, cfg: &Config, i: usize) -> (Vec3, Vec3) {
+        let d = cfg.orientation * self.net.attachments[i];
+        (cfg.position + d, d)
+    }
+
+    /// Axial forces of the element next to the anchor and next to the cabin, per cable.
+    pub fn end_tensions(&self, cfg: &Config, out: &mut [(f64, f64)]) {
+        let (m, ea) = (self.free_nodes(), self.net.spec.ea);
+        for (i, o) in out.iter_mut().enumerate() {
+            let l0 = self.element_length[i];
+            let (attach, _) = self.attachment(cfg, i);
+            let first_end = if m > 0 { cfg.nodes[i * m] } else { attach };
+            let last_start = if m > 0 { cfg.nodes[i * m + m - 1] } else { self.net.anchors[i] };
+            *o = (
+                Bar::new(&(first_end - self.net.anchors[i]), ea, l0).force,
+                Bar::new(&(attach - last_start), ea, l0).force,
+            );
+        }
+    }
+
+    /// Residual `M v̇ + g − f` (written to `residual`) and, if `matrix` is given, the matrix
+    /// `coef.mass·M + coef.damping·∂r/∂v + coef.stiffness·(∂r/∂q)·T` written into it.
+    /// `wrench`: external force and moment (about the cabin centre point) on the cabin, world.
+    #[allow(clippy::too_many_arguments)]
+    pub fn assemble(
+        &self,
+        cfg: &Config,
+        vel: &[f64],
+        acc: &[f64],
+        wrench: &Vector6<f64>,
+        residual: &mut [f64],
+        mut matrix: Option<(&mut ChainMatrix, Coefficients)>,
+    ) {
+        let (m, ea) = (self.free_nodes(), self.net.spec.ea);
+        let c0 = self.cabin_offset();
+        let g = self.net.spec.gravity;
+        residual.iter_mut().for_each(|r| *r = 0.0);
+        if let Some((mat, _)) = matrix.as_mut() {
+            mat.set_zero();
+        }
+        let rot = cfg.orientation.to_rotation_matrix().into_inner();
+        let mut cabin_res = Vector6::<f64>::zeros();
+        let mut cabin_k = Matrix6::<f64>::zeros(); // ∂r_cabin/∂q_cabin (before T)
+
+        for i in 0..self.cables() {
+            let l0 = self.element_length[i];
+            let mn = self.node_mass[i];
+            let d = rot * self.net.attachments[i];
+            let attach = cfg.position + d;
+            // B maps a cabin increment (δr, δθ) to the attachment point's displacement.
+            let mut b = Matrix3x6::<f64>::zeros();
+            b.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
+            b.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-skew(&d)));
+            let point = |e: usize| -> Vec3 {
+                if e == 0 {
+                    self.net.anchors[i]
+                } else if e == m + 1 {
+                    attach
+                } else {
+                    cfg.nodes[i * m + e - 1]
+                }
+            };
+            // free nodes: inertia and gravity
+            for j in 0..m {
+                let k = i * m + j;
+                add3(residual, k, &(get3(acc, k) * mn - g * mn));
+                if let Some((mat, coef)) = matrix.as_mut() {
+                    mat.diag[k] += Mat3::identity() * (coef.mass * mn);
+                }
+            }
+            // elements e = 0 … m, from point e to point e + 1
+            for e in 0..=m {
+                let bar = Bar::new(&(point(e + 1) - point(e)), ea, l0);
+                let pull = bar.dir * bar.force; // force on the first point; minus on the second
+                if e > 0 {
+                    add3(residual, i * m + e - 1, &(-pull));
+                }
+                let ke = bar.stiffness(ea, l0);
+                if e < m {
+                    add3(residual, i * m + e, &pull);
+                } else {
+                    // the second point is the attachment: generalized force on the cabin
+                    let r = Vector6::new(pull.x, pull.y, pull.z, 0.0, 0.0, 0.0);
+                    let mom = d.cross(&pull);
+                    cabin_res += r + Vector6::new(0.0, 0.0, 0.0, mom.x, mom.y, mom.z);
+                }
+                if let Some((mat, coef)) = matrix.as_mut() {
+                    let kk = ke * coef.stiffness;
+                    if e > 0 {
+                        mat.diag[i * m + e - 1] += kk;
+                    }
+                    if e < m {
+                        mat.diag[i * m + e] += kk;
+                        if e > 0 {
+                            mat.upper[i * (m - 1) + e - 1] -= kk;
+                        }
+                    } else {
+                        // cabin coupling: r_cabin += Bᵀ(pull), pull depends on attach − point(m)
+                        let kb = ke * b; // 3×6
+                        cabin_k += b.transpose() * kb;
+                        // the arm rotates: ∂(d × F)/∂θ = [F]×[d]×
+                        let geo = skew(&pull) * skew(&d);
+                        let mut block = cabin_k.fixed_view_mut::<3, 3>(3, 3);
+                        block += geo;
+                        if m > 0 {
+                            let mut nc = -kb;
+                            let rotation_cols = nc.fixed_view::<3, 3>(0, 3) * coef.rotation_tangent;
+                            nc.fixed_view_mut::<3, 3>(0, 3).copy_from(&rotation_cols);
+                            mat.node_cabin[i] += nc * coef.stiffness;
+                            mat.cabin_node[i] -= b.transpose() * kk;
+                        }
+                    }
+                }
+            }
+        }
+
+        // the rigid cabin about its centre point
+        let body = &self.body;
+        let mass = body.mass;
+        let c = rot * body.com;
+        let jo = rot * body.inertia_about(&Vec3::zeros()) * rot.transpose();
+        let (a, alpha) =
+            (Vec3::new(acc[c0], acc[c0 + 1], acc[c0 + 2]), Vec3::new(acc[c0 + 3], acc[c0 + 4], acc[c0 + 5]));
+        let omega = Vec3::new(vel[c0 + 3], vel[c0 + 4], vel[c0 + 5]);
+        let (sc, sw, sa, sal) = (skew(&c), skew(&omega), skew(&a), skew(&alpha));
+        let jw = jo * omega;
+        let mg = g * mass;
+        let rt =
+            a * mass + alpha.cross(&c) * mass + omega.cross(&omega.cross(&c)) * mass - mg - wrench.fixed_rows::<3>(0);
+        let rr = jo * alpha + c.cross(&a) * mass + omega.cross(&jw) - c.cross(&mg) - wrench.fixed_rows::<3>(3);
+        cabin_res += Vector6::new(rt.x, rt.y, rt.z, rr.x, rr.y, rr.z);
+        if let Some((mat, coef)) = matrix.as_mut() {
+            // ∂r/∂θ of inertia, gyroscopic and gravity terms
+            let mut block = cabin_k.fixed_view_mut::<3, 3>(0, 3);
+            block -= (sal + sw * sw) * sc * mass;
+            let krr = -skew(&(jo * alpha)) + jo * sal + sa * sc * mass + sw * (jo * sw - skew(&jw)) - skew(&mg) * sc;
+            let mut block = cabin_k.fixed_view_mut::<3, 3>(3, 3);
+            block += krr;
+            // ∂r/∂ω of the gyroscopic terms
+            let mut cabin_c = Matrix6::<f64>::zeros();
+            cabin_c.fixed_view_mut::<3, 3>(0, 3).copy_from(&((-skew(&omega.cross(&c)) - sw * sc) * mass));
+            cabin_c.fixed_view_mut::<3, 3>(3, 3).copy_from(&(-skew(&jw) + sw * jo));
+            // mass matrix about the centre point
+            let mut cabin_m = Matrix6::<f64>::zeros();
+            cabin_m.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Mat3::identity() * mass));
+            cabin_m.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-sc * mass));
+            cabin_m.fixed_view_mut::<3, 3>(3, 0).copy_from(&(sc * mass));
+            cabin_m.fixed_view_mut::<3, 3>(3, 3).copy_from(&jo);
+            let mut kt = cabin_k;
+            for r in 0..6 {
+                let row = kt.fixed_view::<1, 3>(r, 3) * coef.rotation_tangent;
+                kt.fixed_view_mut::<1, 3>(r, 3).copy_from(&row);
+            }
+            mat.cabin += cabin_m * coef.mass + cabin_c * coef.damping + kt * coef.stiffness;
+        }
+        for k in 0..6 {
+            residual[c0 + k] += cabin_res[k];
+        }
+        // Rayleigh damping: r += C v
+        if let Some(cd) = &self.damping {
+            cd.mul_add(vel, residual);
+            if let Some((mat, coef)) = matrix.as_mut() {
+                mat.add_scaled(coef.damping, cd);
+            }
+        }
+        if self.support == Support::Fixed {
+            for k in 0..6 {
+                residual[c0 + k] = 0.0;
+            }
+        }
+    }
+
+    /// Kinetic, strain and gravitational energy (zero of gravity at z = 0).
+    pub fn energy(&self, cfg: &Config, vel: &[f64]) -> Energy {
+        let (m, ea) = (self.free_nodes(), self.net.spec.ea);
+        let g = self.net.spec.gravity;
+        let c0 = self.cabin_offset();
+        let rot = cfg.orientation.to_rotation_matrix().into_inner();
+        let (mut kinetic, mut strain, mut gravity) = (0.0, 0.0, 0.0);
+        for i in 0..self.cables() {
+            let l0 = self.element_length[i];
+            let mut prev = self.net.anchors[i];
+            for j in 0..m {
+                let k = i * m + j;
+                kinetic += 0.5 * self.node_mass[i] * get3(vel, k).norm_squared();
+                gravity -= self.node_mass[i] * g.dot(&cfg.nodes[k]);
+                strain += Bar::new(&(cfg.nodes[k] - prev), ea, l0).energy(ea, l0);
+                prev = cfg.nodes[k];
+            }
+            let (attach, _) = self.attachment(cfg, i);
+            strain += Bar::new(&(attach - prev), ea, l0).energy(ea, l0);
+        }
+        let world = self.body.transformed(&rot, &cfg.position);
+        let v6 = Vector6::from_column_slice(&vel[c0..c0 + 6]);
+        kinetic += 0.5 * v6.dot(&(world.spatial_matrix_about(&cfg.position) * v6));
+        gravity -= world.mass * g.dot(&world.com);
+        Energy { kinetic, strain, gravity }
+    }
+}
