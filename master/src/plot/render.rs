@@ -567,7 +567,8 @@ pub(super) fn render(fig: &Figure) -> Result<String, PlotError> {
     let mut y_ticks = Vec::with_capacity(n);
     for ((p, pr), &yr) in fig.panels.iter().zip(&prepared).zip(&y_ranges) {
         let centres = pr.grid.as_ref().map(|g| g.grid.y.as_slice());
-        let max_labels = ((plot_h / 30.0) as usize).clamp(2, 10);
+        // Start generous; `axis_ticks` thins the labels until they keep apart.
+        let max_labels = (plot_h / 25.0) as usize + 1;
         y_ticks.push(axis_ticks(&p.y, centres, yr, plot_h, |_| TICK_FONT * 1.2, max_labels));
     }
     let max_y_label_w =
@@ -610,7 +611,7 @@ pub(super) fn render(fig: &Figure) -> Result<String, PlotError> {
         }
         let map = Mapping { rect, x: x_ranges[i], y: y_ranges[i] };
         let centres = pr.grid.as_ref().map(|g| g.grid.x.as_slice());
-        let max_labels = ((rect.width() / 60.0) as usize).clamp(2, 12);
+        let max_labels = (rect.width() / 70.0) as usize + 1;
         let x_ticks = axis_ticks(&p.x, centres, x_ranges[i], rect.width(), |l| l.width_px(TICK_FONT), max_labels);
         let drawn = draw_series(p, &map);
         layouts.push(PanelLayout {
