@@ -9,7 +9,10 @@
 
 pub mod catenary;
 pub mod chain_matrix;
+pub mod damping;
+pub mod dynamics;
 pub mod element;
+pub mod modes;
 pub mod net;
 pub mod shooting;
 pub mod statics;

@@ -327,8 +327,10 @@ impl System {
         }
     }
 
-    /// Kinetic, strain and gravitational energy (zero of gravity at z = 0).
-    pub fn energy(&self, cfg: &Config, vel: &[f64]) -> Energy {
+    /// Kinetic, strain and gravitational energy. The gravitational energy is measured from the
+    /// configuration `reference` (e.g. the equilibrium), which keeps small vibration energies
+    /// free of round-off from large heights.
+    pub fn energy(&self, cfg: &Config, vel: &[f64], reference: &Config) -> Energy {
         let (m, ea) = (self.free_nodes(), self.net.spec.ea);
         let g = self.net.spec.gravity;
         let c0 = self.cabin_offset();
@@ -340,7 +342,7 @@ impl System {
             for j in 0..m {
                 let k = i * m + j;
                 kinetic += 0.5 * self.node_mass[i] * get3(vel, k).norm_squared();
-                gravity -= self.node_mass[i] * g.dot(&cfg.nodes[k]);
+                gravity -= self.node_mass[i] * g.dot(&(cfg.nodes[k] - reference.nodes[k]));
                 strain += Bar::new(&(cfg.nodes[k] - prev), ea, l0).energy(ea, l0);
                 prev = cfg.nodes[k];
             }
@@ -350,7 +352,9 @@ impl System {
         let world = self.body.transformed(&rot, &cfg.position);
         let v6 = Vector6::from_column_slice(&vel[c0..c0 + 6]);
         kinetic += 0.5 * v6.dot(&(world.spatial_matrix_about(&cfg.position) * v6));
-        gravity -= world.mass * g.dot(&world.com);
+        let com_shift = (cfg.position - reference.position)
+            + (rot - reference.orientation.to_rotation_matrix().into_inner()) * self.body.com;
+        gravity -= world.mass * g.dot(&com_shift);
         Energy { kinetic, strain, gravity }
     }
 }
