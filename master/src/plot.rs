@@ -94,6 +94,9 @@ pub enum PlotError {
     NonPositiveOnLog { panel: String, series: String, axis: Axis, index: usize, value: f64 },
     /// A fixed range that is empty, reversed, not finite, or not positive on a log axis.
     BadRange { panel: String, axis: Axis, min: f64, max: f64 },
+    /// Data whose extent cannot be drawn: values beyond about ±1e307 (the span overflows) or a
+    /// span below 1e-290.
+    DataRange { panel: String, axis: Axis, min: f64, max: f64 },
     /// Panels that share the x axis but disagree on its scale.
     SharedScaleMismatch { panel: String },
     /// A grid whose centres are not finite and strictly monotone, or whose cell refers to a
@@ -120,6 +123,11 @@ impl fmt::Display for PlotError {
                 write!(f, "{panel}: {axis} range [{min}, {max}] is not a finite interval with min < max")?;
                 write!(f, " (and min > 0 on a logarithmic axis)")
             }
+            PlotError::DataRange { panel, axis, min, max } => write!(
+                f,
+                "{panel}: the {axis} data span [{min}, {max}] cannot be drawn (too wide to subtract, or narrower than \
+                 1e-290); fix the {axis} range"
+            ),
             PlotError::SharedScaleMismatch { panel } => {
                 write!(f, "{panel}: its x scale differs from the first panel's, but the figure shares the x axis")
             }

@@ -392,6 +392,19 @@ fn bad_input_gets_an_error_naming_it() {
     let mut fig = Figure::new(600, 400);
     fig.panel(|p| p.y_range(1.0, 1.0).line("a", &[0.0, 1.0], &[0.0, 1.0]));
     assert!(matches!(fig.to_svg_string(), Err(PlotError::BadRange { axis: Axis::Y, min: 1.0, max: 1.0, .. })));
+    for (y, name) in
+        [([-1e308, 1e308], "overflowing span"), ([0.0, 1e-300], "tiny span"), ([1e-320, 1e-320], "subnormal")]
+    {
+        let mut fig = Figure::new(600, 400);
+        fig.panel(|p| p.line(name, &[0.0, 1.0], &y));
+        match fig.to_svg_string() {
+            Err(PlotError::DataRange { axis: Axis::Y, min, max, .. }) => assert_eq!((min, max), (y[0], y[1]), "{name}"),
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+    let mut fig = Figure::new(600, 400);
+    fig.panel(|p| p.x_range(0.0, 1e-300).line("a", &[0.0, 1.0], &[0.0, 1.0]));
+    assert!(matches!(fig.to_svg_string(), Err(PlotError::BadRange { axis: Axis::X, .. })));
     let mut fig = Figure::new(600, 400);
     fig.share_x(true);
     fig.panel(|p| p.line("a", &[1.0, 2.0], &[0.0, 1.0]));
@@ -531,4 +544,56 @@ fn data_outside_a_fixed_range_is_clipped_to_the_frame() {
         assert!(p.0 >= x0 - 2.01 && p.0 <= x1 + 2.01 && p.1 >= y0 - 2.01 && p.1 <= y1 + 2.01, "{p:?}");
     }
     assert_eq!(by_class(&doc, "line")[0].attribute("stroke"), Some("#000000"));
+}
+
+/// A deterministic pseudo-random sequence in [0, 1).
+fn lcg(state: &mut u64) -> f64 {
+    *state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    (*state >> 11) as f64 / (1u64 << 53) as f64
+}
+
+#[test]
+fn hostile_data_gives_a_document_or_an_error_never_a_panic() {
+    let specials =
+        [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 0.0, -0.0, 1e-310, 1e300, -1e300, f64::MAX, f64::MIN_POSITIVE];
+    let mut s = 11;
+    let (mut drawn, mut refused) = (0, 0);
+    for case in 0..300 {
+        let n = (lcg(&mut s) * 30.0) as usize;
+        let mut value = || {
+            if lcg(&mut s) < 0.3 {
+                specials[(lcg(&mut s) * specials.len() as f64) as usize]
+            } else {
+                (lcg(&mut s) - 0.3) * 10f64.powf(lcg(&mut s) * 40.0 - 20.0)
+            }
+        };
+        let x: Vec<f64> = (0..n).map(|_| value()).collect();
+        let y: Vec<f64> = (0..n).map(|_| value()).collect();
+        let (a, b) = (value(), value());
+        let log = case % 3 == 0;
+        let mut fig = Figure::new(500, 300);
+        fig.panel(|p| {
+            if log {
+                p.y_scale(Scale::Log10);
+            }
+            if case % 4 == 1 {
+                p.x_range(a.min(b), a.max(b));
+            }
+            p.line("l", &x, &y).scatter("s", &y, &x)
+        });
+        match fig.to_svg_string() {
+            Ok(svg) => {
+                assert!(!svg.contains("NaN") && !svg.contains("inf"), "case {case}");
+                Document::parse(&svg).unwrap_or_else(|e| panic!("case {case}: {e}"));
+                drawn += 1;
+            }
+            Err(e) => {
+                assert!(!e.to_string().is_empty());
+                refused += 1;
+            }
+        }
+    }
+    println!("{drawn} drawn, {refused} refused");
+    // Both paths are exercised.
+    assert!(drawn >= 50 && refused >= 50, "{drawn} drawn, {refused} refused");
 }

@@ -210,29 +210,36 @@ fn resolve_range(
     fitted: bool,
 ) -> Result<(f64, f64), PlotError> {
     if let Some((min, max)) = spec.range {
-        let ok = min.is_finite() && max.is_finite() && min < max && (spec.scale == Scale::Linear || min > 0.0);
-        if !ok {
+        let ok = min < max && (spec.scale == Scale::Linear || min > 0.0);
+        let (lo, hi) = (to_axis(spec.scale, min), to_axis(spec.scale, max));
+        if !(ok && ticks::drawable_span(lo, hi)) {
             return Err(PlotError::BadRange { panel: panel.to_owned(), axis, min, max });
         }
-        return Ok((to_axis(spec.scale, min), to_axis(spec.scale, max)));
+        return Ok((lo, hi));
     }
     let Some(Extent { min, max }) = extent else {
         return Ok((0.0, 1.0));
     };
-    if fitted && max > min {
-        return Ok((min, max));
+    let (lo, hi) = if fitted && max > min {
+        (min, max)
+    } else {
+        match spec.scale {
+            Scale::Linear if max > min => {
+                let p = AUTO_PAD * (max - min);
+                (min - p, max + p)
+            }
+            Scale::Linear => {
+                let d = if min == 0.0 { 1.0 } else { 0.1 * min.abs() };
+                (min - d, min + d)
+            }
+            Scale::Log10 => ticks::log_auto_range_axis(min, max, AUTO_PAD),
+        }
+    };
+    if !ticks::drawable_span(lo, hi) {
+        let back = |v: f64| if spec.scale == Scale::Log10 { 10f64.powf(v) } else { v };
+        return Err(PlotError::DataRange { panel: panel.to_owned(), axis, min: back(min), max: back(max) });
     }
-    Ok(match spec.scale {
-        Scale::Linear if max > min => {
-            let p = AUTO_PAD * (max - min);
-            (min - p, max + p)
-        }
-        Scale::Linear => {
-            let d = if min == 0.0 { 1.0 } else { 0.1 * min.abs() };
-            (min - d, min + d)
-        }
-        Scale::Log10 => ticks::log_auto_range_axis(min, max, AUTO_PAD),
-    })
+    Ok((lo, hi))
 }
 
 /// Maps axis coordinates to pixels for one panel.
@@ -281,22 +288,14 @@ fn axis_ticks(
     room: impl Fn(&Label) -> f64,
     start_labels: usize,
 ) -> Vec<Tick> {
-    match (&spec.ticks, grid_centres) {
-        (TickChoice::At(v), _) => {
-            return explicit_ticks(spec.scale, lo, hi, &v.iter().map(|&v| (v, None)).collect::<Vec<_>>());
-        }
-        (TickChoice::Labelled(v), _) => {
-            return explicit_ticks(
-                spec.scale,
-                lo,
-                hi,
-                &v.iter().map(|(v, s)| (*v, Some(s.clone()))).collect::<Vec<_>>(),
-            );
-        }
-        (TickChoice::Auto, Some(c)) => {
-            return explicit_ticks(spec.scale, lo, hi, &c.iter().map(|&v| (v, None)).collect::<Vec<_>>());
-        }
-        (TickChoice::Auto, None) => {}
+    let explicit: Option<Vec<(f64, Option<String>)>> = match (&spec.ticks, grid_centres) {
+        (TickChoice::At(v), _) => Some(v.iter().map(|&v| (v, None)).collect()),
+        (TickChoice::Labelled(v), _) => Some(v.iter().map(|(v, s)| (*v, Some(s.clone()))).collect()),
+        (TickChoice::Auto, Some(c)) => Some(c.iter().map(|&v| (v, None)).collect()),
+        (TickChoice::Auto, None) => None,
+    };
+    if let Some(e) = explicit {
+        return explicit_ticks(spec.scale, lo, hi, &e);
     }
     let px_per_unit = length_px / (hi - lo);
     let mut max_labels = start_labels.max(2);

@@ -77,23 +77,34 @@ fn scaled(n: i64, e: i32) -> f64 {
 /// in `[lo, hi]`. Ticks lie inside the interval (a tick within 1e-9 of a step from an end counts
 /// as inside). Example: `[0.13, 0.87]` with at most 6 ticks gives 0.2, 0.4, 0.6, 0.8.
 ///
-/// Panics if `lo < hi` does not hold for finite values (the renderer guarantees it).
+/// Panics unless `lo < hi` are finite with `hi - lo` finite and at least 1e-290 (the renderer
+/// guarantees it).
 pub fn linear_ticks(lo: f64, hi: f64, max_ticks: usize) -> (Vec<f64>, Step) {
-    assert!(lo.is_finite() && hi.is_finite() && lo < hi, "linear_ticks needs lo < hi, got [{lo}, {hi}]");
+    assert!(drawable_span(lo, hi), "linear_ticks needs a finite range with lo < hi, got [{lo}, {hi}]");
     let max_ticks = max_ticks.max(1) as i64;
     let mut exponent = ((hi - lo) / max_ticks as f64).log10().floor() as i32 - 1;
     loop {
         for mantissa in [1, 2, 5] {
             let step = scaled(mantissa, exponent);
-            let first = (lo / step - 1e-9).ceil() as i64;
-            let last = (hi / step + 1e-9).floor() as i64;
-            if last - first < max_ticks {
-                let ticks = (first..=last).map(|i| scaled(i * mantissa, exponent)).collect();
+            if !(step > 0.0 && step.is_finite()) {
+                continue; // below the smallest normal double: try a coarser step
+            }
+            // Counted in floating point: a step far too fine for the range cannot overflow.
+            let first = (lo / step - 1e-9).ceil();
+            let last = (hi / step + 1e-9).floor();
+            if last - first < max_ticks as f64 {
+                let ticks = (first as i64..=last as i64).map(|i| scaled(i * mantissa, exponent)).collect();
                 return (ticks, Step { mantissa, exponent });
             }
         }
         exponent += 1;
     }
+}
+
+/// Whether `[lo, hi]` can be an axis range: finite, `lo < hi`, span finite and not below
+/// 1e-290 (whose 1-2-5 steps would fall below the smallest normal double).
+pub fn drawable_span(lo: f64, hi: f64) -> bool {
+    lo.is_finite() && hi.is_finite() && (hi - lo).is_finite() && hi - lo >= 1e-290
 }
 
 /// Label for a tick of a linear axis whose step is `step` and whose largest |tick| is `max_abs`:
