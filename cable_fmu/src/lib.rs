@@ -5,13 +5,20 @@
 //! * [`shooting`]: statics of one cable between fixed points;
 //! * [`catenary`]: Irvine's elastic catenary, the analytic reference;
 //! * [`net`]: the net's geometry, material and rigid bodies;
-//! * [`statics`]: form finding of the unstretched lengths for a target cabin pose.
+//! * [`statics`]: form finding of the unstretched lengths for a target cabin pose;
+//! * [`chain_matrix`]: the chain sparsity, factorized at linear cost onto the cabin;
+//! * [`system`]: residual of the equations of motion and its exact tangent;
+//! * [`modes`]: natural frequencies and mode shapes;
+//! * [`damping`]: Rayleigh damping fitted at two frequencies;
+//! * [`dynamics`]: generalized-α time integration;
+//! * [`model`]: all of the above built from a scene.
 
 pub mod catenary;
 pub mod chain_matrix;
 pub mod damping;
 pub mod dynamics;
 pub mod element;
+pub mod model;
 pub mod modes;
 pub mod net;
 pub mod shooting;

@@ -6,6 +6,8 @@
 //! centre point) are then driven to zero by Newton on the lengths, with exact derivatives.
 //! The end node of each cable sits on the cabin: its lumped mass (half an element) is carried by
 //! the cabin in the statics as in the dynamics.
+//!
+//! Cables are numbered from 0, as in lt50m.md: cable i runs from anchor i to attachment i.
 
 use std::fmt;
 
@@ -80,7 +82,7 @@ impl fmt::Display for StaticsError {
                 f,
                 "the pose is infeasible: cable {} would have to push ({tension:.1} N in a straight-cable estimate); \
                  move the target pose towards the middle of the workspace or change the anchors",
-                cable + 1
+                cable
             ),
             StaticsError::NoConvergence { residual, iterations, detail } => {
                 write!(
@@ -149,7 +151,7 @@ pub fn form_find(net: &CableNet, position: Vec3, orientation: Quat) -> Result<Eq
         (0..n)
             .map(|i| {
                 solve_chain(&net.spec, &net.anchors[i], &ends[i], lengths[i], guesses[i])
-                    .map_err(|e| format!("cable {}: {e}", i + 1))
+                    .map_err(|e| format!("cable {i}: {e}"))
             })
             .collect()
     };

@@ -97,3 +97,21 @@ fn form_finding_at_c_and_b() {
         let _ = CableState::Taut;
     }
 }
+
+/// A pose outside the towers' reach needs a cable to push: reported as infeasible, naming it.
+#[test]
+fn infeasible_pose_names_the_cable() {
+    let mut s = scene("lt50m_C.toml");
+    s.pose.position_m = [0.0, 40.0, 10.0]; // outside the anchor circle (radius 30 m)
+    let net = CableNet::from_scene(&s);
+    let err = form_find(&net, s.target_position(), s.target_orientation()).unwrap_err();
+    let msg = err.to_string();
+    eprintln!("{msg}");
+    match err {
+        cable_fmu::statics::StaticsError::Infeasible { cable, tension } => {
+            assert!(tension < 0.0);
+            assert!(msg.contains(&format!("cable {cable}")), "{msg}");
+        }
+        other => panic!("expected infeasibility, got {other}"),
+    }
+}

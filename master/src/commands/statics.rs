@@ -1,10 +1,97 @@
-//! `master statics` (not implemented yet).
+//! `master statics`: form-finding statics of the scene's target pose.
+
+use std::path::PathBuf;
+
+use cable_fmu::net::CableNet;
+use cable_fmu::statics::{CableState, form_find};
+use feedcore::scene::Scene;
+use master::table::Table;
+use serde_json::json;
 
 use super::CmdResult;
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Scene file (TOML), e.g. scenes/lt50m_C.toml.
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Print JSON instead of a table: cabin_position [x, y, z] (m), cabin_orientation
+    /// [w, x, y, z] (unit quaternion, body to world), and per cable unstretched_length_m,
+    /// tension_anchor_n, tension_cabin_n, slack, nearly_slack, state, lowest_point_z_m.
+    #[arg(long)]
+    pub json: bool,
+}
 
-pub fn run(_args: &Args) -> CmdResult {
-    Err("`master statics` is not implemented yet".into())
+pub fn run(args: &Args) -> CmdResult {
+    let scene = Scene::load(&args.scene)?;
+    let net = CableNet::from_scene(&scene);
+    let eq = form_find(&net, scene.target_position(), scene.target_orientation())?;
+    let q = eq.orientation;
+    if args.json {
+        let cables: Vec<_> = eq
+            .cables
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                json!({
+                    "cable": i,
+                    "anchor_azimuth_deg": scene.anchors.angle_deg[i],
+                    "unstretched_length_m": c.unstretched_length,
+                    "tension_anchor_n": c.tension_anchor,
+                    "tension_cabin_n": c.tension_cabin,
+                    "slack": c.state == CableState::Slack,
+                    "nearly_slack": c.state == CableState::NearlySlack,
+                    "state": c.state,
+                    "lowest_point_z_m": c.lowest_point_z,
+                })
+            })
+            .collect();
+        let out = json!({
+            "scene": scene.name,
+            "cabin_position": eq.position.as_slice(),
+            "cabin_orientation": [q.w, q.i, q.j, q.k],
+            "suspended_mass_kg": net.suspended().mass,
+            "residual_n": eq.residual,
+            "cables": cables,
+        });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+        return Ok(());
+    }
+    println!("Form-finding statics: {} ({})", scene.name, args.scene.display());
+    println!(
+        "cabin centre point at ({:.4}, {:.4}, {:.4}) m, orientation (w, x, y, z) = ({:.9}, {:.9}, {:.9}, {:.9})",
+        eq.position.x, eq.position.y, eq.position.z, q.w, q.i, q.j, q.k
+    );
+    println!(
+        "suspended: {:.1} kg (cabin {:.1} kg, Stewart platform locked at its start {:.1} kg), {} elements per cable",
+        net.suspended().mass,
+        net.cabin.mass,
+        net.payload.mass,
+        net.spec.elements
+    );
+    println!();
+    let mut t = Table::new(["cable", "azimuth °", "unstretched m", "T anchor N", "T cabin N", "lowest z m", "state"]);
+    for (i, c) in eq.cables.iter().enumerate() {
+        let state = match c.state {
+            CableState::Taut => "taut",
+            CableState::NearlySlack => "nearly slack (sags below its cabin end)",
+            CableState::Slack => "SLACK",
+        };
+        t.row([
+            i.to_string(),
+            format!("{:.0}", scene.anchors.angle_deg[i]),
+            format!("{:.6}", c.unstretched_length),
+            format!("{:.1}", c.tension_anchor),
+            format!("{:.1}", c.tension_cabin),
+            format!("{:.3}", c.lowest_point_z),
+            state.to_string(),
+        ]);
+    }
+    print!("{}", t.render());
+    println!();
+    println!(
+        "Tensions are the axial forces of the end elements; residual of the cabin equations {:.1e} N.",
+        eq.residual
+    );
+    Ok(())
 }

@@ -1,0 +1,156 @@
+//! The cable–cabin model of a scene: form-found equilibrium, Rayleigh damping fitted to its
+//! modes, and ready-to-run dynamics. This is the entry point for the CLI and the FMU.
+
+use std::fmt;
+
+use feedcore::scene::{Scene, SceneError};
+use nalgebra::Vector6;
+
+use crate::damping::{rayleigh_coefficients, rayleigh_matrix};
+use crate::dynamics::{Dynamics, DynamicsError, DynamicsOptions};
+use crate::modes::{Modes, modes};
+use crate::net::CableNet;
+use crate::statics::{Equilibrium, StaticsError, form_find};
+use crate::system::{Config, Support, System};
+
+#[derive(Debug)]
+pub enum ModelError {
+    Scene(SceneError),
+    Statics(StaticsError),
+    Modes(String),
+    Dynamics(DynamicsError),
+}
+
+impl fmt::Display for ModelError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ModelError::Scene(e) => e.fmt(f),
+            ModelError::Statics(e) => write!(f, "form-finding statics: {e}"),
+            ModelError::Modes(e) => write!(f, "modal analysis: {e}"),
+            ModelError::Dynamics(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for ModelError {}
+
+/// Rayleigh coefficients and where they came from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayleighFit {
+    pub ratio: f64,
+    pub frequencies_hz: [f64; 2],
+    pub alpha: f64,
+    pub beta: f64,
+}
+
+/// How the Stewart platform enters the cable–cabin dynamics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Payload {
+    /// Rigidly attached at its starting pose (a "locked" platform).
+    Locked,
+    /// Left out of the body: an external wrench on the cabin stands for it (co-simulation).
+    External,
+}
+
+/// A scene's cable–cabin model at its static equilibrium.
+#[derive(Clone, Debug)]
+pub struct CableCabin {
+    pub scene: Scene,
+    pub net: CableNet,
+    pub equilibrium: Equilibrium,
+    /// Modes of the locked system, if they were needed (damping fit or the scene asked).
+    pub modes: Option<Modes>,
+    pub damping: RayleighFit,
+    /// The locked system at the equilibrium, with its damping matrix.
+    locked: System,
+}
+
+impl CableCabin {
+    /// Form finding, and the modal analysis the damping fit (and the scene) asks for.
+    pub fn from_scene(scene: &Scene) -> Result<CableCabin, ModelError> {
+        Self::build(scene, scene.analyses.modes)
+    }
+
+    /// As [`CableCabin::from_scene`], with at least `mode_count` modes computed.
+    pub fn build(scene: &Scene, mode_count: usize) -> Result<CableCabin, ModelError> {
+        let net = CableNet::from_scene(scene);
+        let equilibrium =
+            form_find(&net, scene.target_position(), scene.target_orientation()).map_err(ModelError::Statics)?;
+        let mut locked = System::new(net.clone(), equilibrium.lengths(), true, Support::Free);
+        let cfg = locked.config_from(&equilibrium);
+        let d = &scene.damping;
+        let needed = d.fit_modes.map_or(0, |m| m[1]).max(mode_count);
+        let modes = if needed > 0 { Some(modes(&locked, &cfg, needed).map_err(ModelError::Modes)?) } else { None };
+        let frequencies_hz = match (d.fit_modes, d.fit_frequencies_hz, &modes) {
+            (Some([a, b]), _, Some(md)) => {
+                if b > md.frequencies_hz.len() {
+                    return Err(ModelError::Modes(format!(
+                        "the system has only {} modes; damping.fit_modes asks for mode {b}",
+                        md.frequencies_hz.len()
+                    )));
+                }
+                [md.frequencies_hz[a - 1], md.frequencies_hz[b - 1]]
+            }
+            (_, Some(f), _) => f,
+            _ => unreachable!("a validated scene fits damping at modes or at frequencies"),
+        };
+        if frequencies_hz[0] <= 0.0 {
+            return Err(ModelError::Modes(format!(
+                "cannot fit damping at a non-positive frequency {:?} Hz (unstable equilibrium?)",
+                frequencies_hz
+            )));
+        }
+        let w = frequencies_hz.map(|f| 2.0 * std::f64::consts::PI * f);
+        let (alpha, beta) = rayleigh_coefficients(d.ratio, w[0], w[1]);
+        locked.damping = Some(rayleigh_matrix(&locked, &cfg, alpha, beta));
+        Ok(CableCabin {
+            scene: scene.clone(),
+            net,
+            equilibrium,
+            modes,
+            damping: RayleighFit { ratio: d.ratio, frequencies_hz, alpha, beta },
+            locked,
+        })
+    }
+
+    /// The system with the platform locked on the cabin, or left to an external wrench. Both
+    /// share the same damping matrix.
+    pub fn system(&self, payload: Payload) -> System {
+        match payload {
+            Payload::Locked => self.locked.clone(),
+            Payload::External => {
+                let mut s = System::new(self.net.clone(), self.equilibrium.lengths(), false, Support::Free);
+                s.damping = self.locked.damping.clone();
+                s
+            }
+        }
+    }
+
+    pub fn equilibrium_config(&self) -> Config {
+        self.locked.config_from(&self.equilibrium)
+    }
+
+    /// The wrench (force; moment about the cabin centre point; world frame) of the platform's
+    /// weight at its starting pose: what an external platform exerts on the cabin at rest.
+    pub fn static_payload_wrench(&self) -> Vector6<f64> {
+        let p = &self.net.payload;
+        let f = self.net.spec.gravity * p.mass;
+        let m = (self.equilibrium.orientation * p.com).cross(&f);
+        Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z)
+    }
+
+    /// Dynamics starting at rest at the equilibrium at time `t0`; with an external payload the
+    /// wrench at `t0` is its static wrench.
+    pub fn dynamics(&self, payload: Payload, t0: f64) -> Result<Dynamics, ModelError> {
+        let sys = self.system(payload);
+        let n = sys.dim();
+        let wrench = match payload {
+            Payload::Locked => Vector6::zeros(),
+            Payload::External => self.static_payload_wrench(),
+        };
+        let s = &self.scene.solver;
+        let options =
+            DynamicsOptions { rho_inf: s.rho_inf, newton_tol: s.newton_tol, newton_max_iter: s.newton_max_iter };
+        Dynamics::new(sys, self.equilibrium_config(), vec![0.0; n], t0, &wrench, options).map_err(ModelError::Dynamics)
+    }
+}
