@@ -5,6 +5,7 @@
 //! * [`stewart_geometry`]: where the Stewart platform's joints and masses sit on the cabin;
 //! * [`genalpha`]: coefficients of the generalized-α integrator.
 
+pub mod benchkit;
 pub mod genalpha;
 pub mod rigid;
 pub mod scene;
