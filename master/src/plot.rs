@@ -18,9 +18,9 @@
 //! Data handling, documented once here:
 //! * Points with a NaN or infinite coordinate are skipped: the line has a gap there.
 //! * Automatic ranges cover all finite data with 4 % padding on each side (log axes: widened to
-//!   whole decades when the data span a decade or more); a panel with a grid is fitted to the
-//!   grid's cells exactly. Constant or empty data get a unit-width range, never a division by
-//!   zero. A fixed range ([`Panel::x_range`]) clips the data.
+//!   whole decades when the data span a decade or more, see [`ticks::log_auto_range`]); a panel with a grid is fitted to the
+//!   grid's cells exactly. Constant data get ±10 % around the value (±1 around zero), no data
+//!   [0, 1]: never a division by zero. A fixed range ([`Panel::x_range`]) clips the data.
 //! * On a log axis a value ≤ 0 is an error ([`PlotError::NonPositiveOnLog`]) naming the panel,
 //!   series, index and value; such values are not dropped silently.
 //! * Lines with more points than about two per pixel column are decimated per column keeping

@@ -110,6 +110,12 @@ fn log_auto_range_pads_a_narrow_span_instead_of_jumping_decades() {
     let span = 1.1f64.log10() - 0.9f64.log10();
     assert!((lo - (0.9f64.log10() - 0.04 * span)).abs() < 1e-12);
     assert!((hi - (1.1f64.log10() + 0.04 * span)).abs() < 1e-12);
+    // Data ending on decades are padded, not pushed a whole decade out.
+    let (lo, hi) = log_auto_range(1e-3, 1e1, 0.04);
+    assert!((lo - (-3.16)).abs() < 1e-12 && (hi - 1.16).abs() < 1e-12, "[{lo}, {hi}]");
+    // One end near a decade, the other far from it.
+    let (lo, hi) = log_auto_range(1.1e-3, 5.0, 0.04);
+    assert!((lo - (1.1e-3f64.log10() - 0.04 * (5.0f64 / 1.1e-3).log10())).abs() < 1e-12 && hi == 1.0, "[{lo}, {hi}]");
     // Constant data: half a decade each side.
     assert_eq!(log_auto_range(1e-3, 1e-3, 0.04), (-3.5, -2.5));
 }

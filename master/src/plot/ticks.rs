@@ -160,19 +160,23 @@ pub fn log_decades(lo: f64, hi: f64) -> Vec<i32> {
     (first..=last).collect()
 }
 
-/// Auto range of a log axis for data in `[min, max]` (both > 0): widened to whole decades when
-/// the data span at least one decade (`[3e-4, 2e1]` → `[1e-4, 1e2]`), otherwise padded by
-/// `pad` of the span on each side in log space. Returned in axis coordinates (log10).
+/// Auto range of a log axis for data in `[min, max]` (both > 0), in axis coordinates (log10).
+/// When the data span a decade or more, each end is widened to the next whole decade
+/// (`[3e-4, 2e1]` → `[1e-4, 1e2]`), unless the data come closer to it than `pad` of the span
+/// (data ending on a decade would put markers on the frame): that end is padded by `pad` of
+/// the span instead. Narrower data are padded by `pad` on both ends.
 pub fn log_auto_range(min: f64, max: f64, pad: f64) -> (f64, f64) {
     log_auto_range_axis(min.log10(), max.log10(), pad)
 }
 
 /// [`log_auto_range`] for data already in axis coordinates (`a = log10(min)`, `b = log10(max)`).
 pub fn log_auto_range_axis(a: f64, b: f64, pad: f64) -> (f64, f64) {
+    let p = pad * (b - a);
     if b - a >= 1.0 {
-        (a.floor(), b.ceil())
+        let lo = if a - a.floor() >= p { a.floor() } else { a - p };
+        let hi = if b.ceil() - b >= p { b.ceil() } else { b + p };
+        (lo, hi)
     } else if b > a {
-        let p = pad * (b - a);
         (a - p, b + p)
     } else {
         (a - 0.5, a + 0.5)
