@@ -223,7 +223,10 @@ impl Dynamics {
             }
             self.trial.set_displaced(&self.state.config, &self.increment);
             stats.iterations = it + 1;
-            if dmax <= tol {
+            // Converged when the correction is below the tolerance, or when the error it leaves
+            // (estimated from a fast contraction ρ as ρ/(1−ρ)·|δ|) is ten times below it.
+            let rate = dmax / previous;
+            if dmax <= tol || (it > 0 && rate < 0.2 && rate / (1.0 - rate) * dmax <= 0.1 * tol) {
                 converged = true;
                 break;
             }
