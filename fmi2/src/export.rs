@@ -1345,3 +1345,7 @@ macro_rules! export_fmu {
         };
     };
 }
+
+#[cfg(test)]
+#[path = "export_tests.rs"]
+mod tests;

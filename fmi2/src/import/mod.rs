@@ -323,18 +323,8 @@ impl Fmu {
         let guid = CString::new(d.guid.as_str()).map_err(|_| fail("GUID contains a NUL byte".into()))?;
         let resources = self.inner.root.join("resources");
         let location = CString::new(crate::uri::file_uri(&resources)).map_err(|_| fail("path contains NUL".into()))?;
-        let sink = Box::new(LogSink {
-            sink: log_sink,
-            messages: Mutex::new(VecDeque::new()),
-            echo: std::env::var_os("FMI2_ECHO_LOG").is_some(),
-        });
-        let callbacks = Box::new(fmi2CallbackFunctions {
-            logger: Some(fmi2rs_logger),
-            allocateMemory: Some(calloc),
-            freeMemory: Some(free),
-            stepFinished: None,
-            componentEnvironment: (&*sink as *const LogSink).cast_mut().cast(),
-        });
+        let sink = LogSink::new();
+        let callbacks = Box::new(sink.callbacks());
         // SAFETY: all pointers are valid for the call; `callbacks` and `sink` outlive the instance.
         let component = unsafe {
             (self.inner.api.instantiate)(
@@ -363,7 +353,6 @@ impl Fmu {
             sink,
             _callbacks: callbacks,
             states: Vec::new(),
-            next_state_id: 0,
         })
     }
 }
@@ -395,13 +384,38 @@ const LOG_CAPACITY: usize = 256;
 
 /// `componentEnvironment`: the C shim calls `sink` (the first field) with the formatted text.
 #[repr(C)]
-struct LogSink {
+pub(crate) struct LogSink {
     sink: unsafe extern "C" fn(*mut c_void, fmi2String, fmi2Status, fmi2String, fmi2String),
     messages: Mutex<VecDeque<LogMessage>>,
     echo: bool,
 }
 
 impl LogSink {
+    pub(crate) fn new() -> Box<LogSink> {
+        Box::new(LogSink {
+            sink: log_sink,
+            messages: Mutex::new(VecDeque::new()),
+            echo: std::env::var_os("FMI2_ECHO_LOG").is_some(),
+        })
+    }
+
+    /// The callbacks an FMU gets: this sink as componentEnvironment, libc's allocator.
+    /// The sink must outlive every instance that uses them.
+    pub(crate) fn callbacks(&self) -> fmi2CallbackFunctions {
+        fmi2CallbackFunctions {
+            logger: Some(fmi2rs_logger),
+            allocateMemory: Some(calloc),
+            freeMemory: Some(free),
+            stepFinished: None,
+            componentEnvironment: (self as *const LogSink).cast_mut().cast(),
+        }
+    }
+
+    /// Take all messages logged so far.
+    pub(crate) fn take(&self) -> Vec<LogMessage> {
+        self.messages.lock().unwrap_or_else(|p| p.into_inner()).drain(..).collect()
+    }
+
     /// The last few messages, newest last, for error reports.
     fn recent(&self) -> Vec<String> {
         let m = self.messages.lock().unwrap_or_else(|p| p.into_inner());
@@ -450,7 +464,6 @@ pub struct Instance {
     sink: Box<LogSink>,
     _callbacks: Box<fmi2CallbackFunctions>,
     states: Vec<(u64, fmi2FMUstate)>,
-    next_state_id: u64,
 }
 
 // SAFETY: FMI 2.0 instances carry no thread affinity; `Instance` is used by one thread at a time.
@@ -477,8 +490,7 @@ impl Instance {
 
     /// Take all messages logged so far.
     pub fn take_messages(&mut self) -> Vec<LogMessage> {
-        let mut m = self.sink.messages.lock().unwrap_or_else(|p| p.into_inner());
-        m.drain(..).collect()
+        self.sink.take()
     }
 
     fn api(&self) -> &Api {
@@ -666,9 +678,11 @@ impl Instance {
     }
 
     fn adopt(&mut self, raw: fmi2FMUstate) -> FmuState {
-        self.next_state_id += 1;
-        self.states.push((self.next_state_id, raw));
-        FmuState { id: self.next_state_id }
+        // Unique across instances, so a state cannot be used with an instance that did not make it.
+        static NEXT_ID: AtomicU64 = AtomicU64::new(1);
+        let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        self.states.push((id, raw));
+        FmuState { id }
     }
 
     fn raw_state(&self, state: &FmuState) -> Result<(usize, fmi2FMUstate), Error> {

@@ -1,10 +1,57 @@
-//! `master package` (not implemented yet).
+//! `master package`: build the FMI 2.0 Co-Simulation archives (`.fmu`) of every model the
+//! workspace exports, from the in-process model descriptions and the built shared libraries.
+
+use std::path::{Path, PathBuf};
+
+use fmi2::export::Model;
 
 use super::CmdResult;
 
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Directory for the `.fmu` files (created if missing).
+    #[arg(long, default_value = "dist")]
+    pub out: PathBuf,
+    /// Directory holding the built `lib<crate>.so` files [default: the directory of this executable].
+    #[arg(long)]
+    pub lib_dir: Option<PathBuf>,
+}
 
-pub fn run(_args: &Args) -> CmdResult {
-    Err("`master package` is not implemented yet".into())
+/// A model the workspace exports as an FMU.
+pub struct Exportable {
+    /// Cargo package of the cdylib (its library is `lib<package>.so`).
+    pub package: &'static str,
+    /// Writes `<out>/<modelIdentifier>.fmu` from the library; returns the archive path.
+    pub write: fn(&Path, &Path) -> Result<PathBuf, String>,
+}
+
+impl Exportable {
+    pub const fn of<M: Model>(package: &'static str) -> Exportable {
+        Exportable { package, write: fmi2::package::package_model::<M> }
+    }
+}
+
+/// Every FMU of the workspace: one line per model (its `Model` type and its cdylib package).
+pub const EXPORTABLE: &[Exportable] = &[Exportable::of::<fmi2_testmodel::Oscillator>("fmi2_testmodel")];
+
+pub fn run(args: &Args) -> CmdResult {
+    let lib_dir = match &args.lib_dir {
+        Some(d) => d.clone(),
+        None => std::env::current_exe()?.parent().ok_or("the master executable has no parent directory")?.to_owned(),
+    };
+    for e in EXPORTABLE {
+        let lib = lib_dir.join(format!("lib{}.so", e.package));
+        if !lib.is_file() {
+            return Err(format!(
+                "{} not found: build it with `cargo build --release -p {}` (or point --lib-dir at it)",
+                lib.display(),
+                e.package
+            )
+            .into());
+        }
+        let fmu = (e.write)(&args.out, &lib)?;
+        let size = std::fs::metadata(&fmu)?.len();
+        println!("{} ({:.1} MB, from {})", fmu.display(), size as f64 / 1e6, lib.display());
+    }
+    Ok(())
 }
