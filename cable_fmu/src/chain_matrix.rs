@@ -137,17 +137,15 @@ impl ChainMatrix {
     /// Factorizes by block elimination of each chain towards the cabin, then LU of the
     /// condensed 6×6 cabin block. With `cabin_fixed` the cabin's unknowns are held at zero.
     pub fn factorize(&self, cabin_fixed: bool) -> Result<ChainFactor, String> {
+        let mut f = ChainFactor::new(self.cables, self.nodes);
+        self.factorize_into(cabin_fixed, &mut f)?;
+        Ok(f)
+    }
+
+    /// As [`ChainMatrix::factorize`], reusing the storage of `f` (no allocation).
+    pub fn factorize_into(&self, cabin_fixed: bool, f: &mut ChainFactor) -> Result<(), String> {
         let m = self.nodes;
-        let mut f = ChainFactor {
-            cables: self.cables,
-            nodes: m,
-            dinv: vec![Mat3::zeros(); self.cables * m],
-            forward: vec![Mat3::zeros(); self.cables * m.saturating_sub(1)],
-            backward: vec![Mat3::zeros(); self.cables * m.saturating_sub(1)],
-            dinv_p: vec![Matrix3x6::zeros(); self.cables],
-            q_dinv: vec![Matrix6x3::zeros(); self.cables],
-            cabin_lu: None,
-        };
+        assert!(f.cables == self.cables && f.nodes == m, "factor storage of the wrong shape");
         let mut condensed = self.cabin;
         for c in 0..self.cables {
             for j in 0..m {
@@ -173,14 +171,7 @@ impl ChainMatrix {
                 condensed -= f.q_dinv[c] * self.node_cabin[c];
             }
         }
-        if !cabin_fixed {
-            let lu = condensed.lu();
-            if !lu.is_invertible() {
-                return Err("singular condensed cabin block".into());
-            }
-            f.cabin_lu = Some(lu);
-        }
-        Ok(f)
+        f.set_cabin(condensed, cabin_fixed)
     }
 }
 
@@ -196,11 +187,80 @@ pub struct ChainFactor {
     backward: Vec<Mat3>,
     dinv_p: Vec<Matrix3x6<f64>>,
     q_dinv: Vec<Matrix6x3<f64>>,
+    /// The cabin block after condensing the chains onto it; its LU follows from it.
+    condensed: Matrix6<f64>,
     /// `None` when the cabin is held fixed.
     cabin_lu: Option<nalgebra::linalg::LU<f64, nalgebra::U6, nalgebra::U6>>,
 }
 
 impl ChainFactor {
+    pub fn new(cables: usize, nodes: usize) -> ChainFactor {
+        ChainFactor {
+            cables,
+            nodes,
+            dinv: vec![Mat3::zeros(); cables * nodes],
+            forward: vec![Mat3::zeros(); cables * nodes.saturating_sub(1)],
+            backward: vec![Mat3::zeros(); cables * nodes.saturating_sub(1)],
+            dinv_p: vec![Matrix3x6::zeros(); cables],
+            q_dinv: vec![Matrix6x3::zeros(); cables],
+            condensed: Matrix6::zeros(),
+            cabin_lu: None,
+        }
+    }
+
+    fn set_cabin(&mut self, condensed: Matrix6<f64>, cabin_fixed: bool) -> Result<(), String> {
+        self.condensed = condensed;
+        self.cabin_lu = None;
+        if !cabin_fixed {
+            let lu = condensed.lu();
+            if !lu.is_invertible() {
+                return Err("singular condensed cabin block".into());
+            }
+            self.cabin_lu = Some(lu);
+        }
+        Ok(())
+    }
+
+    /// Every number of the factorization, for saving a simulation state.
+    pub fn encode(&self, out: &mut Vec<f64>) {
+        out.push(if self.cabin_lu.is_some() { 1.0 } else { 0.0 });
+        for b in self.dinv.iter().chain(&self.forward).chain(&self.backward) {
+            out.extend_from_slice(b.as_slice());
+        }
+        for b in &self.dinv_p {
+            out.extend_from_slice(b.as_slice());
+        }
+        for b in &self.q_dinv {
+            out.extend_from_slice(b.as_slice());
+        }
+        out.extend_from_slice(self.condensed.as_slice());
+    }
+
+    /// Rebuilds a factorization from [`ChainFactor::encode`]d numbers (the cabin LU is
+    /// recomputed from the condensed block: the same bits).
+    pub fn decode(cables: usize, nodes: usize, data: &[f64]) -> Result<ChainFactor, String> {
+        let mut f = ChainFactor::new(cables, nodes);
+        let blocks3 = f.dinv.len() + f.forward.len() + f.backward.len();
+        let expected = 1 + 9 * blocks3 + 36 * cables + 36;
+        if data.len() != expected {
+            return Err(format!("factorization data has {} numbers, expected {expected}", data.len()));
+        }
+        let mut it = data[1..].chunks_exact(9);
+        for b in f.dinv.iter_mut().chain(f.forward.iter_mut()).chain(f.backward.iter_mut()) {
+            b.copy_from_slice(it.next().expect("length checked"));
+        }
+        let rest = &data[1 + 9 * blocks3..];
+        let mut it = rest.chunks_exact(18);
+        for b in f.dinv_p.iter_mut() {
+            b.copy_from_slice(it.next().expect("length checked"));
+        }
+        for b in f.q_dinv.iter_mut() {
+            b.copy_from_slice(it.next().expect("length checked"));
+        }
+        f.set_cabin(Matrix6::from_column_slice(&rest[36 * cables..]), data[0] == 0.0)?;
+        Ok(f)
+    }
+
     /// Overwrites `b` with the solution of `S x = b`.
     pub fn solve_in_place(&self, b: &mut [f64]) {
         let m = self.nodes;

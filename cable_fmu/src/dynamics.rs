@@ -54,6 +54,30 @@ pub struct State {
     pub pseudo_acceleration: Vec<f64>,
     /// Iteration matrix factorization and the step size it was built for.
     pub factor: Option<(ChainFactor, f64)>,
+    /// The step that led here (what its sensitivity to the wrench needs).
+    pub last_step: Option<LastStep>,
+}
+
+/// Step size, end-of-step wrench and rotation increment of the step that led to a state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LastStep {
+    pub h: f64,
+    pub wrench: Vector6<f64>,
+    pub rotation_increment: Vec3,
+}
+
+/// Change of the cabin's motion and of the end tensions caused by a change of the wrench.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CabinDelta {
+    pub position: Vec3,
+    /// World-frame rotation vector.
+    pub rotation: Vec3,
+    pub velocity: Vec3,
+    pub angular_velocity: Vec3,
+    pub acceleration: Vec3,
+    pub angular_acceleration: Vec3,
+    /// (anchor end, cabin end) per cable.
+    pub tensions: Vec<(f64, f64)>,
 }
 
 /// Motion of the cabin centre point (world frame).
@@ -86,6 +110,8 @@ pub struct Dynamics {
     acceleration: Vec<f64>,
     residual: Vec<f64>,
     matrix: ChainMatrix,
+    /// Exact iteration matrix at the current state, factorized when a sensitivity is asked for.
+    sensitivity: Option<ChainFactor>,
 }
 
 fn vec_max_abs(v: &[f64]) -> f64 {
@@ -125,6 +151,7 @@ impl Dynamics {
             pseudo_acceleration: acceleration.clone(),
             acceleration,
             factor: None,
+            last_step: None,
         };
         Ok(Dynamics {
             coef: GenAlpha::new(options.rho_inf),
@@ -137,6 +164,7 @@ impl Dynamics {
             acceleration: vec![0.0; n],
             residual,
             matrix,
+            sensitivity: None,
         })
     }
 
@@ -256,6 +284,13 @@ impl Dynamics {
         st.velocity.copy_from_slice(&self.velocity);
         std::mem::swap(&mut st.config, &mut self.trial);
         st.time = t1;
+        let c0 = self.system.cabin_offset();
+        st.last_step = Some(LastStep {
+            h,
+            wrench: *wrench,
+            rotation_increment: Vec3::new(self.increment[c0 + 3], self.increment[c0 + 4], self.increment[c0 + 5]),
+        });
+        self.sensitivity = None;
         Ok(stats)
     }
 
@@ -277,6 +312,146 @@ impl Dynamics {
             .factorize(self.system.support == Support::Fixed)
             .map_err(|e| format!("iteration matrix: {e}"))?;
         self.state.factor = Some((factor, h));
+        Ok(())
+    }
+
+    /// How the state reached by the last step would change with the end-of-step wrench:
+    /// `δ(motion, tensions) = ∂/∂W · seed`, from the exact iteration matrix at the converged
+    /// state (factorized once per step, on the first call). Before any step, the direct
+    /// feedthrough: only the accelerations respond, through the mass matrix.
+    pub fn wrench_sensitivity(&mut self, seed: &Vector6<f64>) -> Result<CabinDelta, DynamicsError> {
+        let c0 = self.system.cabin_offset();
+        let fixed = self.system.support == Support::Fixed;
+        let fail = |reason: String| DynamicsError { time: self.state.time, reason };
+        let st = &self.state;
+        let (bp, gp, theta) = match &st.last_step {
+            Some(last) => (self.coef.beta_prime(last.h), self.coef.gamma_prime(last.h), last.rotation_increment),
+            None => (f64::NAN, f64::NAN, Vec3::zeros()),
+        };
+        if self.sensitivity.is_none() {
+            let (coef, wrench) = match &st.last_step {
+                Some(last) => (
+                    Coefficients { mass: bp, damping: gp, stiffness: 1.0, rotation_tangent: left_jacobian_so3(&theta) },
+                    last.wrench,
+                ),
+                None => (Coefficients::MASS, Vector6::zeros()),
+            };
+            self.system.assemble(
+                &st.config,
+                &st.velocity,
+                &st.acceleration,
+                &wrench,
+                &mut self.residual,
+                Some((&mut self.matrix, coef)),
+            );
+            let f = self.matrix.factorize(fixed).map_err(|e| fail(format!("sensitivity matrix: {e}")))?;
+            self.sensitivity = Some(f);
+        }
+        // r contains −W on the cabin rows: S δu = δW there.
+        let du = &mut self.residual;
+        du.iter_mut().for_each(|x| *x = 0.0);
+        du[c0..c0 + 6].copy_from_slice(seed.as_slice());
+        self.sensitivity.as_ref().expect("factorized above").solve_in_place(du);
+        let v3 = |k: usize| Vec3::new(du[c0 + k], du[c0 + k + 1], du[c0 + k + 2]);
+        let cables = self.system.cables();
+        if self.state.last_step.is_none() {
+            return Ok(CabinDelta {
+                position: Vec3::zeros(),
+                rotation: Vec3::zeros(),
+                velocity: Vec3::zeros(),
+                angular_velocity: Vec3::zeros(),
+                acceleration: v3(0),
+                angular_acceleration: v3(3),
+                tensions: vec![(0.0, 0.0); cables],
+            });
+        }
+        let (dr, dth) = (v3(0), v3(3));
+        // the rotation coordinate is an increment inside exp(); the world rotation it makes:
+        let dphi = left_jacobian_so3(&theta) * dth;
+        du[c0 + 3..c0 + 6].copy_from_slice(dphi.as_slice());
+        let tensions = self.system.end_tension_sensitivity(&self.state.config, du);
+        Ok(CabinDelta {
+            position: dr,
+            rotation: dphi,
+            velocity: dr * gp,
+            angular_velocity: dth * gp,
+            acceleration: dr * bp,
+            angular_acceleration: dth * bp,
+            tensions,
+        })
+    }
+
+    /// The whole state as numbers (bit for bit), for saving and restoring a simulation.
+    pub fn encode_state(&self, out: &mut Vec<f64>) {
+        let st = &self.state;
+        out.push(st.time);
+        for x in &st.config.nodes {
+            out.extend_from_slice(x.as_slice());
+        }
+        out.extend_from_slice(st.config.position.as_slice());
+        let q = st.config.orientation.quaternion();
+        out.extend_from_slice(&[q.w, q.i, q.j, q.k]);
+        out.extend_from_slice(&st.velocity);
+        out.extend_from_slice(&st.acceleration);
+        out.extend_from_slice(&st.pseudo_acceleration);
+        match &st.last_step {
+            Some(l) => {
+                out.push(l.h);
+                out.extend_from_slice(l.wrench.as_slice());
+                out.extend_from_slice(l.rotation_increment.as_slice());
+            }
+            None => out.extend_from_slice(&[0.0; 10]),
+        }
+        match &st.factor {
+            Some((f, h)) => {
+                out.push(*h);
+                f.encode(out);
+            }
+            None => out.push(0.0),
+        }
+    }
+
+    /// Restores a state written by [`Dynamics::encode_state`] of the same system.
+    pub fn decode_state(&mut self, data: &[f64]) -> Result<(), String> {
+        let n = self.dim();
+        let nodes = self.state.config.nodes.len();
+        let fixed_len = 1 + 3 * nodes + 7 + 3 * n + 10 + 1;
+        if data.len() < fixed_len {
+            return Err(format!("state has {} numbers, at least {fixed_len} expected", data.len()));
+        }
+        let mut pos = 0;
+        let mut take = |k: usize| {
+            let s = &data[pos..pos + k];
+            pos += k;
+            s
+        };
+        let time = take(1)[0];
+        let mut config = self.state.config.clone();
+        for x in config.nodes.iter_mut() {
+            *x = Vec3::from_column_slice(take(3));
+        }
+        config.position = Vec3::from_column_slice(take(3));
+        let q = take(4);
+        config.orientation = Quat::new_unchecked(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+        let velocity = take(n).to_vec();
+        let acceleration = take(n).to_vec();
+        let pseudo_acceleration = take(n).to_vec();
+        let l = take(10);
+        let last_step = (l[0] != 0.0).then(|| LastStep {
+            h: l[0],
+            wrench: Vector6::from_column_slice(&l[1..7]),
+            rotation_increment: Vec3::from_column_slice(&l[7..10]),
+        });
+        let h = take(1)[0];
+        let factor = if h != 0.0 {
+            Some((ChainFactor::decode(self.system.cables(), self.system.free_nodes(), &data[pos..])?, h))
+        } else if pos != data.len() {
+            return Err("state has trailing numbers".into());
+        } else {
+            None
+        };
+        self.state = State { time, config, velocity, acceleration, pseudo_acceleration, factor, last_step };
+        self.sensitivity = None;
         Ok(())
     }
 

@@ -175,6 +175,33 @@ impl System {
         }
     }
 
+    /// Change of the end tensions (anchor end, cabin end) per cable for a change `du` of the
+    /// configuration (node displacements, cabin displacement and world-frame rotation;
+    /// tension-only: a slack element stays at zero).
+    pub fn end_tension_sensitivity(&self, cfg: &Config, du: &[f64]) -> Vec<(f64, f64)> {
+        let (m, ea) = (self.free_nodes(), self.net.spec.ea);
+        let c0 = self.cabin_offset();
+        let (dr, dth) = (get3(du, c0 / 3), get3(du, c0 / 3 + 1));
+        (0..self.cables())
+            .map(|i| {
+                let l0 = self.element_length[i];
+                let (attach, d) = self.attachment(cfg, i);
+                let d_attach = dr + dth.cross(&d);
+                let (first_end, d_first) = if m > 0 { (cfg.nodes[i * m], get3(du, i * m)) } else { (attach, d_attach) };
+                let (last_start, d_last) = if m > 0 {
+                    (cfg.nodes[i * m + m - 1], get3(du, i * m + m - 1))
+                } else {
+                    (self.net.anchors[i], Vec3::zeros())
+                };
+                let rate = |delta: Vec3, d_delta: Vec3| {
+                    let bar = Bar::new(&delta, ea, l0);
+                    if bar.is_slack() { 0.0 } else { ea / l0 * bar.dir.dot(&d_delta) }
+                };
+                (rate(first_end - self.net.anchors[i], d_first), rate(attach - last_start, d_attach - d_last))
+            })
+            .collect()
+    }
+
     /// Residual `M v̇ + g − f` (written to `residual`) and, if `matrix` is given, the matrix
     /// `coef.mass·M + coef.damping·∂r/∂v + coef.stiffness·(∂r/∂q)·T` written into it.
     /// `wrench`: external force and moment (about the cabin centre point) on the cabin, world.
