@@ -12,7 +12,7 @@
 //! inertia about its centre point (its centre of mass need not be there), gyroscopic terms,
 //! element forces, gravity, Rayleigh damping, and the external wrench on the cabin.
 
-use feedcore::rigid::{MassProperties, skew};
+use feedcore::rigid::{BodyTerms, MassProperties, skew};
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{Matrix3x6, Matrix6, Vector6};
 
@@ -299,43 +299,17 @@ impl System {
         }
 
         // the rigid cabin about its centre point
-        let body = &self.body;
-        let mass = body.mass;
-        let c = rot * body.com;
-        let jo = rot * body.inertia_about(&Vec3::zeros()) * rot.transpose();
-        let (a, alpha) =
-            (Vec3::new(acc[c0], acc[c0 + 1], acc[c0 + 2]), Vec3::new(acc[c0 + 3], acc[c0 + 4], acc[c0 + 5]));
-        let omega = Vec3::new(vel[c0 + 3], vel[c0 + 4], vel[c0 + 5]);
-        let (sc, sw, sa, sal) = (skew(&c), skew(&omega), skew(&a), skew(&alpha));
-        let jw = jo * omega;
-        let mg = g * mass;
-        let rt =
-            a * mass + alpha.cross(&c) * mass + omega.cross(&omega.cross(&c)) * mass - mg - wrench.fixed_rows::<3>(0);
-        let rr = jo * alpha + c.cross(&a) * mass + omega.cross(&jw) - c.cross(&mg) - wrench.fixed_rows::<3>(3);
-        cabin_res += Vector6::new(rt.x, rt.y, rt.z, rr.x, rr.y, rr.z);
+        let world = self.body.transformed(&rot, &cfg.position);
+        let v3 = |v: &[f64], k: usize| Vec3::new(v[c0 + k], v[c0 + k + 1], v[c0 + k + 2]);
+        let body = BodyTerms::new(&world, &cfg.position, &v3(vel, 3), &v3(acc, 0), &v3(acc, 3), &g);
+        cabin_res += body.residual - wrench;
         if let Some((mat, coef)) = matrix.as_mut() {
-            // ∂r/∂θ of inertia, gyroscopic and gravity terms
-            let mut block = cabin_k.fixed_view_mut::<3, 3>(0, 3);
-            block -= (sal + sw * sw) * sc * mass;
-            let krr = -skew(&(jo * alpha)) + jo * sal + sa * sc * mass + sw * (jo * sw - skew(&jw)) - skew(&mg) * sc;
-            let mut block = cabin_k.fixed_view_mut::<3, 3>(3, 3);
-            block += krr;
-            // ∂r/∂ω of the gyroscopic terms
-            let mut cabin_c = Matrix6::<f64>::zeros();
-            cabin_c.fixed_view_mut::<3, 3>(0, 3).copy_from(&((-skew(&omega.cross(&c)) - sw * sc) * mass));
-            cabin_c.fixed_view_mut::<3, 3>(3, 3).copy_from(&(-skew(&jw) + sw * jo));
-            // mass matrix about the centre point
-            let mut cabin_m = Matrix6::<f64>::zeros();
-            cabin_m.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Mat3::identity() * mass));
-            cabin_m.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-sc * mass));
-            cabin_m.fixed_view_mut::<3, 3>(3, 0).copy_from(&(sc * mass));
-            cabin_m.fixed_view_mut::<3, 3>(3, 3).copy_from(&jo);
-            let mut kt = cabin_k;
+            let mut kt = cabin_k + body.stiffness;
             for r in 0..6 {
                 let row = kt.fixed_view::<1, 3>(r, 3) * coef.rotation_tangent;
                 kt.fixed_view_mut::<1, 3>(r, 3).copy_from(&row);
             }
-            mat.cabin += cabin_m * coef.mass + cabin_c * coef.damping + kt * coef.stiffness;
+            mat.cabin += body.mass * coef.mass + body.gyroscopic * coef.damping + kt * coef.stiffness;
         }
         for k in 0..6 {
             residual[c0 + k] += cabin_res[k];

@@ -102,6 +102,68 @@ impl std::iter::Sum for MassProperties {
     }
 }
 
+/// Inertial and gravitational terms of one rigid body in the equations of motion, written about
+/// a reference point O of the body (not necessarily its centre of mass), with world-frame
+/// velocity-level coordinates: the velocity of O, the angular velocity ω, and rotations
+/// `R' = exp([δθ]×) R`. The body's contribution to the residual `M v̇ + g − f` is
+///
+/// ```text
+/// force:  m (a + α × c + ω × (ω × c)) − m g
+/// moment: J_O α + m c × a + ω × (J_O ω) − c × m g
+/// ```
+///
+/// with c the vector from O to the centre of mass and J_O the inertia about O (both world).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyTerms {
+    /// Residual contribution (force; moment about O).
+    pub residual: nalgebra::Vector6<f64>,
+    /// ∂residual/∂(a, α): the mass matrix about O.
+    pub mass: nalgebra::Matrix6<f64>,
+    /// ∂residual/∂(v, ω): gyroscopic terms.
+    pub gyroscopic: nalgebra::Matrix6<f64>,
+    /// ∂residual/∂(δr, δθ): only rotations act (through c and J_O).
+    pub stiffness: nalgebra::Matrix6<f64>,
+}
+
+impl BodyTerms {
+    /// `body`: mass properties in the world frame (centre of mass and inertia already rotated);
+    /// `origin`: the reference point O (world); `omega`, `accel` (of O), `alpha`: world frame.
+    pub fn new(
+        body: &MassProperties,
+        origin: &Vec3,
+        omega: &Vec3,
+        accel: &Vec3,
+        alpha: &Vec3,
+        gravity: &Vec3,
+    ) -> BodyTerms {
+        let m = body.mass;
+        let c = body.com - origin;
+        let jo = body.inertia_about(origin);
+        let (sc, sw, sa, sal) = (skew(&c), skew(omega), skew(accel), skew(alpha));
+        let jw = jo * omega;
+        let mg = gravity * m;
+        let f = accel * m + alpha.cross(&c) * m + omega.cross(&omega.cross(&c)) * m - mg;
+        let t = jo * alpha + c.cross(accel) * m + omega.cross(&jw) - c.cross(&mg);
+        let mut residual = nalgebra::Vector6::zeros();
+        residual.fixed_rows_mut::<3>(0).copy_from(&f);
+        residual.fixed_rows_mut::<3>(3).copy_from(&t);
+        let mut mass = nalgebra::Matrix6::zeros();
+        mass.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Mat3::identity() * m));
+        mass.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-sc * m));
+        mass.fixed_view_mut::<3, 3>(3, 0).copy_from(&(sc * m));
+        mass.fixed_view_mut::<3, 3>(3, 3).copy_from(&jo);
+        let mut gyroscopic = nalgebra::Matrix6::zeros();
+        gyroscopic.fixed_view_mut::<3, 3>(0, 3).copy_from(&((-skew(&omega.cross(&c)) - sw * sc) * m));
+        gyroscopic.fixed_view_mut::<3, 3>(3, 3).copy_from(&(-skew(&jw) + sw * jo));
+        // a rotation δθ turns c into c + δθ × c and J_O into J_O + [δθ]× J_O − J_O [δθ]×
+        let mut stiffness = nalgebra::Matrix6::zeros();
+        stiffness.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-(sal + sw * sw) * sc * m));
+        let krr = -skew(&(jo * alpha)) + jo * sal + sa * sc * m + sw * (jo * sw - skew(&jw)) - skew(&mg) * sc;
+        stiffness.fixed_view_mut::<3, 3>(3, 3).copy_from(&krr);
+        BodyTerms { residual, mass, gyroscopic, stiffness }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
