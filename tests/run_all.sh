@@ -16,5 +16,10 @@ if [ ! -x .venv/bin/python ] || ! .venv/bin/python -c "import fmpy, pytest" 2>/d
     .venv/bin/pip install --quiet --disable-pip-version-check -r tests/requirements.txt
 fi
 
-# The fmpy cross-checks (tests/python) join here once the FMUs are packaged (issue 4).
-.venv/bin/python -c "import fmpy; print('fmpy', fmpy.__version__, 'ready')"
+echo "== package the FMUs =="
+target_dir="${CARGO_TARGET_DIR:-target}"
+"$target_dir/release/master" package --out dist
+
+echo "== fmpy cross-checks =="
+.venv/bin/python -c "import fmpy; print('fmpy', fmpy.__version__)"
+FMU_DIST="$PWD/dist" .venv/bin/python -m pytest -q tests/python
