@@ -70,7 +70,9 @@ pub trait Model: Sized + Send + 'static {
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), String>;
 
     /// First-order derivative of a Real input at the current communication point (only with
-    /// `can_interpolate_inputs`; the layer rejects other orders).
+    /// `can_interpolate_inputs`; the layer rejects other orders). Convention of this workspace:
+    /// the input is `u(t) + u̇ (τ − t)` during the next `do_step` only; the model clears `u̇`
+    /// after that step, so a master that wants extrapolation sets it before every step.
     fn set_real_input_derivative(&mut self, _vr: u32, _order: i32, _value: f64) -> Result<(), String> {
         Err("input derivatives are not supported".into())
     }
@@ -306,14 +308,9 @@ impl<M: Model> Instance<M> {
     fn save_into(&self, out: &mut Vec<u8>) {
         out.clear();
         out.extend_from_slice(STATE_MAGIC);
-        let guid = self.info.description.guid.as_bytes();
-        out.extend_from_slice(&(guid.len() as u64).to_le_bytes());
-        out.extend_from_slice(guid);
-        out.push(self.phase.code());
-        for x in [self.time, self.start_time, self.stop_time.unwrap_or(f64::NAN)] {
-            out.extend_from_slice(&x.to_bits().to_le_bytes());
-        }
-        out.push(self.stop_time.is_some() as u8);
+        let mut w = crate::state_bytes::StateWriter::new(out);
+        w.str(&self.info.description.guid).u8(self.phase.code());
+        w.f64(self.time).f64(self.start_time).f64(self.stop_time.unwrap_or(f64::NAN)).bool(self.stop_time.is_some());
         let len_at = out.len();
         out.extend_from_slice(&0u64.to_le_bytes());
         self.model.save_state(out);
@@ -322,13 +319,12 @@ impl<M: Model> Instance<M> {
     }
 
     /// Parsed layer fields and the model part; checks everything but the model bytes.
-    fn check_state<'b>(&self, bytes: &'b [u8]) -> Result<(Phase, f64, f64, Option<f64>, &'b [u8]), String> {
-        let mut r = crate::state_bytes::StateReader::new(bytes);
-        let bad = |e: String| format!("not a state of this FMU: {e}");
+    fn check_state<'b>(&self, bytes: &'b [u8]) -> Result<SavedLayer<'b>, String> {
         if bytes.len() < 8 || &bytes[..8] != STATE_MAGIC {
             return Err("not a state of this FMU (wrong header)".into());
         }
-        r.u64().map_err(bad)?; // the magic
+        let bad = |e: String| format!("not a state of this FMU: {e}");
+        let mut r = crate::state_bytes::StateReader::new(&bytes[8..]);
         let guid = r.string().map_err(bad)?;
         if guid != self.info.description.guid {
             return Err(format!(
@@ -336,26 +332,34 @@ impl<M: Model> Instance<M> {
                 self.info.description.guid
             ));
         }
-        let phase_code = bytes.get(8 + 8 + guid.len()).copied().ok_or_else(|| bad("truncated".into()))?;
-        let phase = Phase::from_code(phase_code).ok_or_else(|| bad(format!("phase code {phase_code}")))?;
-        let tail = &bytes[8 + 8 + guid.len() + 1..];
-        let mut r = crate::state_bytes::StateReader::new(tail);
-        let (time, start, stop) = (r.f64().map_err(bad)?, r.f64().map_err(bad)?, r.f64().map_err(bad)?);
+        let code = r.u8().map_err(bad)?;
+        let phase = Phase::from_code(code).ok_or_else(|| bad(format!("phase code {code}")))?;
+        let (time, start_time, stop) = (r.f64().map_err(bad)?, r.f64().map_err(bad)?, r.f64().map_err(bad)?);
         let has_stop = r.bool().map_err(bad)?;
         let model_len = r.u64().map_err(bad)?;
-        let head = 3 * 8 + 1 + 8;
-        if tail.len() as u64 - head as u64 != model_len {
-            return Err(bad(format!("model part is {} bytes, header says {model_len}", tail.len() - head)));
+        let model = r.rest();
+        if model.len() as u64 != model_len {
+            return Err(bad(format!("model part is {} bytes, header says {model_len}", model.len())));
         }
-        Ok((phase, time, start, has_stop.then_some(stop), &tail[head..]))
+        Ok(SavedLayer { phase, time, start_time, stop_time: has_stop.then_some(stop), model })
     }
 
     fn restore_from(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let (phase, time, start, stop, model) = self.check_state(bytes)?;
-        self.model.restore_state(model)?;
-        (self.phase, self.time, self.start_time, self.stop_time) = (phase, time, start, stop);
+        let saved = self.check_state(bytes)?;
+        self.model.restore_state(saved.model)?;
+        (self.phase, self.time, self.start_time, self.stop_time) =
+            (saved.phase, saved.time, saved.start_time, saved.stop_time);
         Ok(())
     }
+}
+
+/// The layer's part of a saved state, and the model's bytes.
+struct SavedLayer<'b> {
+    phase: Phase,
+    time: f64,
+    start_time: f64,
+    stop_time: Option<f64>,
+    model: &'b [u8],
 }
 
 /// The entry points the [`export_fmu!`](crate::export_fmu) macro forwards to. Each mirrors the
@@ -607,6 +611,7 @@ pub mod entry {
     }
 
     /// Shared body of `fmi2Set*`: every value is checked before the first one is applied.
+    #[allow(clippy::too_many_arguments)]
     unsafe fn set<M: Model, T: Copy>(
         c: fmi2Component,
         func: &'static str,
@@ -890,7 +895,9 @@ pub mod entry {
                 let mut u = std::mem::take(&mut inst.scratch_unknowns);
                 let mut k = std::mem::take(&mut inst.scratch_knowns);
                 let mut s = std::mem::take(&mut inst.scratch_seed);
-                (u.clear(), k.clear(), s.clear());
+                u.clear();
+                k.clear();
+                s.clear();
                 let result = (|| {
                     for &r in unknowns {
                         let v = find(inst.info, VarType::Real, r)?;
@@ -983,7 +990,7 @@ pub mod entry {
     pub unsafe fn do_step<M: Model>(c: fmi2Component, t: f64, h: f64, _no_prior: fmi2Boolean) -> fmi2Status {
         unsafe {
             call::<M>(c, "fmi2DoStep", &[StepMode], |inst| {
-                if !t.is_finite() || !(h.is_finite() && h > 0.0) {
+                if !(t.is_finite() && h.is_finite() && h > 0.0) {
                     return Err(format!(
                         "currentCommunicationPoint = {t}, communicationStepSize = {h}: need finite t and h > 0"
                     ));

@@ -30,6 +30,10 @@ impl<'a> StateWriter<'a> {
         self.out.extend_from_slice(&x.to_le_bytes());
         self
     }
+    pub fn u8(&mut self, x: u8) -> &mut Self {
+        self.out.push(x);
+        self
+    }
     pub fn bool(&mut self, b: bool) -> &mut Self {
         self.out.push(b as u8);
         self
@@ -81,6 +85,9 @@ impl<'a> StateReader<'a> {
     pub fn i32(&mut self) -> Result<i32, String> {
         Ok(i32::from_le_bytes(self.take(4)?.try_into().expect("4 bytes")))
     }
+    pub fn u8(&mut self) -> Result<u8, String> {
+        Ok(self.take(1)?[0])
+    }
     pub fn bool(&mut self) -> Result<bool, String> {
         match self.take(1)?[0] {
             0 => Ok(false),
@@ -92,6 +99,10 @@ impl<'a> StateReader<'a> {
         let n = usize::try_from(self.u64()?).map_err(|_| "state string too long".to_owned())?;
         let b = self.take(n)?;
         String::from_utf8(b.to_vec()).map_err(|_| "state string is not UTF-8".to_owned())
+    }
+    /// The bytes not read yet.
+    pub fn rest(self) -> &'a [u8] {
+        &self.bytes[self.pos..]
     }
     /// Every byte must have been read.
     pub fn finish(self) -> Result<(), String> {
