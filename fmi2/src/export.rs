@@ -133,6 +133,8 @@ const ALL_BUT_FATAL: &[Phase] = &[Instantiated, InitializationMode, StepMode, Te
 const GETTABLE: &[Phase] = &[InitializationMode, StepMode, Terminated, Error];
 const SETTABLE: &[Phase] = &[Instantiated, InitializationMode, StepMode];
 const STATE_OK: &[Phase] = &[Instantiated, InitializationMode, StepMode, Terminated];
+/// Freeing a saved state touches no model data: allowed even after a fatal error.
+const ANY: &[Phase] = &[Instantiated, InitializationMode, StepMode, Terminated, Error, Fatal];
 
 /// Relative tolerance for matching the importer's communication point with the instance's time.
 pub const TIME_RTOL: f64 = 1e-9;
@@ -219,7 +221,7 @@ unsafe fn call<M: Model>(
     let inst = c.cast::<Instance<M>>();
     // SAFETY: by the contract above, `inst` is a live instance used by one thread at a time.
     let phase = unsafe { (*inst).phase };
-    if phase == Fatal {
+    if phase == Fatal && !allowed.contains(&Fatal) {
         unsafe {
             (*inst).log(
                 fmi2Fatal,
@@ -792,7 +794,7 @@ pub mod entry {
     /// As [`get_fmu_state`]; `*state` is null afterwards.
     pub unsafe fn free_fmu_state<M: Model>(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
         unsafe {
-            call::<M>(c, "fmi2FreeFMUstate", ALL_BUT_FATAL, |_| {
+            call::<M>(c, "fmi2FreeFMUstate", ANY, |_| {
                 if state.is_null() || (*state).is_null() {
                     return Ok(fmi2OK);
                 }

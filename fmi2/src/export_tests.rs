@@ -296,6 +296,8 @@ fn instantiate_checks_type_guid_and_location() {
 fn panics_become_fatal_and_are_logged() {
     let h = Harness::new();
     h.init();
+    let mut state: fmi2FMUstate = std::ptr::null_mut();
+    unsafe { e::get_fmu_state::<Toy>(h.c, &mut state) };
     assert_eq!(h.set(0, 13.0), fmi2OK);
     assert_eq!(h.step(0.0, 0.1), fmi2Fatal);
     let m = h.messages();
@@ -306,6 +308,8 @@ fn panics_become_fatal_and_are_logged() {
     assert_eq!(h.inst().phase(), Fatal);
     unsafe { assert_eq!(e::reset::<Toy>(h.c), fmi2Fatal, "only fmi2FreeInstance is allowed now") };
     assert!(h.messages()[0].text.contains("only fmi2FreeInstance is allowed"));
+    unsafe { assert_eq!(e::free_fmu_state::<Toy>(h.c, &mut state), fmi2OK, "saved states can still be freed") };
+    assert!(state.is_null());
 }
 
 #[test]
