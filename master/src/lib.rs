@@ -4,6 +4,7 @@
 //! * [`progress`]: a progress bar for long runs on a terminal;
 //! * [`table`]: plain-text tables.
 
+pub mod monolithic;
 pub mod plot;
 pub mod progress;
 pub mod table;
