@@ -18,6 +18,7 @@ pub mod chain_matrix;
 pub mod damping;
 pub mod dynamics;
 pub mod element;
+pub mod fmu;
 pub mod model;
 pub mod modes;
 pub mod net;

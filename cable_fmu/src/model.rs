@@ -142,15 +142,21 @@ impl CableCabin {
     /// Dynamics starting at rest at the equilibrium at time `t0`; with an external payload the
     /// wrench at `t0` is its static wrench.
     pub fn dynamics(&self, payload: Payload, t0: f64) -> Result<Dynamics, ModelError> {
-        let sys = self.system(payload);
-        let n = sys.dim();
         let wrench = match payload {
             Payload::Locked => Vector6::zeros(),
             Payload::External => self.static_payload_wrench(),
         };
+        self.dynamics_with(payload, t0, &wrench)
+    }
+
+    /// Dynamics starting at rest at the equilibrium at time `t0` under the external `wrench`
+    /// (its initial acceleration follows from it).
+    pub fn dynamics_with(&self, payload: Payload, t0: f64, wrench: &Vector6<f64>) -> Result<Dynamics, ModelError> {
+        let sys = self.system(payload);
+        let n = sys.dim();
         let s = &self.scene.solver;
         let options =
             DynamicsOptions { rho_inf: s.rho_inf, newton_tol: s.newton_tol, newton_max_iter: s.newton_max_iter };
-        Dynamics::new(sys, self.equilibrium_config(), vec![0.0; n], t0, &wrench, options).map_err(ModelError::Dynamics)
+        Dynamics::new(sys, self.equilibrium_config(), vec![0.0; n], t0, wrench, options).map_err(ModelError::Dynamics)
     }
 }

@@ -33,6 +33,9 @@ enum Command {
     Stewart(commands::stewart::Args),
     /// Build the FMI 2.0 Co-Simulation archives cable_fmu.fmu and stewart_fmu.fmu.
     Package(commands::package::Args),
+    /// Run a model's library in-process on an input table (the reference of the fmpy cross-checks).
+    #[command(hide = true)]
+    Replay(commands::replay::Args),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +45,7 @@ fn main() -> ExitCode {
         Command::Modes(args) => commands::modes::run(&args),
         Command::Stewart(args) => commands::stewart::run(&args),
         Command::Package(args) => commands::package::run(&args),
+        Command::Replay(args) => commands::replay::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

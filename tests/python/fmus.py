@@ -8,9 +8,16 @@ simulate test, and the String parameter that names its resource file.
 from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional
 
+import pathlib
+import subprocess
+import tempfile
+
 import numpy as np
 
 import oscillator_reference as osc
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+MASTER = REPO / "target" / "release" / "master"
 
 
 @dataclass
@@ -47,6 +54,48 @@ def OSCILLATOR_DRIVE(t):
     return np.array([3.0 * np.sin(2.0 * t) + 0.5])
 
 
+def rust_replay(model, scene, inputs, outputs, result, newton_tol=None):
+    """The model's Rust library run in-process (`master replay`) on the inputs fmpy applied
+    (recorded in `result` at every communication point); returns the outputs at the same times."""
+    with tempfile.TemporaryDirectory() as d:
+        table = pathlib.Path(d) / "inputs.csv"
+        out = pathlib.Path(d) / "outputs.csv"
+        columns = ["time"] + inputs
+        data = np.column_stack([result[c] for c in columns])
+        np.savetxt(table, data, delimiter=",", header=",".join(columns), comments="", fmt="%.17e")
+        cmd = [str(MASTER), "replay", "--model", model, "--scene", str(scene), "--inputs", str(table), "--out", str(out)]
+        if newton_tol is not None:
+            cmd += ["--newton-tol", repr(newton_tol)]
+        subprocess.run(cmd, check=True)
+        ref = np.genfromtxt(out, delimiter=",", names=True, deletechars="")
+    assert np.array_equal(ref["time"], result["time"]), "the replay must report the same times"
+    return np.column_stack([ref[name] for name in outputs])
+
+
+CABLE_INPUTS = ["wrench.f[1]", "wrench.f[2]", "wrench.f[3]", "wrench.m[1]", "wrench.m[2]", "wrench.m[3]"]
+CABLE_OUTPUTS = (
+    [f"cabin.r[{k}]" for k in (1, 2, 3)]
+    + [f"cabin.q[{k}]" for k in (1, 2, 3, 4)]
+    + [f"cabin.{p}[{k}]" for p in ("v", "w", "a", "alpha") for k in (1, 2, 3)]
+    + [f"cable.tension_{e}[{i}]" for e in ("anchor", "cabin") for i in range(1, 7)]
+)
+# The static wrench of the Stewart platform at its starting pose in scene C (the input start).
+CABLE_STATIC = np.array([0.0, 0.0, -1812.888, 0.0, 96.7256, 0.0])
+
+
+def CABLE_DRIVE(t):
+    """Platform-like disturbance on top of the static wrench: rotating force and moment."""
+    return CABLE_STATIC + np.array(
+        [40.0 * np.sin(0.9 * t), -25.0 * np.cos(0.6 * t), 15.0 * np.sin(2.1 * t), 8.0 * np.cos(1.3 * t), -12.0 * np.sin(0.7 * t), 3.0]
+    )
+
+
+def _cable_reference(result, start_values):
+    return rust_replay(
+        "cable_fmu", REPO / "scenes" / "lt50m_C.toml", CABLE_INPUTS, CABLE_OUTPUTS, result, start_values.get("newton_tol")
+    )
+
+
 CASES = [
     FmuCase(
         name="oscillator",
@@ -61,5 +110,20 @@ CASES = [
         fd_delta=[1e-3],
         fd_rtol=1e-8,
         start_values={"k": 50.0, "c": 1.0, "substeps": 3, "gravity": True, "x0": 0.05},
+    ),
+    FmuCase(
+        name="cable_fmu",
+        inputs=CABLE_INPUTS,
+        outputs=CABLE_OUTPUTS,
+        step_size=0.01,
+        stop_time=3.0,
+        drive=CABLE_DRIVE,
+        reference=_cable_reference,
+        reference_rtol=1e-9,
+        resource_parameter="scene",
+        fd_delta=[20.0, 20.0, 20.0, 10.0, 10.0, 10.0],
+        fd_rtol=1e-6,
+        # a tight Newton tolerance: the finite differences then measure the model, not the solver
+        start_values={"newton_tol": 1e-13},
     ),
 ]

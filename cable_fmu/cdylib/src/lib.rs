@@ -1,1 +1,3 @@
-//! The cable_fmu model exported through the shared FMI 2.0 layer (in progress).
+//! The cable–cabin model exported as the FMI 2.0 Co-Simulation FMU `cable_fmu`.
+
+fmi2::export_fmu!(cable_fmu::fmu::CableFmu);

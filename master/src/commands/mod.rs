@@ -2,6 +2,7 @@
 
 pub mod modes;
 pub mod package;
+pub mod replay;
 pub mod statics;
 pub mod stewart;
 

@@ -32,7 +32,10 @@ impl Exportable {
 }
 
 /// Every FMU of the workspace: one line per model (its `Model` type and its cdylib package).
-pub const EXPORTABLE: &[Exportable] = &[Exportable::of::<fmi2_testmodel::Oscillator>("fmi2_testmodel")];
+pub const EXPORTABLE: &[Exportable] = &[
+    Exportable::of::<fmi2_testmodel::Oscillator>("fmi2_testmodel"),
+    Exportable::of::<cable_fmu::fmu::CableFmu>("cable_fmu_cdylib"),
+];
 
 pub fn run(args: &Args) -> CmdResult {
     let lib_dir = match &args.lib_dir {
