@@ -25,7 +25,7 @@ pub mod wrench;
 use feedcore::scene::{LEGS, Motion, Scene};
 use feedcore::stewart_geometry::{BODIES, StewartGeometry};
 use feedcore::{Mat3, Quat, Vec3};
-use nalgebra::Rotation3;
+use nalgebra::{Rotation3, Vector6};
 
 pub use constraints::{CABIN, CONSTRAINTS, ConstraintRow, Joints, SYSTEM_BODIES};
 pub use error::StewartError;
@@ -61,6 +61,27 @@ pub struct Evaluation {
     pub legs: [LegReactions; LEGS],
     /// All multipliers λ of eq. (5), in the row order of [`constraints`].
     pub multipliers: [f64; CONSTRAINTS],
+}
+
+/// Extremes over the first revolution of the platform with the cabin held at rest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FixedCabinRange {
+    /// Time of the first revolution (0 if the platform does not move), s.
+    pub duration: f64,
+    pub samples: usize,
+    /// Componentwise extremes of the wrench 6-vector (force, moment).
+    pub wrench_min: Vector6<f64>,
+    pub wrench_max: Vector6<f64>,
+    /// Extremes of each actuator's tension.
+    pub actuator_min: [f64; LEGS],
+    pub actuator_max: [f64; LEGS],
+}
+
+impl FixedCabinRange {
+    /// The largest actuator force in magnitude (tension or compression).
+    pub fn actuator_force_max(&self) -> f64 {
+        self.actuator_min.iter().chain(&self.actuator_max).fold(0.0, |m, f| m.max(f.abs()))
+    }
 }
 
 /// The Stewart platform model of one scene.
@@ -121,7 +142,7 @@ impl Stewart {
             let rel = self.relative(t)?;
             let j = kinematics::leg_jacobian(&self.geometry, &rel.bodies[0].position, &Mat3::identity());
             let condition = kinematics::condition_number(&j);
-            if !(condition < SINGULAR_CONDITION) {
+            if condition.is_nan() || condition >= SINGULAR_CONDITION {
                 return Err(StewartError::SingularPose { time: t, condition });
             }
         }
@@ -176,7 +197,7 @@ impl Stewart {
             if !(shortest..=longest).contains(&length) {
                 return Err(StewartError::LegLength { leg: k + 1, time: rel.time, length, shortest, longest });
             }
-            if !(rel.hooke_sine[k] > HOOKE_SINGULAR_SINE) {
+            if rel.hooke_sine[k].is_nan() || rel.hooke_sine[k] <= HOOKE_SINGULAR_SINE {
                 return Err(StewartError::HookeSingular { leg: k + 1, time: rel.time, sin_angle: rel.hooke_sine[k] });
             }
         }
@@ -311,5 +332,41 @@ impl Stewart {
     ) -> Result<Vec<Evaluation>, StewartError> {
         let cabin = CabinMotion::at_rest(*position, *orientation);
         times.into_iter().map(|t| self.evaluate(&cabin, t)).collect()
+    }
+
+    /// Fixed-cabin mode over the platform's first revolution, from t = 0 (start included),
+    /// sampled at most `dt` apart: the extremes of the wrench and of the actuator forces.
+    pub fn fixed_cabin_range(
+        &self,
+        position: &Vec3,
+        orientation: &Quat,
+        dt: f64,
+    ) -> Result<FixedCabinRange, StewartError> {
+        if !(dt > 0.0 && dt.is_finite()) {
+            return Err(StewartError::Input { what: "sampling interval".into(), value: dt.to_string() });
+        }
+        let duration = self.path.revolution_time().unwrap_or(0.0);
+        let steps = (duration / dt).ceil() as usize;
+        let cabin = CabinMotion::at_rest(*position, *orientation);
+        let mut range = FixedCabinRange {
+            duration,
+            samples: steps + 1,
+            wrench_min: Vector6::repeat(f64::INFINITY),
+            wrench_max: Vector6::repeat(f64::NEG_INFINITY),
+            actuator_min: [f64::INFINITY; LEGS],
+            actuator_max: [f64::NEG_INFINITY; LEGS],
+        };
+        for i in 0..=steps {
+            let t = if steps == 0 { 0.0 } else { duration * i as f64 / steps as f64 };
+            let e = self.evaluate(&cabin, t)?;
+            let w = e.wrench.to_vector();
+            range.wrench_min = range.wrench_min.inf(&w);
+            range.wrench_max = range.wrench_max.sup(&w);
+            for k in 0..LEGS {
+                range.actuator_min[k] = range.actuator_min[k].min(e.actuator_forces[k]);
+                range.actuator_max[k] = range.actuator_max[k].max(e.actuator_forces[k]);
+            }
+        }
+        Ok(range)
     }
 }
