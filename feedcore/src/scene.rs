@@ -219,6 +219,37 @@ pub struct Outputs {
     pub quantities: Vec<Quantity>,
 }
 
+/// One FMU of a co-simulation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FmuRef {
+    /// Name used in connections and parameters (`name.variable`).
+    pub name: String,
+    /// The `.fmu` archive, relative to the scene file.
+    pub path: String,
+}
+
+/// Every output of FMU `from`'s named prefix feeds the input of `to` with the same suffix:
+/// `{ from = "cable.cabin", to = "stewart.cabin" }` connects `cabin.r[1]` to `cabin.r[1]`, ...
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Connection {
+    pub from: String,
+    pub to: String,
+}
+
+/// The co-simulated system: FMUs, connections, and parameters set on them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SystemDescription {
+    pub fmus: Vec<FmuRef>,
+    pub connections: Vec<Connection>,
+    /// `"fmu.variable" = "value"`, converted to the variable's type; `"@scene"` stands for the
+    /// absolute path of this scene file.
+    #[serde(default)]
+    pub parameters: std::collections::BTreeMap<String, String>,
+}
+
 /// A whole scene. Field names are the TOML keys.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -240,6 +271,9 @@ pub struct Scene {
     pub solver: Solver,
     pub analyses: Analyses,
     pub outputs: Outputs,
+    /// The co-simulation (optional: the monolithic model and the analyses do without).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub system: Option<SystemDescription>,
 }
 
 /// Tolerance on the norm of a unit quaternion or a unit axis given in a scene.
@@ -388,6 +422,38 @@ impl Scene {
             return Err(c.err("solver.newton_max_iter", "0", "at least one Newton iteration is needed"));
         }
         c.positive("outputs.sample_interval_s", self.outputs.sample_interval_s)?;
+        if let Some(sys) = &self.system {
+            let names: Vec<&str> = sys.fmus.iter().map(|f| f.name.as_str()).collect();
+            for (i, f) in sys.fmus.iter().enumerate() {
+                if f.name.is_empty() || f.name.contains('.') || names[..i].contains(&f.name.as_str()) {
+                    return Err(c.err(
+                        &format!("system.fmus[{i}].name"),
+                        &f.name,
+                        "FMU names must be unique, non-empty and without dots",
+                    ));
+                }
+                if f.path.is_empty() {
+                    return Err(c.err(
+                        &format!("system.fmus[{i}].path"),
+                        "\"\"",
+                        "the path of the .fmu archive is missing",
+                    ));
+                }
+            }
+            let known = |key: &str, text: &str| -> Result<(), SceneError> {
+                match text.split_once('.') {
+                    Some((fmu, rest)) if names.contains(&fmu) && !rest.is_empty() => Ok(()),
+                    _ => Err(c.err(key, text, &format!("must be `fmu.name` with fmu one of {names:?}"))),
+                }
+            };
+            for (i, k) in sys.connections.iter().enumerate() {
+                known(&format!("system.connections[{i}].from"), &k.from)?;
+                known(&format!("system.connections[{i}].to"), &k.to)?;
+            }
+            for key in sys.parameters.keys() {
+                known(&format!("system.parameters.{key}"), key)?;
+            }
+        }
         Ok(())
     }
 

@@ -1,9 +1,12 @@
 //! Library side of the `master` tool: everything the subcommands share, usable from tests.
 //!
+//! * [`cosim`]: FMUs coupled by a scheme (Jacobi, Gauss–Seidel, iterative, IJCSA);
+//! * [`monolithic`]: the paper's eq. (7) for the whole system, the accuracy reference;
 //! * [`plot`]: SVG figures (time histories like the paper's Figs. 4–5, log–log work–precision);
 //! * [`progress`]: a progress bar for long runs on a terminal;
 //! * [`table`]: plain-text tables.
 
+pub mod cosim;
 pub mod monolithic;
 pub mod plot;
 pub mod progress;
