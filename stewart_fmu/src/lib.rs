@@ -13,6 +13,7 @@
 //! Conventions: world frame Z up, gravity (0, 0, −g); cabin motion and the wrench in the world
 //! frame; the wrench is what the platform exerts on the cabin (moment about the cabin centre
 //! point); actuator forces are tensions (positive when pulling the platform towards the cabin).
+//! Before t = 0 the platform rests at its start point, so any negative time gives the static state.
 
 pub mod constraints;
 mod error;
