@@ -17,6 +17,7 @@
 
 pub mod constraints;
 mod error;
+pub mod fmu;
 pub mod kinematics;
 pub mod path;
 pub mod reactions;

@@ -96,6 +96,33 @@ def _cable_reference(result, start_values):
     )
 
 
+STEWART_INPUTS = [f"cabin.{p}[{k}]" for p, n in (("r", 3), ("q", 4), ("v", 3), ("w", 3), ("a", 3), ("alpha", 3)) for k in range(1, n + 1)]
+STEWART_OUTPUTS = (
+    [f"wrench.{p}[{k}]" for p in ("f", "m") for k in (1, 2, 3)]
+    + [f"actuator.force[{k}]" for k in range(1, 7)]
+    + [f"platform.r[{k}]" for k in (1, 2, 3)]
+    + [f"platform.q[{k}]" for k in (1, 2, 3, 4)]
+)
+
+
+def STEWART_DRIVE(t):
+    """The cabin at scene C's pose, swaying and turning a little (consistent kinematics)."""
+    a, w = 2e-3, 0.8
+    x = a * np.sin(w * t)
+    th = 1e-3 * np.sin(0.5 * t)  # small rotation about the world x axis
+    return np.array(
+        [x, 0.5 * x, 9.8 - 0.2 * x, np.cos(th / 2), np.sin(th / 2), 0.0, 0.0,
+         a * w * np.cos(w * t), 0.5 * a * w * np.cos(w * t), -0.2 * a * w * np.cos(w * t),
+         0.5e-3 * np.cos(0.5 * t), 0.0, 0.0,
+         -a * w * w * np.sin(w * t), -0.5 * a * w * w * np.sin(w * t), 0.2 * a * w * w * np.sin(w * t),
+         -0.25e-3 * np.sin(0.5 * t), 0.0, 0.0]
+    )
+
+
+def _stewart_reference(result, start_values):
+    return rust_replay("stewart_fmu", REPO / "scenes" / "lt50m_C.toml", STEWART_INPUTS, STEWART_OUTPUTS, result)
+
+
 CASES = [
     FmuCase(
         name="oscillator",
@@ -125,5 +152,18 @@ CASES = [
         fd_rtol=1e-6,
         # a tight Newton tolerance: the finite differences then measure the model, not the solver
         start_values={"newton_tol": 1e-13},
+    ),
+    FmuCase(
+        name="stewart_fmu",
+        inputs=STEWART_INPUTS,
+        outputs=STEWART_OUTPUTS,
+        step_size=0.01,
+        stop_time=3.0,
+        drive=STEWART_DRIVE,
+        reference=_stewart_reference,
+        reference_rtol=1e-9,
+        resource_parameter="scene",
+        fd_delta=[1e-5] * 19,
+        fd_rtol=1e-6,
     ),
 ]

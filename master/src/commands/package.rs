@@ -35,6 +35,7 @@ impl Exportable {
 pub const EXPORTABLE: &[Exportable] = &[
     Exportable::of::<fmi2_testmodel::Oscillator>("fmi2_testmodel"),
     Exportable::of::<cable_fmu::fmu::CableFmu>("cable_fmu_cdylib"),
+    Exportable::of::<stewart_fmu::fmu::StewartFmu>("stewart_fmu_cdylib"),
 ];
 
 pub fn run(args: &Args) -> CmdResult {

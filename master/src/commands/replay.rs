@@ -13,7 +13,7 @@ use super::CmdResult;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The model whose library is run: cable_fmu.
+    /// The model whose library is run: cable_fmu or stewart_fmu.
     #[arg(long)]
     pub model: String,
     /// Scene file (TOML).
@@ -68,7 +68,8 @@ pub fn run(args: &Args) -> CmdResult {
     }
     match args.model.as_str() {
         "cable_fmu" => replay_cable(&scene, &header, &rows, &args.out),
-        other => Err(format!("unknown model `{other}` (known: cable_fmu)").into()),
+        "stewart_fmu" => replay_stewart(&scene, &header, &rows, &args.out),
+        other => Err(format!("unknown model `{other}` (known: cable_fmu, stewart_fmu)").into()),
     }
 }
 
@@ -110,6 +111,48 @@ fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathB
     for w in rows.windows(2) {
         dy.step(w[1][0] - w[0][0], &wrench(&w[1]))?;
         write_row(&dy, &mut f)?;
+    }
+    Ok(())
+}
+
+fn replay_stewart(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathBuf) -> CmdResult {
+    let mut names = Vec::new();
+    for (p, n) in [("cabin.r", 3), ("cabin.q", 4), ("cabin.v", 3), ("cabin.w", 3), ("cabin.a", 3), ("cabin.alpha", 3)] {
+        names.extend((1..=n).map(|k| format!("{p}[{k}]")));
+    }
+    let cols: Vec<usize> = names
+        .iter()
+        .map(|n| header.iter().position(|h| h == n).ok_or(format!("input column `{n}` missing")))
+        .collect::<Result<_, _>>()?;
+    let model = stewart_fmu::Stewart::from_scene(scene)?;
+    let mut f = std::io::BufWriter::new(std::fs::File::create(out)?);
+    let mut head = vec!["time".to_string()];
+    for (p, n) in [("wrench.f", 3), ("wrench.m", 3), ("actuator.force", 6), ("platform.r", 3), ("platform.q", 4)] {
+        head.extend((1..=n).map(|k| format!("{p}[{k}]")));
+    }
+    writeln!(f, "{}", head.join(","))?;
+    for r in rows {
+        let u: Vec<f64> = cols.iter().map(|&c| r[c]).collect();
+        let v3 = |i: usize| feedcore::Vec3::new(u[i], u[i + 1], u[i + 2]);
+        let q = feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(u[3], u[4], u[5], u[6]));
+        let cabin = stewart_fmu::CabinMotion {
+            position: v3(0),
+            orientation: q,
+            velocity: v3(7),
+            angular_velocity: v3(10),
+            acceleration: v3(13),
+            angular_acceleration: v3(16),
+        };
+        let t = r[0];
+        let w = model.wrench(&cabin, t)?.to_vector();
+        let e = model.evaluate(&cabin, t)?;
+        let pq = e.platform.orientation;
+        let mut v = vec![t];
+        v.extend(w.iter());
+        v.extend(e.actuator_forces.iter());
+        v.extend(e.platform.position.iter());
+        v.extend([pq.w, pq.i, pq.j, pq.k]);
+        writeln!(f, "{}", v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(","))?;
     }
     Ok(())
 }

@@ -1,1 +1,3 @@
-//! The stewart_fmu model exported through the shared FMI 2.0 layer (in progress).
+//! The Stewart platform model exported as the FMI 2.0 Co-Simulation FMU `stewart_fmu`.
+
+fmi2::export_fmu!(stewart_fmu::fmu::StewartFmu);

@@ -1,0 +1,124 @@
+//! The FMU adapter (called in-process through the `fmi2::Model` trait) against the library and
+//! against central differences.
+
+use feedcore::scene::Scene;
+use fmi2::ModelInfo;
+use fmi2::export::Model;
+use stewart_fmu::fmu::{INPUTS, StewartFmu, vr};
+use stewart_fmu::{CabinMotion, Stewart};
+
+fn scene(name: &str) -> Scene {
+    Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
+}
+
+/// A moving, tilted, accelerating cabin near scene B's pose, as input values.
+fn moving_inputs() -> [f64; INPUTS] {
+    let q = feedcore::Quat::from_scaled_axis(feedcore::Vec3::new(0.6, 0.2, 0.05));
+    [-2.8, 8.9, 16.1, q.w, q.i, q.j, q.k, 0.01, -0.02, 0.005, 0.01, -0.02, 0.03, 0.2, -0.1, 0.3, 0.05, 0.02, -0.04]
+}
+
+fn ready(scene: &str) -> StewartFmu {
+    let mut m = StewartFmu::instantiate(None).unwrap();
+    m.set_string(vr::SCENE, scene).unwrap();
+    m.exit_initialization(0.0).unwrap();
+    m
+}
+
+#[test]
+fn the_description_is_valid() {
+    ModelInfo::new(StewartFmu::description()).unwrap();
+}
+
+#[test]
+fn at_its_start_values_it_outputs_the_static_wrench() {
+    for name in ["lt50m_B.toml", "lt50m_C.toml"] {
+        let s = scene(name);
+        let mut m = StewartFmu::instantiate(None).unwrap();
+        m.set_string(vr::SCENE, name).unwrap();
+        m.set_real(vr::SPEED, 0.0).unwrap(); // platform held still
+        m.exit_initialization(0.0).unwrap();
+        let lib =
+            Stewart::from_scene(&s).unwrap().static_wrench(&s.target_position(), &s.target_orientation()).unwrap();
+        let w = lib.to_vector();
+        for k in 0..6 {
+            let got = m.get_real(vr::FORCE + k as u32).unwrap();
+            assert!((got - w[k]).abs() <= 1e-9 * w.amax(), "{name} component {k}: {got} vs {}", w[k]);
+        }
+    }
+}
+
+#[test]
+fn outputs_follow_the_library_at_every_step() {
+    let s = scene("lt50m_B.toml");
+    let lib = Stewart::from_scene(&s).unwrap();
+    let mut m = ready("lt50m_B.toml");
+    let u = moving_inputs();
+    for (k, x) in u.iter().enumerate() {
+        m.set_real(k as u32, *x).unwrap();
+    }
+    for step in 0..20 {
+        m.do_step(0.01 * step as f64, 0.01).unwrap();
+        let t = 0.01 * (step + 1) as f64;
+        let q = feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(u[3], u[4], u[5], u[6]));
+        let v3 = |i: usize| feedcore::Vec3::new(u[i], u[i + 1], u[i + 2]);
+        let cabin = CabinMotion {
+            position: v3(0),
+            orientation: q,
+            velocity: v3(7),
+            angular_velocity: v3(10),
+            acceleration: v3(13),
+            angular_acceleration: v3(16),
+        };
+        let e = lib.evaluate(&cabin, t).unwrap();
+        let w = lib.wrench(&cabin, t).unwrap().to_vector();
+        for k in 0..6 {
+            assert_eq!(m.get_real(vr::FORCE + k as u32).unwrap(), w[k]);
+            assert_eq!(m.get_real(vr::ACTUATOR + k as u32).unwrap(), e.actuator_forces[k]);
+        }
+        assert_eq!(m.get_real(vr::PLATFORM_R).unwrap(), e.platform.position.x);
+    }
+}
+
+#[test]
+fn directional_derivatives_match_central_differences() {
+    let mut m = ready("lt50m_B.toml");
+    let u = moving_inputs();
+    for (k, x) in u.iter().enumerate() {
+        m.set_real(k as u32, *x).unwrap();
+    }
+    m.do_step(0.0, 0.37).unwrap();
+    let unknowns: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
+    let outputs = |m: &mut StewartFmu| unknowns.iter().map(|v| m.get_real(*v).unwrap()).collect::<Vec<_>>();
+    for k in 0..INPUTS {
+        let mut analytic = vec![0.0; unknowns.len()];
+        m.directional_derivative(&unknowns, &[k as u32], &[1.0], &mut analytic).unwrap();
+        let eps = 1e-5;
+        m.set_real(k as u32, u[k] + eps).unwrap();
+        let p = outputs(&mut m);
+        m.set_real(k as u32, u[k] - eps).unwrap();
+        let q = outputs(&mut m);
+        m.set_real(k as u32, u[k]).unwrap();
+        for (i, a) in analytic.iter().enumerate() {
+            let fd = (p[i] - q[i]) / (2.0 * eps);
+            let scale = a.abs().max(fd.abs()).max(1.0);
+            assert!((a - fd).abs() <= 1e-6 * scale, "input {k}, output {}: analytic {a:e}, FD {fd:e}", unknowns[i]);
+        }
+    }
+}
+
+#[test]
+fn bad_inputs_and_parameters_are_refused_with_their_values() {
+    let mut m = ready("lt50m_C.toml");
+    for k in 3..7 {
+        m.set_real(k, 0.0).unwrap();
+    }
+    let e = m.get_real(vr::FORCE).unwrap_err();
+    assert!(e.contains("cabin.q") && e.contains("not a rotation"), "{e}");
+    let e = m.set_integer(vr::START, 7).unwrap_err();
+    assert!(e.contains("start = 7"), "{e}");
+    // a circle too large for the legs: the model names the leg
+    let mut m = StewartFmu::instantiate(None).unwrap();
+    m.set_real(vr::RADIUS, 1.5).unwrap();
+    let e = m.exit_initialization(0.0).unwrap_err();
+    assert!(e.contains("leg"), "{e}");
+}
