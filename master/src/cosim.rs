@@ -37,6 +37,9 @@ pub enum Scheme {
     },
     Iterative,
     Ijcsa,
+    /// Gauss–Seidel in the order of the data flow: every FMU after the ones it takes inputs
+    /// from (exact for a system without feedback, e.g. the decoupled model).
+    Sequential,
 }
 
 impl Scheme {
@@ -47,6 +50,7 @@ impl Scheme {
             Scheme::GaussSeidel { reversed: true } => "gauss-seidel-reversed",
             Scheme::Iterative => "iterative",
             Scheme::Ijcsa => "ijcsa",
+            Scheme::Sequential => "sequential",
         }
     }
 }
@@ -394,7 +398,15 @@ impl Coupled {
         let t1 = t + h;
         let report = match self.options.scheme {
             Scheme::Jacobi => self.step_jacobi(t, h)?,
-            Scheme::GaussSeidel { reversed } => self.step_gauss_seidel(t, h, reversed)?,
+            Scheme::GaussSeidel { reversed } => {
+                let order: Vec<usize> =
+                    if reversed { (0..self.units.len()).rev().collect() } else { (0..self.units.len()).collect() };
+                self.step_gauss_seidel(t, h, &order)?
+            }
+            Scheme::Sequential => {
+                let order = self.flow_order();
+                self.step_gauss_seidel(t, h, &order)?
+            }
             Scheme::Iterative => self.step_iterative(t, h)?,
             Scheme::Ijcsa => self.step_ijcsa(t, h)?,
         };
@@ -437,11 +449,33 @@ impl Coupled {
         self.finish_step(&u, t + h)
     }
 
-    fn step_gauss_seidel(&mut self, t: f64, h: f64, reversed: bool) -> Result<StepReport, CosimError> {
+    /// The units ordered so that each comes after those it takes inputs from (Kahn's algorithm;
+    /// units on a feedback loop keep their listed order).
+    fn flow_order(&self) -> Vec<usize> {
+        let n = self.units.len();
+        let owner =
+            |y: usize| self.units.iter().position(|u| y >= u.output_offset && y < u.output_offset + u.outputs.len());
+        let feeds = |k: usize| -> Vec<usize> {
+            let u = &self.units[k];
+            (u.input_offset..u.input_offset + u.inputs.len())
+                .filter_map(|i| owner(self.source[i]))
+                .filter(|&j| j != k)
+                .collect()
+        };
+        let mut order = Vec::with_capacity(n);
+        while order.len() < n {
+            let next = (0..n)
+                .filter(|k| !order.contains(k))
+                .find(|&k| feeds(k).iter().all(|j| order.contains(j)))
+                .or_else(|| (0..n).find(|k| !order.contains(k)));
+            order.push(next.expect("a unit is left"));
+        }
+        order
+    }
+
+    fn step_gauss_seidel(&mut self, t: f64, h: f64, order: &[usize]) -> Result<StepReport, CosimError> {
         let (mut u, mut slope) = self.predict(h);
-        let order: Vec<usize> =
-            if reversed { (0..self.units.len()).rev().collect() } else { (0..self.units.len()).collect() };
-        for &k in &order {
+        for &k in order {
             self.advance(k, &u, slope.as_deref(), t, h)?;
             // the newest outputs of this unit feed the ones after it
             let unit = &mut self.units[k];

@@ -3,6 +3,7 @@
 //! * [`cosim`]: FMUs coupled by a scheme (Jacobi, Gauss–Seidel, iterative, IJCSA);
 //! * [`monolithic`]: the paper's eq. (7) for the whole system, the accuracy reference;
 //! * [`plot`]: SVG figures (time histories like the paper's Figs. 4–5, log–log work–precision);
+//! * [`simulate`]: one run of a method (monolithic, a co-simulation scheme, decoupled) as a trace;
 //! * [`progress`]: a progress bar for long runs on a terminal;
 //! * [`table`]: plain-text tables.
 
@@ -10,4 +11,5 @@ pub mod cosim;
 pub mod monolithic;
 pub mod plot;
 pub mod progress;
+pub mod simulate;
 pub mod table;

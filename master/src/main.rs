@@ -31,6 +31,10 @@ enum Command {
     Modes(commands::modes::Args),
     /// Stewart platform on a fixed cabin: added mass, static wrench, wrench range over one circle.
     Stewart(commands::stewart::Args),
+    /// Simulate the scene with a coupling scheme, the monolithic model or the decoupled model.
+    Run(commands::run::Args),
+    /// Compare coupling schemes against the monolithic model at the same step.
+    Compare(commands::compare::Args),
     /// Build the FMI 2.0 Co-Simulation archives cable_fmu.fmu and stewart_fmu.fmu.
     Package(commands::package::Args),
     /// Run a model's library in-process on an input table (the reference of the fmpy cross-checks).
@@ -44,6 +48,8 @@ fn main() -> ExitCode {
         Command::Statics(args) => commands::statics::run(&args),
         Command::Modes(args) => commands::modes::run(&args),
         Command::Stewart(args) => commands::stewart::run(&args),
+        Command::Run(args) => commands::run::run(&args),
+        Command::Compare(args) => commands::compare::run(&args),
         Command::Package(args) => commands::package::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
     };

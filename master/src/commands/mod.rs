@@ -1,8 +1,11 @@
 //! One module per subcommand. Each has an `Args` struct (clap) and `run(&Args)`.
 
+pub mod compare;
 pub mod modes;
 pub mod package;
 pub mod replay;
+pub mod run;
+pub mod scheme_args;
 pub mod statics;
 pub mod stewart;
 
