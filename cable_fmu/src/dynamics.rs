@@ -268,7 +268,7 @@ impl Dynamics {
         }
         if !converged {
             return Err(fail(format!(
-                "Newton did not converge in {} iterations (last correction {previous:.3e}, tolerance {tol:.1e});                  reduce the step size or check the input for jumps",
+                "Newton did not converge in {} iterations (last correction {previous:.3e}, tolerance {tol:.1e}); reduce the step size or check the input for jumps",
                 self.options.newton_max_iter
             )));
         }

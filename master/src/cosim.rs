@@ -84,7 +84,8 @@ pub struct Options {
     pub extrapolation: Extrapolation,
     pub relaxation: Relaxation,
     pub jacobian: JacobianUpdate,
-    /// Converged when every |R_i| ≤ tol · max(1, |U_i(0)|).
+    /// Converged when every |R_i| ≤ tol · s_i, s_i the largest start value (at least 1) among
+    /// the inputs of the same FMU with the same unit as input i.
     pub tol: f64,
     pub max_iter: usize,
 }
@@ -306,10 +307,33 @@ impl Coupled {
             u: vec![0.0; nu],
         };
         c.read_outputs()?;
-        // the inputs as the FMUs start (their start values: the static equilibrium)
+        // Scale of each input for the convergence test: the largest start value among the
+        // inputs of its FMU with the same unit (so the components of a force share one scale),
+        // at least 1.
         let mut u0 = vec![0.0; nu];
         c.read_inputs(&mut u0)?;
-        c.scale = u0.iter().map(|x| x.abs().max(1.0)).collect();
+        let units: Vec<(usize, Option<String>)> = c
+            .units
+            .iter()
+            .enumerate()
+            .flat_map(|(k, unit)| {
+                let fmu = &fmus[k];
+                unit.inputs
+                    .iter()
+                    .map(|vr| {
+                        let v = fmu
+                            .description()
+                            .variables
+                            .iter()
+                            .find(|v| v.value_reference == *vr && v.var_type == VarType::Real);
+                        (k, v.and_then(|v| v.unit.clone()))
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        c.scale = (0..nu)
+            .map(|i| (0..nu).filter(|&j| units[j] == units[i]).map(|j| u0[j].abs()).fold(1.0, f64::max))
+            .collect();
         Ok(c)
     }
 
@@ -381,6 +405,29 @@ impl Coupled {
         }
     }
 
+    /// An explicit scheme whose interface values grew far beyond their scale is unstable: say so.
+    fn unstable(&self, e: CosimError) -> CosimError {
+        let mut u = vec![0.0; self.u.len()];
+        self.couple(&self.y, &mut u);
+        let (i, g) = (0..u.len())
+            .map(|i| (i, (u[i] / self.scale[i]).abs()))
+            .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+        if g < 10.0 {
+            return e;
+        }
+        CosimError {
+            time: e.time,
+            reason: format!(
+                "{}; the coupled inputs had grown to {g:.0}× their scale (`{}` = {:.3e}): {} is unstable here \
+                 (the platform's added mass on the cabin); use ijcsa or iterative",
+                e.reason,
+                self.input_names[i],
+                u[i],
+                self.options.scheme.name()
+            ),
+        }
+    }
+
     /// The first guess of the end-of-step inputs, extrapolated if asked.
     fn predict_end(&self, h: f64) -> Vec<f64> {
         let (mut u, slope) = self.predict(h);
@@ -397,11 +444,11 @@ impl Coupled {
         let t = self.time;
         let t1 = t + h;
         let report = match self.options.scheme {
-            Scheme::Jacobi => self.step_jacobi(t, h)?,
+            Scheme::Jacobi => self.step_jacobi(t, h).map_err(|e| self.unstable(e))?,
             Scheme::GaussSeidel { reversed } => {
                 let order: Vec<usize> =
                     if reversed { (0..self.units.len()).rev().collect() } else { (0..self.units.len()).collect() };
-                self.step_gauss_seidel(t, h, &order)?
+                self.step_gauss_seidel(t, h, &order).map_err(|e| self.unstable(e))?
             }
             Scheme::Sequential => {
                 let order = self.flow_order();
@@ -544,7 +591,7 @@ impl Coupled {
         let n = u.len();
         let mut omega = match self.options.relaxation {
             Relaxation::Fixed(w) => w,
-            Relaxation::Aitken => 0.5,
+            Relaxation::Aitken => 0.3,
         };
         let mut r_prev: Option<Vec<f64>> = None;
         let mut cu = vec![0.0; n];
@@ -566,7 +613,7 @@ impl Coupled {
                 let dd: f64 = d.iter().map(|x| x * x).sum();
                 if dd > 0.0 {
                     let num: f64 = (0..n).map(|i| rp[i] / self.scale[i] * d[i]).sum();
-                    omega = (-omega * num / dd).clamp(-2.0, 2.0);
+                    omega = (-omega * num / dd).clamp(0.05, 1.0);
                 }
             }
             for i in 0..n {

@@ -11,14 +11,17 @@ pub struct SchemeOptions {
     /// through fmi2SetRealInputDerivatives).
     #[arg(long, default_value = "constant", value_parser = ["constant", "linear"])]
     pub extrapolation: String,
-    /// Interface tolerance of iterating schemes: every |U − C·Y| ≤ tol · max(1, |U(0)|).
+    /// Interface tolerance of iterating schemes: every |U − C·Y| ≤ tol · s, with s the largest
+    /// start value (at least 1) among the inputs of the same FMU and unit (e.g. the weight for
+    /// forces).
     #[arg(long, default_value_t = 1e-8)]
     pub tol: f64,
     /// Iteration limit per macro step of iterating schemes (exceeding it stops the run).
     #[arg(long, default_value_t = 25)]
     pub max_iter: usize,
-    /// Relaxation of `iterative`: `aitken` (dynamic) or a fixed factor in (0, 1].
-    #[arg(long, default_value = "aitken")]
+    /// Relaxation of `iterative`: a fixed factor in (0, 1], or `aitken` (dynamic; it stalls on
+    /// the LT50m scenes, whose interface couples several modes of both signs).
+    #[arg(long, default_value = "0.5")]
     pub relaxation: String,
     /// Interface Jacobian of `ijcsa`: `every-step` (recomputed each step) or `reuse`
     /// (quasi-Newton: kept while Newton contracts well).
