@@ -17,7 +17,7 @@ pub struct SchemeOptions {
     #[arg(long, default_value_t = 1e-8)]
     pub tol: f64,
     /// Iteration limit per macro step of iterating schemes (exceeding it stops the run).
-    #[arg(long, default_value_t = 25)]
+    #[arg(long, default_value_t = 100)]
     pub max_iter: usize,
     /// Relaxation of `iterative`: a fixed factor in (0, 1], or `aitken` (dynamic; it stalls on
     /// the LT50m scenes, whose interface couples several modes of both signs).

@@ -1,0 +1,51 @@
+//! Shared set-up of the master's system tests: the FMUs packaged from the built libraries into
+//! a private directory, and scenes whose [system] section points there.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use feedcore::scene::Scene;
+
+/// The directory holding `lib<crate>.so`: next to the test binary's `deps/` (cargo puts both
+/// in `target/<profile>/`).
+fn library(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let deps = exe.parent().unwrap();
+    for dir in [deps, deps.parent().unwrap()] {
+        let p = dir.join(format!("lib{name}.so"));
+        if p.is_file() {
+            return p;
+        }
+    }
+    panic!("lib{name}.so not found next to {}: run `cargo build --release --workspace` first", exe.display());
+}
+
+/// Both FMUs, packaged once per test binary.
+pub fn fmu_dir() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::env::temp_dir().join(format!("master-tests-{}", std::process::id()));
+        fmi2::package::package_model::<cable_fmu::fmu::CableFmu>(&dir, &library("cable_fmu_cdylib")).unwrap();
+        fmi2::package::package_model::<stewart_fmu::fmu::StewartFmu>(&dir, &library("stewart_fmu_cdylib")).unwrap();
+        dir
+    })
+}
+
+pub fn scene_path(name: &str) -> PathBuf {
+    PathBuf::from(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR")))
+}
+
+/// A reference scene, edited by `edit`, written to a private file whose [system] names the
+/// packaged FMUs; returns the scene and its file.
+pub fn scene(name: &str, tag: &str, edit: impl FnOnce(&mut Scene)) -> (Scene, PathBuf) {
+    let mut s = Scene::load(scene_path(name)).unwrap();
+    edit(&mut s);
+    let dir = fmu_dir();
+    for f in &mut s.system.as_mut().unwrap().fmus {
+        f.path = dir.join(format!("{}_fmu.fmu", f.name)).display().to_string();
+    }
+    let file = dir.join(format!("{tag}-{name}"));
+    std::fs::write(&file, s.to_toml()).unwrap();
+    (s, file)
+}
