@@ -42,6 +42,14 @@ pub struct Args {
     pub options: SchemeOptions,
 }
 
+/// Creates the directory a result file goes to.
+pub fn create_parent(path: &std::path::Path) -> std::io::Result<()> {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => std::fs::create_dir_all(d),
+        _ => Ok(()),
+    }
+}
+
 /// JSON summary of a trace.
 pub fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
     json!({
@@ -64,6 +72,7 @@ pub fn plot_traces(traces: &[&Trace], title: &str, path: &PathBuf) -> CmdResult 
     if path.extension().and_then(|e| e.to_str()) != Some("svg") {
         return Err(format!("--plot {}: only SVG is written; name the file *.svg", path.display()).into());
     }
+    create_parent(path)?;
     let mut fig = Figure::new(900, 780);
     fig.title(title).share_x(true);
     for (k, axis) in ["X", "Y", "Z"].iter().enumerate() {
@@ -88,6 +97,7 @@ pub fn run(args: &Args) -> CmdResult {
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
     let trace = simulate(&scene, &args.scene, method, dt, t_end, quiet)?;
     if let Some(out) = &args.out {
+        create_parent(out)?;
         trace.write_csv(out)?;
     }
     if let Some(p) = &args.plot {
