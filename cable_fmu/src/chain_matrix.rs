@@ -240,25 +240,30 @@ impl ChainFactor {
     /// recomputed from the condensed block: the same bits).
     pub fn decode(cables: usize, nodes: usize, data: &[f64]) -> Result<ChainFactor, String> {
         let mut f = ChainFactor::new(cables, nodes);
-        let blocks3 = f.dinv.len() + f.forward.len() + f.backward.len();
-        let expected = 1 + 9 * blocks3 + 36 * cables + 36;
+        f.decode_into(data)?;
+        Ok(f)
+    }
+
+    /// As [`ChainFactor::decode`], into this factorization's storage (same shape; no allocation).
+    pub fn decode_into(&mut self, data: &[f64]) -> Result<(), String> {
+        let blocks3 = self.dinv.len() + self.forward.len() + self.backward.len();
+        let expected = 1 + 9 * blocks3 + 36 * self.cables + 36;
         if data.len() != expected {
             return Err(format!("factorization data has {} numbers, expected {expected}", data.len()));
         }
         let mut it = data[1..].chunks_exact(9);
-        for b in f.dinv.iter_mut().chain(f.forward.iter_mut()).chain(f.backward.iter_mut()) {
+        for b in self.dinv.iter_mut().chain(self.forward.iter_mut()).chain(self.backward.iter_mut()) {
             b.copy_from_slice(it.next().expect("length checked"));
         }
         let rest = &data[1 + 9 * blocks3..];
         let mut it = rest.chunks_exact(18);
-        for b in f.dinv_p.iter_mut() {
+        for b in self.dinv_p.iter_mut() {
             b.copy_from_slice(it.next().expect("length checked"));
         }
-        for b in f.q_dinv.iter_mut() {
+        for b in self.q_dinv.iter_mut() {
             b.copy_from_slice(it.next().expect("length checked"));
         }
-        f.set_cabin(Matrix6::from_column_slice(&rest[36 * cables..]), data[0] == 0.0)?;
-        Ok(f)
+        self.set_cabin(Matrix6::from_column_slice(&rest[36 * self.cables..]), data[0] == 0.0)
     }
 
     /// Overwrites `b` with the solution of `S x = b`.

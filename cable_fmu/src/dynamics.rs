@@ -411,7 +411,7 @@ impl Dynamics {
         }
     }
 
-    /// Restores a state written by [`Dynamics::encode_state`] of the same system.
+    /// Restores a state written by [`Dynamics::encode_state`] of the same system, in place.
     pub fn decode_state(&mut self, data: &[f64]) -> Result<(), String> {
         let n = self.dim();
         let nodes = self.state.config.nodes.len();
@@ -419,38 +419,49 @@ impl Dynamics {
         if data.len() < fixed_len {
             return Err(format!("state has {} numbers, at least {fixed_len} expected", data.len()));
         }
+        let h = data[fixed_len - 1];
+        let factor_data = &data[fixed_len..];
+        if h == 0.0 && !factor_data.is_empty() {
+            return Err("state has trailing numbers".into());
+        }
+        // the factorization first: it is the only part that can still be refused
+        if h != 0.0 {
+            match &mut self.state.factor {
+                Some((f, fh)) => {
+                    f.decode_into(factor_data)?;
+                    *fh = h;
+                }
+                None => {
+                    let f = ChainFactor::decode(self.system.cables(), self.system.free_nodes(), factor_data)?;
+                    self.state.factor = Some((f, h));
+                }
+            }
+        } else {
+            self.state.factor = None;
+        }
+        let st = &mut self.state;
         let mut pos = 0;
         let mut take = |k: usize| {
             let s = &data[pos..pos + k];
             pos += k;
             s
         };
-        let time = take(1)[0];
-        let mut config = self.state.config.clone();
-        for x in config.nodes.iter_mut() {
+        st.time = take(1)[0];
+        for x in st.config.nodes.iter_mut() {
             *x = Vec3::from_column_slice(take(3));
         }
-        config.position = Vec3::from_column_slice(take(3));
+        st.config.position = Vec3::from_column_slice(take(3));
         let q = take(4);
-        config.orientation = Quat::new_unchecked(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
-        let velocity = take(n).to_vec();
-        let acceleration = take(n).to_vec();
-        let pseudo_acceleration = take(n).to_vec();
+        st.config.orientation = Quat::new_unchecked(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+        st.velocity.copy_from_slice(take(n));
+        st.acceleration.copy_from_slice(take(n));
+        st.pseudo_acceleration.copy_from_slice(take(n));
         let l = take(10);
-        let last_step = (l[0] != 0.0).then(|| LastStep {
+        st.last_step = (l[0] != 0.0).then(|| LastStep {
             h: l[0],
             wrench: Vector6::from_column_slice(&l[1..7]),
             rotation_increment: Vec3::from_column_slice(&l[7..10]),
         });
-        let h = take(1)[0];
-        let factor = if h != 0.0 {
-            Some((ChainFactor::decode(self.system.cables(), self.system.free_nodes(), &data[pos..])?, h))
-        } else if pos != data.len() {
-            return Err("state has trailing numbers".into());
-        } else {
-            None
-        };
-        self.state = State { time, config, velocity, acceleration, pseudo_acceleration, factor, last_step };
         self.sensitivity = None;
         Ok(())
     }

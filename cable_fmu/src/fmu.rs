@@ -79,6 +79,8 @@ pub struct CableFmu {
     /// Which wrench components the importer has set (the others follow the scene's static wrench).
     wrench_set: [bool; 6],
     tensions: [(f64, f64); CABLES],
+    /// Reused buffer for saving and restoring the dynamics state (no allocation per rollback).
+    scratch: std::cell::RefCell<Vec<f64>>,
 }
 
 fn embedded_scene(name: &str) -> Option<&'static str> {
@@ -319,6 +321,7 @@ impl Model for CableFmu {
             wrench_rate: Vector6::zeros(),
             wrench_set: [false; 6],
             tensions: [(0.0, 0.0); CABLES],
+            scratch: std::cell::RefCell::new(Vec::new()),
         };
         let scene = m.load_scene(DEFAULT_SCENE)?;
         m.wrench = static_wrench(&scene);
@@ -491,7 +494,8 @@ impl Model for CableFmu {
         }
         match &self.dynamics {
             Some(dy) if self.initialized => {
-                let mut numbers = Vec::new();
+                let mut numbers = self.scratch.borrow_mut();
+                numbers.clear();
                 dy.encode_state(&mut numbers);
                 w.bool(true).f64s(&numbers);
             }
@@ -528,27 +532,25 @@ impl Model for CableFmu {
             wrench_set[k] = r.bool()?;
         }
         let has_dynamics = r.bool()?;
-        let numbers = if has_dynamics {
-            let n = r.u64()? as usize;
-            let mut v = Vec::with_capacity(n.min(1 << 24));
-            for _ in 0..n {
-                v.push(r.f64()?);
-            }
-            Some(v)
-        } else {
-            None
-        };
+        let mut numbers = std::mem::take(&mut *self.scratch.borrow_mut());
+        if has_dynamics {
+            r.f64s_to_vec(&mut numbers)?;
+        }
         r.finish()?;
         self.wrench = wrench;
         self.wrench_rate = wrench_rate;
         self.wrench_set = wrench_set;
         self.initialized = initialized;
         self.ensure_built()?;
-        if let Some(numbers) = numbers {
+        let result = if has_dynamics {
             let dy = self.dynamics.as_mut().expect("built");
-            dy.decode_state(&numbers)?;
+            let r = dy.decode_state(&numbers);
             dy.end_tensions(&mut self.tensions);
-        }
-        Ok(())
+            r
+        } else {
+            Ok(())
+        };
+        *self.scratch.borrow_mut() = numbers;
+        result
     }
 }

@@ -17,8 +17,9 @@ impl<'a> StateWriter<'a> {
     }
     pub fn f64s(&mut self, xs: &[f64]) -> &mut Self {
         self.u64(xs.len() as u64);
+        self.out.reserve(8 * xs.len());
         for &x in xs {
-            self.f64(x);
+            self.out.extend_from_slice(&x.to_bits().to_le_bytes());
         }
         self
     }
@@ -74,8 +75,22 @@ impl<'a> StateReader<'a> {
         if n != out.len() as u64 {
             return Err(format!("state holds {n} values where {} are expected", out.len()));
         }
-        for x in out.iter_mut() {
-            *x = self.f64()?;
+        self.fill(out)
+    }
+    /// Reads a slice written by [`StateWriter::f64s`] into `out`, resized to its length
+    /// (its allocation is reused).
+    pub fn f64s_to_vec(&mut self, out: &mut Vec<f64>) -> Result<(), String> {
+        let n = usize::try_from(self.u64()?).map_err(|_| "state slice too long".to_owned())?;
+        if n > (self.bytes.len() - self.pos) / 8 {
+            return Err(format!("state truncated: {n} values announced, {} bytes left", self.bytes.len() - self.pos));
+        }
+        out.resize(n, 0.0);
+        self.fill(out)
+    }
+    fn fill(&mut self, out: &mut [f64]) -> Result<(), String> {
+        let bytes = self.take(8 * out.len())?;
+        for (x, b) in out.iter_mut().zip(bytes.chunks_exact(8)) {
+            *x = f64::from_bits(u64::from_le_bytes(b.try_into().expect("8 bytes")));
         }
         Ok(())
     }
