@@ -35,6 +35,8 @@ enum Command {
     Run(commands::run::Args),
     /// Compare coupling schemes against the monolithic model at the same step.
     Compare(commands::compare::Args),
+    /// Run time against error: every scheme at several steps against a fine monolithic reference.
+    Bench(commands::bench::Args),
     /// Build the FMI 2.0 Co-Simulation archives cable_fmu.fmu and stewart_fmu.fmu.
     Package(commands::package::Args),
     /// Run a model's library in-process on an input table (the reference of the fmpy cross-checks).
@@ -50,6 +52,7 @@ fn main() -> ExitCode {
         Command::Stewart(args) => commands::stewart::run(&args),
         Command::Run(args) => commands::run::run(&args),
         Command::Compare(args) => commands::compare::run(&args),
+        Command::Bench(args) => commands::bench::run(&args),
         Command::Package(args) => commands::package::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
     };

@@ -268,3 +268,24 @@ pub fn simulate(
 fn vec6(v: &nalgebra::Vector6<f64>) -> [f64; 6] {
     [v[0], v[1], v[2], v[3], v[4], v[5]]
 }
+
+/// Writes `scene` (a variant of the one read from `scene_file`) to a private file, with the FMU
+/// paths of its [system] made absolute, so that the FMUs read this variant; returns the variant
+/// and its file.
+pub fn write_variant(scene: &Scene, scene_file: &Path, tag: &str) -> std::io::Result<(Scene, std::path::PathBuf)> {
+    let mut s = scene.clone();
+    if let Some(sys) = s.system.as_mut() {
+        let base = scene_file.parent().unwrap_or(Path::new("."));
+        for f in &mut sys.fmus {
+            let p = Path::new(&f.path);
+            if !p.is_absolute() {
+                f.path = std::fs::canonicalize(base)?.join(p).display().to_string();
+            }
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("master-variants-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let file = dir.join(format!("{tag}.toml"));
+    std::fs::write(&file, s.to_toml())?;
+    Ok((s, file))
+}

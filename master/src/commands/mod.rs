@@ -1,5 +1,6 @@
 //! One module per subcommand. Each has an `Args` struct (clap) and `run(&Args)`.
 
+pub mod bench;
 pub mod compare;
 pub mod modes;
 pub mod package;

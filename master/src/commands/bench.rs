@@ -1,0 +1,207 @@
+//! `master bench`: run time against error. Every scheme at every macro step, the median wall time
+//! of a few repetitions, and the error of the cabin-centre displacement against a fine-step
+//! monolithic reference; a table, `bench.csv` and a log–log work–precision plot.
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+
+use feedcore::scene::Scene;
+use master::plot::{Figure, Scale, Series};
+use master::simulate::{Trace, simulate, write_variant};
+use master::table::Table;
+
+use super::CmdResult;
+use super::run::create_parent;
+use super::scheme_args::{SCHEMES, SchemeOptions};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene file (TOML).
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Comma-separated methods.
+    #[arg(long, default_value = "monolithic,ijcsa,iterative,gauss-seidel,jacobi,decoupled", long_help = format!("Comma-separated methods: {SCHEMES}."))]
+    pub schemes: String,
+    /// Comma-separated macro steps (s).
+    #[arg(long, default_value = "0.04,0.02,0.01,0.005,0.0025")]
+    pub dts: String,
+    /// Runs per scheme and step; the median wall time is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeats: usize,
+    /// Simulated time (s); default: the scene's solver.t_end_s.
+    #[arg(long)]
+    pub t_end: Option<f64>,
+    /// Step of the monolithic reference (s); default: the smallest step / 4.
+    #[arg(long)]
+    pub reference_dt: Option<f64>,
+    /// Directory for bench.csv and work_precision.svg.
+    #[arg(long, default_value = "out/bench")]
+    pub out: PathBuf,
+    /// No progress bars.
+    #[arg(long)]
+    pub quiet: bool,
+    #[command(flatten)]
+    pub options: SchemeOptions,
+}
+
+/// One cell of the benchmark.
+struct Cell {
+    scheme: String,
+    dt: f64,
+    result: Result<(f64, f64, f64, f64), String>, // wall (median), max error, RMS error, iterations
+}
+
+pub fn run(args: &Args) -> CmdResult {
+    let mut scene = Scene::load(&args.scene)?;
+    let dts: Vec<f64> = args
+        .dts
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("--dts: {e}"))?;
+    if dts.is_empty() || dts.iter().any(|d| !(*d > 0.0)) || args.repeats == 0 {
+        return Err("--dts needs positive steps and --repeats at least 1".into());
+    }
+    let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
+    // one sampling for all runs: the coarsest step, so every trace has the same times
+    let coarse = dts.iter().cloned().fold(0.0, f64::max);
+    for d in &dts {
+        let ratio = coarse / d;
+        if (ratio - ratio.round()).abs() > 1e-9 {
+            return Err(format!("--dts: {d} does not divide the coarsest step {coarse}").into());
+        }
+    }
+    scene.outputs.sample_interval_s = coarse;
+    let (scene, file) = write_variant(&scene, &args.scene, &format!("bench-{}", scene.name))?;
+    let quiet = args.quiet || !std::io::stderr().is_terminal();
+    let reference_dt = args.reference_dt.unwrap_or(dts.iter().cloned().fold(f64::INFINITY, f64::min) / 4.0);
+    eprintln!("reference: monolithic at h = {reference_dt} s …");
+    let reference = simulate(&scene, &file, args.options.method("monolithic")?, reference_dt, t_end, quiet)?;
+    let peak = reference.peak_mm();
+    let mut cells = Vec::new();
+    for name in args.schemes.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let method = args.options.method(name)?;
+        for &dt in &dts {
+            eprintln!("{name} at h = {dt} s …");
+            let mut walls = Vec::new();
+            let mut last: Option<Trace> = None;
+            let mut failure = None;
+            for _ in 0..args.repeats {
+                match simulate(&scene, &file, method, dt, t_end, quiet) {
+                    Ok(t) => {
+                        walls.push(t.wall_time_s);
+                        last = Some(t);
+                    }
+                    Err(e) => {
+                        failure = Some(e.to_string());
+                        break;
+                    }
+                }
+            }
+            let result = match (failure, last) {
+                (Some(e), _) => Err(e),
+                (None, Some(t)) => {
+                    walls.sort_by(f64::total_cmp);
+                    let (max, rms) = t.error_against(&reference);
+                    Ok((walls[walls.len() / 2], max, rms, t.mean_iterations()))
+                }
+                (None, None) => Err("no run".into()),
+            };
+            cells.push(Cell { scheme: name.to_string(), dt, result });
+        }
+    }
+    std::fs::create_dir_all(&args.out)?;
+    let csv_path = args.out.join("bench.csv");
+    let mut csv = std::fs::File::create(&csv_path)?;
+    writeln!(
+        csv,
+        "scheme,dt_s,wall_time_s,max_error_mm,rms_error_mm,max_error_percent_of_peak,mean_iterations,failure"
+    )?;
+    let mut table =
+        Table::new(["scheme", "h s", "wall s", "max error mm", "RMS error mm", "% of peak", "iter/step", "note"]);
+    for c in &cells {
+        match &c.result {
+            Ok((w, m, r, it)) => {
+                writeln!(csv, "{},{},{w},{m:e},{r:e},{},{it},", c.scheme, c.dt, 100.0 * m / peak)?;
+                table.row([
+                    c.scheme.clone(),
+                    c.dt.to_string(),
+                    format!("{w:.3}"),
+                    format!("{m:.3e}"),
+                    format!("{r:.3e}"),
+                    format!("{:.4}", 100.0 * m / peak),
+                    format!("{it:.2}"),
+                    String::new(),
+                ]);
+            }
+            Err(e) => {
+                let short: String = e.split(':').take(2).collect::<Vec<_>>().join(":");
+                writeln!(csv, "{},{},,,,,,\"{}\"", c.scheme, c.dt, e.replace('"', "'"))?;
+                table.row([
+                    c.scheme.clone(),
+                    c.dt.to_string(),
+                    "".into(),
+                    "".into(),
+                    "".into(),
+                    "".into(),
+                    "".into(),
+                    short,
+                ]);
+            }
+        }
+    }
+    let svg = args.out.join("work_precision.svg");
+    create_parent(&svg)?;
+    let mut fig = Figure::new(900, 600);
+    fig.title(&format!(
+        "{}: work–precision, {t_end} s simulated (reference: monolithic at h = {reference_dt} s)",
+        scene.name
+    ));
+    fig.panel(|p| {
+        p.x_label("wall time (s)")
+            .y_label("max error of the cabin-centre displacement (mm)")
+            .x_scale(Scale::Log10)
+            .y_scale(Scale::Log10);
+        let mut names: Vec<&str> = cells.iter().map(|c| c.scheme.as_str()).collect();
+        names.dedup();
+        for name in names {
+            let pts: Vec<(f64, f64)> = cells
+                .iter()
+                .filter(|c| c.scheme == name)
+                .filter_map(|c| c.result.as_ref().ok().filter(|r| r.1 > 0.0).map(|r| (r.0, r.1)))
+                .collect();
+            if !pts.is_empty() {
+                let (x, y): (Vec<f64>, Vec<f64>) = pts.into_iter().unzip();
+                p.add(Series::line(name, &x, &y).auto_marker());
+            }
+        }
+        p.hline(0.01 * peak, "1 % of the peak");
+        p
+    });
+    fig.write_svg(&svg)?;
+    println!("{}: {t_end} s simulated; reference monolithic at h = {reference_dt} s, peak {peak:.4} mm", scene.name);
+    println!();
+    print!("{}", table.render());
+    println!();
+    // per scheme: the smallest error reached and the cheapest run within 1 % of the peak
+    let mut summary = Table::new(["scheme", "smallest error mm", "at h s", "cheapest within 1 % of peak", "wall s"]);
+    let mut names: Vec<&str> = cells.iter().map(|c| c.scheme.as_str()).collect();
+    names.dedup();
+    for name in names {
+        let ok: Vec<(&Cell, &(f64, f64, f64, f64))> =
+            cells.iter().filter(|c| c.scheme == name).filter_map(|c| c.result.as_ref().ok().map(|r| (c, r))).collect();
+        let best = ok.iter().min_by(|a, b| a.1.1.total_cmp(&b.1.1));
+        let cheap = ok.iter().filter(|(_, r)| r.1 <= 0.01 * peak).min_by(|a, b| a.1.0.total_cmp(&b.1.0));
+        summary.row([
+            name.to_string(),
+            best.map_or("—".into(), |(_, r)| format!("{:.3e}", r.1)),
+            best.map_or("—".into(), |(c, _)| c.dt.to_string()),
+            cheap.map_or("not reached".into(), |(c, _)| format!("h = {} s", c.dt)),
+            cheap.map_or("—".into(), |(_, r)| format!("{:.3}", r.0)),
+        ]);
+    }
+    print!("{}", summary.render());
+    println!();
+    println!("{} and {} written", csv_path.display(), svg.display());
+    Ok(())
+}
