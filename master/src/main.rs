@@ -37,6 +37,8 @@ enum Command {
     Compare(commands::compare::Args),
     /// Run time against error: every scheme at several steps against a fine monolithic reference.
     Bench(commands::bench::Args),
+    /// Stability map of the coupling schemes over the platform's mass and the macro step.
+    Stability(commands::stability::Args),
     /// Build the FMI 2.0 Co-Simulation archives cable_fmu.fmu and stewart_fmu.fmu.
     Package(commands::package::Args),
     /// Run a model's library in-process on an input table (the reference of the fmpy cross-checks).
@@ -53,6 +55,7 @@ fn main() -> ExitCode {
         Command::Run(args) => commands::run::run(&args),
         Command::Compare(args) => commands::compare::run(&args),
         Command::Bench(args) => commands::bench::run(&args),
+        Command::Stability(args) => commands::stability::run(&args),
         Command::Package(args) => commands::package::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
     };

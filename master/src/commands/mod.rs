@@ -7,6 +7,7 @@ pub mod package;
 pub mod replay;
 pub mod run;
 pub mod scheme_args;
+pub mod stability;
 pub mod statics;
 pub mod stewart;
 
