@@ -194,7 +194,7 @@ impl CableFmu {
                     self.wrench[k] = static_w[k];
                 }
             }
-            self.model = Some(CableCabin::from_scene(&scene).map_err(|e| e.to_string())?);
+            self.model = Some(CableCabin::build(&scene, 0).map_err(|e| e.to_string())?);
             self.built_for = Some(self.settings.clone());
             self.dynamics = None;
         }

@@ -219,6 +219,25 @@ pub struct Outputs {
     pub quantities: Vec<Quantity>,
 }
 
+/// A prescribed wrench on the cabin, `W(t) = amplitude · sin(2π f t)` (force; moment about the
+/// cabin centre point; world frame): the disturbance of a scene without a moving platform.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Disturbance {
+    pub force_amplitude_n: [f64; 3],
+    pub moment_amplitude_nm: [f64; 3],
+    pub frequency_hz: f64,
+}
+
+impl Disturbance {
+    /// The wrench at time `t` as (force, moment).
+    pub fn wrench(&self, t: f64) -> [f64; 6] {
+        let s = (2.0 * std::f64::consts::PI * self.frequency_hz * t).sin();
+        let (f, m) = (self.force_amplitude_n, self.moment_amplitude_nm);
+        [f[0] * s, f[1] * s, f[2] * s, m[0] * s, m[1] * s, m[2] * s]
+    }
+}
+
 /// One FMU of a co-simulation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -274,6 +293,9 @@ pub struct Scene {
     /// The co-simulation (optional: the monolithic model and the analyses do without).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub system: Option<SystemDescription>,
+    /// A prescribed wrench on the cabin, for runs of the cable–cabin model alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub disturbance: Option<Disturbance>,
 }
 
 /// Tolerance on the norm of a unit quaternion or a unit axis given in a scene.
@@ -422,6 +444,11 @@ impl Scene {
             return Err(c.err("solver.newton_max_iter", "0", "at least one Newton iteration is needed"));
         }
         c.positive("outputs.sample_interval_s", self.outputs.sample_interval_s)?;
+        if let Some(d) = &self.disturbance {
+            c.vector("disturbance.force_amplitude_n", &d.force_amplitude_n)?;
+            c.vector("disturbance.moment_amplitude_nm", &d.moment_amplitude_nm)?;
+            c.finite_nonneg("disturbance.frequency_hz", d.frequency_hz)?;
+        }
         if let Some(sys) = &self.system {
             let names: Vec<&str> = sys.fmus.iter().map(|f| f.name.as_str()).collect();
             for (i, f) in sys.fmus.iter().enumerate() {

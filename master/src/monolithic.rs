@@ -220,7 +220,7 @@ pub struct Monolithic {
 impl Monolithic {
     /// Builds the model of `scene` at its static equilibrium, from time 0.
     pub fn new(scene: &Scene) -> Result<Monolithic, Box<dyn std::error::Error>> {
-        let cc = CableCabin::from_scene(scene)?;
+        let cc = CableCabin::build(scene, 0)?;
         let stewart = Stewart::from_scene(scene)?;
         let sys = cc.system(Payload::External);
         let (cables, elements) = (sys.cables(), sys.net.spec.elements);

@@ -18,6 +18,9 @@ use crate::progress::Progress;
 /// How the system is solved.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Method {
+    /// The cable–cabin model alone (platform locked or absent) under the scene's disturbance;
+    /// in-process, no FMU.
+    CableOnly,
     Monolithic,
     Cosim(Options),
     Decoupled(Options),
@@ -26,6 +29,7 @@ pub enum Method {
 impl Method {
     pub fn name(&self) -> &'static str {
         match self {
+            Method::CableOnly => "cable",
             Method::Monolithic => "monolithic",
             Method::Cosim(o) => o.scheme.name(),
             Method::Decoupled(_) => "decoupled",
@@ -209,7 +213,37 @@ pub fn simulate(
     };
     let mut bar = Progress::stderr(steps as u64, t_end, quiet);
     let start = Instant::now();
+    let coupled = scene.analyses.stewart == feedcore::scene::StewartMode::Coupled;
+    if !coupled && method != Method::CableOnly {
+        return Err(format!(
+            "{}: the scene has no moving platform (analyses.stewart = {:?}); only `--scheme cable` runs it",
+            scene_file.display(),
+            scene.analyses.stewart
+        )
+        .into());
+    }
     match method {
+        Method::CableOnly => {
+            let model = cable_fmu::model::CableCabin::build(scene, 0)?;
+            let disturbance =
+                |t: f64| nalgebra::Vector6::from(scene.disturbance.as_ref().map_or([0.0; 6], |d| d.wrench(t)));
+            let mut dy = model.dynamics_with(cable_fmu::model::Payload::Locked, 0.0, &disturbance(0.0))?;
+            let probe = |dy: &cable_fmu::dynamics::Dynamics, t: f64| {
+                let c = dy.cabin();
+                Probe { position: c.position, orientation: c.orientation, wrench: vec6(&disturbance(t)) }
+            };
+            rec.record(0.0, &probe(&dy, 0.0));
+            for k in 1..=steps {
+                let t = k as f64 * dt;
+                let s = dy.step(dt, &disturbance(t))?;
+                rec.trace.iterations.push(s.iterations);
+                rec.trace.residual.push(0.0);
+                if k % rec.every == 0 {
+                    rec.record(t, &probe(&dy, t));
+                }
+                bar.update(k as u64, t);
+            }
+        }
         Method::Monolithic => {
             let mut m = Monolithic::new(scene)?;
             let s = m.sample();

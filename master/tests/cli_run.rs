@@ -109,3 +109,22 @@ fn compare_lists_every_scheme_against_monolithic() {
     assert!(rows[1]["failed"].as_str().unwrap().contains("unstable"), "{}", rows[1]);
     assert!(rows[2]["max_error_mm"].as_f64().unwrap() > 0.0);
 }
+
+/// A cable-only scene runs the cable–cabin model alone: no [system], so no FMU can be loaded,
+/// and with the damping fitted at given frequencies no eigen solve is needed.
+#[test]
+fn a_cable_only_scene_loads_and_computes_only_the_cable_model() {
+    let path = common::scene_path("lt50m_C_cable_only.toml");
+    let scene = feedcore::scene::Scene::load(&path).unwrap();
+    assert!(scene.system.is_none());
+    assert!(cable_fmu::model::CableCabin::build(&scene, 0).unwrap().modes.is_none(), "no eigen solve");
+    let out = master(&["run", "--scene", path.to_str().unwrap(), "--scheme", "cable", "--t-end", "10", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // the 50 N rotating force moves the cabin by millimetres (static compliance ≈ 0.09 mm/N)
+    let x = v["max_abs_disp_mm"][0].as_f64().unwrap();
+    assert!(x > 1.0 && x < 20.0, "{x}");
+    let out = master(&["run", "--scene", path.to_str().unwrap(), "--scheme", "ijcsa", "--quiet"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no moving platform"));
+}

@@ -30,7 +30,8 @@ pub struct SchemeOptions {
 }
 
 /// The methods `master run --scheme` knows, with what each needs from the FMUs.
-pub const SCHEMES: &str = "monolithic (eq. 7, no FMUs), jacobi, gauss-seidel (cable first), \
+pub const SCHEMES: &str = "cable (the cable–cabin model alone with the platform locked, under the scene's \
+    [disturbance]; in-process), monolithic (eq. 7, no FMUs), jacobi, gauss-seidel (cable first), \
     gauss-seidel-reversed (Stewart first), iterative (needs get/set FMU state), \
     ijcsa (needs get/set FMU state; directional derivatives, else finite differences), \
     decoupled (ref. [3]: the Stewart wrench on a fixed cabin fed to the cable model)";
@@ -60,6 +61,7 @@ impl SchemeOptions {
         };
         options.scheme = match scheme {
             "monolithic" => return Ok(Method::Monolithic),
+            "cable" => return Ok(Method::CableOnly),
             "decoupled" => return Ok(Method::Decoupled(options)),
             "jacobi" => Scheme::Jacobi,
             "gauss-seidel" => Scheme::GaussSeidel { reversed: false },
