@@ -46,6 +46,8 @@ enum Verdict {
     Stable,
     Unstable,
     NotConverged,
+    /// The scaled platform cannot be held at the pose at all (a cable would have to push).
+    Infeasible,
 }
 
 fn list(text: &str, what: &str) -> Result<Vec<f64>, String> {
@@ -130,6 +132,7 @@ pub fn run(args: &Args) -> CmdResult {
         Verdict::Stable => "stable",
         Verdict::Unstable => "unstable",
         Verdict::NotConverged => "not converged",
+        Verdict::Infeasible => "infeasible",
     };
     for (s, f, dt, v, it, note) in &rows {
         writeln!(
@@ -156,7 +159,8 @@ pub fn run(args: &Args) -> CmdResult {
         let mut grid = Grid::new(&dts, &ratios)
             .category("stable", Color::SKY_BLUE)
             .category("unstable", Color::VERMILLION)
-            .category("not converged", Color::ORANGE);
+            .category("not converged", Color::ORANGE)
+            .category("infeasible pose", Color::LIGHT_GREY);
         let mut table =
             Table::new(std::iter::once("mass factor".to_string()).chain(dts.iter().map(|d| format!("h = {d}"))));
         for (iy, &f) in ratios.iter().enumerate() {
@@ -171,6 +175,7 @@ pub fn run(args: &Args) -> CmdResult {
                     Verdict::Stable => "S".into(),
                     Verdict::Unstable => "U".into(),
                     Verdict::NotConverged => "N".into(),
+                    Verdict::Infeasible => "–".into(),
                 });
             }
             table.row(cells);
