@@ -112,7 +112,9 @@ pub fn run(args: &Args) -> CmdResult {
                     }
                     Err(e) => {
                         let e = e.to_string();
-                        let v = if e.contains("did not converge in") && !e.contains("unstable") {
+                        let v = if e.contains("infeasible") {
+                            Verdict::Infeasible
+                        } else if e.contains("did not converge in") && !e.contains("unstable") {
                             Verdict::NotConverged
                         } else {
                             Verdict::Unstable
