@@ -109,6 +109,8 @@ pub struct Dynamics {
     velocity: Vec<f64>,
     acceleration: Vec<f64>,
     residual: Vec<f64>,
+    /// The last Newton correction.
+    delta: Vec<f64>,
     matrix: ChainMatrix,
     /// Exact iteration matrix at the current state, factorized when a sensitivity is asked for.
     sensitivity: Option<ChainFactor>,
@@ -163,6 +165,7 @@ impl Dynamics {
             velocity: vec![0.0; n],
             acceleration: vec![0.0; n],
             residual,
+            delta: vec![0.0; n],
             matrix,
             sensitivity: None,
         })
@@ -178,7 +181,39 @@ impl Dynamics {
 
     /// Advances by `h` with the external `wrench` (force, moment about the cabin centre point,
     /// world frame) acting at the end of the step.
+    ///
+    /// Should Newton fail — an element snapping from slack to taut is an impact — the step is
+    /// taken again as two halves (the wrench interpolated linearly from the last one), down to
+    /// 1/64 of `h`, before the simulation stops with the reason.
     pub fn step(&mut self, h: f64, wrench: &Vector6<f64>) -> Result<StepStats, DynamicsError> {
+        let start = self.state.last_step.map_or(*wrench, |l| l.wrench);
+        self.step_split(h, &start, wrench, 0)
+    }
+
+    fn step_split(
+        &mut self,
+        h: f64,
+        from: &Vector6<f64>,
+        to: &Vector6<f64>,
+        depth: u32,
+    ) -> Result<StepStats, DynamicsError> {
+        match self.step_once(h, to) {
+            Err(e) if depth < 6 && e.reason.starts_with("Newton did not converge") => {
+                let mid = (from + to) * 0.5;
+                let a = self.step_split(0.5 * h, from, &mid, depth + 1)?;
+                let b = self.step_split(0.5 * h, &mid, to, depth + 1)?;
+                Ok(StepStats {
+                    iterations: a.iterations + b.iterations,
+                    factorizations: a.factorizations + b.factorizations,
+                })
+            }
+            other => other,
+        }
+    }
+
+    /// One generalized-α step; on failure `self.state` is as before (only the kept
+    /// factorization may have been refreshed).
+    fn step_once(&mut self, h: f64, wrench: &Vector6<f64>) -> Result<StepStats, DynamicsError> {
         let t1 = self.state.time + h;
         let fail = |reason: String| DynamicsError { time: t1, reason };
         if !(h > 0.0 && h.is_finite()) {
@@ -218,6 +253,7 @@ impl Dynamics {
         let mut fresh = false;
         let tol = self.options.newton_tol;
         let mut converged = false;
+        let mut previous_residual = f64::INFINITY;
         for it in 0..self.options.newton_max_iter {
             let stale = match &self.state.factor {
                 Some((_, fh)) => *fh != h,
@@ -225,21 +261,38 @@ impl Dynamics {
             };
             let need_factor = stale || (it > 0 && !fresh && it >= self.options.newton_max_iter / 2);
             if need_factor {
-                self.refactor(h, bp, gp, wrench).map_err(&fail)?;
+                self.refactor(h, bp, gp, wrench, true).map_err(&fail)?;
                 stats.factorizations += 1;
                 fresh = true;
             }
             self.system.assemble(&self.trial, &self.velocity, &self.acceleration, wrench, &mut self.residual, None);
-            let rmax = vec_max_abs(&self.residual);
+            let mut rmax = vec_max_abs(&self.residual);
+            // A correction that did not lower the residual has jumped across the tension-only
+            // kink of an element (Newton would cycle): take back halves of it until it does.
+            let mut backtracks = 0;
+            while it > 0 && rmax.is_finite() && rmax >= previous_residual && rmax > 1e-6 && backtracks < 12 {
+                backtracks += 1;
+                for i in 0..n {
+                    let d = 0.5 * self.delta[i];
+                    self.delta[i] = d;
+                    self.increment[i] -= d;
+                    self.acceleration[i] -= bp * d;
+                    self.velocity[i] -= gp * d;
+                }
+                self.trial.set_displaced(&self.state.config, &self.increment);
+                self.system.assemble(&self.trial, &self.velocity, &self.acceleration, wrench, &mut self.residual, None);
+                rmax = vec_max_abs(&self.residual);
+            }
             if !rmax.is_finite() {
                 return Err(fail("the residual is not finite (the motion diverged)".into()));
             }
+            previous_residual = rmax;
             let (factor, _) = self.state.factor.as_ref().expect("factorized above");
-            for r in self.residual.iter_mut() {
-                *r = -*r;
+            for (d, r) in self.delta.iter_mut().zip(&self.residual) {
+                *d = -*r;
             }
-            factor.solve_in_place(&mut self.residual);
-            let delta = &self.residual;
+            factor.solve_in_place(&mut self.delta);
+            let delta = &self.delta;
             let dmax = vec_max_abs(delta);
             if !dmax.is_finite() {
                 return Err(fail("the Newton correction is not finite".into()));
@@ -259,8 +312,11 @@ impl Dynamics {
                 break;
             }
             // Slow contraction with an old factorization: refresh it at the current iterate.
-            if !fresh && it > 0 && dmax > 0.25 * previous {
-                self.refactor(h, bp, gp, wrench).map_err(&fail)?;
+            // Still slow with a fresh one: an element sits at its slack limit, where the taut
+            // stiffness given to slack elements is a poor guess; from then on use the exact
+            // tangent at every iterate (semismooth Newton), so the set of slack elements settles.
+            if it > 0 && dmax > 0.25 * previous {
+                self.refactor(h, bp, gp, wrench, !fresh).map_err(&fail)?;
                 stats.factorizations += 1;
                 fresh = true;
             }
@@ -295,10 +351,17 @@ impl Dynamics {
     }
 
     /// Builds and factorizes the iteration matrix at the current iterate.
-    fn refactor(&mut self, h: f64, bp: f64, gp: f64, wrench: &Vector6<f64>) -> Result<(), String> {
+    /// `slack_as_taut`: see [`Coefficients::slack_as_taut`]; false gives the exact tangent.
+    fn refactor(&mut self, h: f64, bp: f64, gp: f64, wrench: &Vector6<f64>, slack_as_taut: bool) -> Result<(), String> {
         let c0 = self.system.cabin_offset();
         let theta = Vec3::new(self.increment[c0 + 3], self.increment[c0 + 4], self.increment[c0 + 5]);
-        let coef = Coefficients { mass: bp, damping: gp, stiffness: 1.0, rotation_tangent: left_jacobian_so3(&theta) };
+        let coef = Coefficients {
+            mass: bp,
+            damping: gp,
+            stiffness: 1.0,
+            rotation_tangent: left_jacobian_so3(&theta),
+            slack_as_taut,
+        };
         self.system.assemble(
             &self.trial,
             &self.velocity,
@@ -331,7 +394,13 @@ impl Dynamics {
         if self.sensitivity.is_none() {
             let (coef, wrench) = match &st.last_step {
                 Some(last) => (
-                    Coefficients { mass: bp, damping: gp, stiffness: 1.0, rotation_tangent: left_jacobian_so3(&theta) },
+                    Coefficients {
+                        mass: bp,
+                        damping: gp,
+                        stiffness: 1.0,
+                        rotation_tangent: left_jacobian_so3(&theta),
+                        slack_as_taut: false,
+                    },
                     last.wrench,
                 ),
                 None => (Coefficients::MASS, Vector6::zeros()),

@@ -57,6 +57,10 @@ pub struct Coefficients {
     pub damping: f64,
     pub stiffness: f64,
     pub rotation_tangent: Mat3,
+    /// Give slack elements their taut axial stiffness (Newton iteration matrices only): Newton
+    /// then cannot jump across the tension-only kink from the slack side and cycle. The
+    /// residual, and every true tangent, keep the exact zero.
+    pub slack_as_taut: bool,
 }
 
 impl Coefficients {
@@ -65,18 +69,21 @@ impl Coefficients {
         damping: 0.0,
         stiffness: 0.0,
         rotation_tangent: Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+        slack_as_taut: false,
     };
     pub const STIFFNESS: Coefficients = Coefficients {
         mass: 0.0,
         damping: 0.0,
         stiffness: 1.0,
         rotation_tangent: Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+        slack_as_taut: false,
     };
     pub const DAMPING: Coefficients = Coefficients {
         mass: 0.0,
         damping: 1.0,
         stiffness: 0.0,
         rotation_tangent: Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+        slack_as_taut: false,
     };
 }
 
@@ -259,7 +266,10 @@ impl System {
                 if e > 0 {
                     add3(residual, i * m + e - 1, &(-pull));
                 }
-                let ke = bar.stiffness(ea, l0);
+                let ke = match &matrix {
+                    Some((_, c)) if c.slack_as_taut && bar.is_slack() => bar.dir * bar.dir.transpose() * (ea / l0),
+                    _ => bar.stiffness(ea, l0),
+                };
                 if e < m {
                     add3(residual, i * m + e, &pull);
                 } else {
