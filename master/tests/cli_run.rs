@@ -128,3 +128,14 @@ fn a_cable_only_scene_loads_and_computes_only_the_cable_model() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no moving platform"));
 }
+
+/// `master stress --quick` runs every stress case on the packaged FMUs and reports it.
+#[test]
+fn every_stress_case_runs() {
+    let (_, c) = common::scene("lt50m_C.toml", "stress", |_| {});
+    let (_, b) = common::scene("lt50m_B.toml", "stress", |_| {});
+    let out = master(&["stress", "--quick", "--scene-c", c.to_str().unwrap(), "--scene-b", b.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(text.lines().filter(|l| l.contains("  ok  ")).count(), 8, "{text}");
+}

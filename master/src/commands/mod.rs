@@ -10,6 +10,7 @@ pub mod scheme_args;
 pub mod stability;
 pub mod statics;
 pub mod stewart;
+pub mod stress;
 
 /// Errors reach the user as one readable message.
 pub type CmdResult = Result<(), Box<dyn std::error::Error>>;
