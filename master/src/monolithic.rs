@@ -23,9 +23,10 @@ use std::fmt;
 use cable_fmu::chain_matrix::ChainMatrix;
 use cable_fmu::element::Bar;
 use cable_fmu::model::{CableCabin, Payload};
-use faer::linalg::solvers::SolveCore;
-use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::lu;
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
+use faer::{Conj, Mat, Par};
 use feedcore::genalpha::GenAlpha;
 use feedcore::rigid::{BodyTerms, MassProperties, exp_so3, left_jacobian_so3, skew};
 use feedcore::scene::{LEGS, Scene};
@@ -98,11 +99,71 @@ impl Layout {
     }
 }
 
-/// The sparsity pattern of the KKT matrix and its symbolic LU, computed once.
-struct Pattern {
+/// The KKT matrix's sparse LU: pattern and symbolic analysis once; numeric factors, workspace
+/// and right-hand side kept and reused (no allocation per solve).
+struct Kkt {
     symbolic: SymbolicSparseColMat<usize>,
     argsort: faer::sparse::Argsort<usize>,
-    lu: SymbolicLu<usize>,
+    lu: lu::SymbolicLu<usize>,
+    numeric: lu::NumericLu<usize, f64>,
+    /// Step size of the current numeric factors (`None`: not factorized).
+    h: Option<f64>,
+    stack: MemBuffer,
+    rhs: Mat<f64>,
+}
+
+impl Kkt {
+    fn new(n: usize, pairs: &[(usize, usize)]) -> Result<Kkt, Box<dyn std::error::Error>> {
+        let idx: Vec<Pair<usize, usize>> = pairs.iter().map(|&(row, col)| Pair { row, col }).collect();
+        let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx)?;
+        let lu = lu::factorize_symbolic_lu(symbolic.as_ref(), Default::default())?;
+        let need = lu
+            .factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default())
+            .or(lu.solve_in_place_scratch::<f64>(1, Par::Seq));
+        Ok(Kkt {
+            symbolic,
+            argsort,
+            lu,
+            numeric: lu::NumericLu::new(),
+            h: None,
+            stack: MemBuffer::new(need),
+            rhs: Mat::zeros(n, 1),
+        })
+    }
+
+    /// Numeric factorization of the matrix with these values (in the recorded order).
+    fn factorize(&mut self, values: &[f64], h: f64) -> Result<(), String> {
+        let mat = SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, values)
+            .map_err(|e| format!("sparse matrix: {e:?}"))?;
+        self.h = None;
+        self.lu
+            .factorize_numeric_lu(
+                &mut self.numeric,
+                mat.as_ref(),
+                Par::Seq,
+                MemStack::new(&mut self.stack),
+                Default::default(),
+            )
+            .map_err(|e| format!("singular KKT matrix: {e:?}"))?;
+        self.h = Some(h);
+        Ok(())
+    }
+
+    /// `out = −A⁻¹ r`.
+    fn solve_negated(&mut self, r: &[f64], out: &mut [f64]) {
+        for (i, x) in r.iter().enumerate() {
+            self.rhs[(i, 0)] = -x;
+        }
+        lu::LuRef::new_unchecked(&self.lu, &self.numeric).solve_in_place_with_conj(
+            Conj::No,
+            self.rhs.as_mut(),
+            Par::Seq,
+            MemStack::new(&mut self.stack),
+        );
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.rhs[(i, 0)];
+        }
+    }
 }
 
 impl State {
@@ -204,13 +265,13 @@ pub struct Monolithic {
     max_iter: usize,
     state: State,
     // linear algebra: pattern once, numeric factorization while it serves
-    pattern: Option<Pattern>,
-    factor: Option<(Lu<usize, f64>, f64)>,
+    kkt: Option<Kkt>,
     // scratch
     assembler: Assembler,
     residual: Vec<f64>,
     trial: State,
     increment: Vec<f64>,
+    delta: Vec<f64>,
     strokes: [Stroke; LEGS],
     rows: Box<[ConstraintRow; CONSTRAINTS]>,
     damp_in: Vec<f64>,
@@ -275,11 +336,11 @@ impl Monolithic {
             trial: state.clone(),
             state,
             stewart,
-            pattern: None,
-            factor: None,
+            kkt: None,
             assembler: Assembler { pairs: None, values: Vec::new() },
             residual: vec![0.0; n_q + n_lambda],
             increment: vec![0.0; n_q],
+            delta: vec![0.0; n_q + n_lambda],
             strokes: [Stroke::default(); LEGS],
             rows: Box::new([ConstraintRow::EMPTY; CONSTRAINTS]),
             damp_in: vec![0.0; sys.dim()],
@@ -303,11 +364,7 @@ impl Monolithic {
         let coef = Coefficients { mass: 1.0, damping: 1.0, stiffness: 1.0, constraint_scale: 1.0 };
         self.assemble(&st, [Vec3::zeros(); RIGID], Some(coef));
         let pairs = self.assembler.pairs.take().expect("recording");
-        let n = self.lay.n();
-        let idx: Vec<Pair<usize, usize>> = pairs.iter().map(|&(row, col)| Pair { row, col }).collect();
-        let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx)?;
-        let lu = SymbolicLu::try_new(symbolic.as_ref())?;
-        self.pattern = Some(Pattern { symbolic, argsort, lu });
+        self.kkt = Some(Kkt::new(self.lay.n(), &pairs)?);
         Ok(())
     }
 
@@ -545,14 +602,14 @@ impl Monolithic {
             [Vec3::zeros(); RIGID],
             Some(Coefficients { mass: 1.0, damping: 0.0, stiffness: 0.0, constraint_scale: 1.0 }),
         );
-        let lu = self.factorize().map_err(&fail)?;
+        self.factorize(0.0).map_err(&fail)?;
         // right-hand side: −(residual without inertia and without multipliers) and γ
         let (lay, nq) = (self.lay, self.lay.n_q());
         let mut zeroed = st.clone();
         zeroed.acceleration.iter_mut().for_each(|x| *x = 0.0);
         zeroed.multipliers.iter_mut().for_each(|x| *x = 0.0);
         self.assemble(&zeroed, [Vec3::zeros(); RIGID], None);
-        let mut rhs: Vec<f64> = self.residual.iter().map(|x| -x).collect();
+        let mut rhs: Vec<f64> = self.residual.clone();
         // γ: cable joints (centripetal of the attachment point), Stewart rows
         let o = lay.body(0);
         let w = Vec3::new(st.velocity[o + 3], st.velocity[o + 4], st.velocity[o + 5]);
@@ -561,13 +618,15 @@ impl Monolithic {
             let d = rot_c * self.attachments[i];
             let gamma = w.cross(&w.cross(&d));
             for k in 0..3 {
-                rhs[nq + 3 * i + k] = gamma[k];
+                rhs[nq + 3 * i + k] = -gamma[k];
             }
         }
         for (k, row) in self.rows.iter().enumerate() {
-            rhs[nq + 3 * lay.cables + k] = row.gamma;
+            rhs[nq + 3 * lay.cables + k] = -row.gamma;
         }
-        let sol = solve(&lu, &rhs);
+        let mut sol = vec![0.0; rhs.len()];
+        self.kkt.as_mut().expect("built").solve_negated(&rhs, &mut sol);
+        self.kkt.as_mut().expect("built").h = None; // factors of M, not of an iteration matrix
         self.state.acceleration.copy_from_slice(&sol[..nq]);
         self.state.pseudo_acceleration.copy_from_slice(&sol[..nq]);
         self.state.multipliers.copy_from_slice(&sol[nq..]);
@@ -577,11 +636,10 @@ impl Monolithic {
         Ok(())
     }
 
-    fn factorize(&self) -> Result<Lu<usize, f64>, String> {
-        let p = self.pattern.as_ref().expect("pattern built at construction");
-        let mat = SparseColMat::new_from_argsort(p.symbolic.clone(), &p.argsort, &self.assembler.values)
-            .map_err(|e| format!("sparse matrix: {e:?}"))?;
-        Lu::try_new_with_symbolic(p.lu.clone(), mat.as_ref()).map_err(|e| format!("singular KKT matrix: {e:?}"))
+    /// Numeric factorization of the assembled values, for step size `h`.
+    fn factorize(&mut self, h: f64) -> Result<(), String> {
+        let Monolithic { kkt, assembler, .. } = self;
+        kkt.as_mut().expect("pattern built at construction").factorize(&assembler.values, h)
     }
 
     pub fn time(&self) -> f64 {
@@ -622,12 +680,11 @@ impl Monolithic {
         let mut converged = false;
         let mut iterations = 0;
         for it in 0..self.max_iter {
-            let stale = !matches!(&self.factor, Some((_, fh)) if *fh == h);
+            let stale = self.kkt.as_ref().and_then(|k| k.h) != Some(h);
             let theta = self.thetas();
             if stale || (it > 0 && !fresh && it >= self.max_iter / 2) {
                 self.assemble(&trial, theta, Some(coef));
-                let lu = self.factorize().map_err(&fail)?;
-                self.factor = Some((lu, h));
+                self.factorize(h).map_err(&fail)?;
                 fresh = true;
             } else {
                 self.assemble(&trial, theta, None);
@@ -636,8 +693,9 @@ impl Monolithic {
             for k in nq..self.residual.len() {
                 self.residual[k] *= coef.constraint_scale;
             }
-            let rhs: Vec<f64> = self.residual.iter().map(|x| -x).collect();
-            let delta = solve(&self.factor.as_ref().expect("factorized").0, &rhs);
+            let Monolithic { kkt, residual, delta, .. } = self;
+            kkt.as_mut().expect("built").solve_negated(residual, delta);
+            let delta = &self.delta;
             let dmax = delta[..nq].iter().fold(0.0f64, |m, x| m.max(x.abs()));
             if !dmax.is_finite() {
                 return Err(fail("the Newton correction is not finite (the motion diverged)".into()));
@@ -660,8 +718,7 @@ impl Monolithic {
             if !fresh && it > 0 && dmax > 0.25 * previous {
                 let theta = self.thetas();
                 self.assemble(&trial, theta, Some(coef));
-                let lu = self.factorize().map_err(&fail)?;
-                self.factor = Some((lu, h));
+                self.factorize(h).map_err(&fail)?;
                 fresh = true;
             }
             previous = dmax;
@@ -742,10 +799,4 @@ impl Monolithic {
         }
         Sample { time: st.time, cabin, wrench, actuator_forces, constraint_residual: phi }
     }
-}
-
-fn solve(lu: &Lu<usize, f64>, rhs: &[f64]) -> Vec<f64> {
-    let mut x = faer::Mat::<f64>::from_fn(rhs.len(), 1, |i, _| rhs[i]);
-    lu.solve_in_place_with_conj(faer::Conj::No, x.as_mut());
-    (0..rhs.len()).map(|i| x[(i, 0)]).collect()
 }
