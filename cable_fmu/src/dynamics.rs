@@ -81,15 +81,7 @@ pub struct CabinDelta {
 }
 
 /// Motion of the cabin centre point (world frame).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CabinKinematics {
-    pub position: Vec3,
-    pub orientation: Quat,
-    pub velocity: Vec3,
-    pub angular_velocity: Vec3,
-    pub acceleration: Vec3,
-    pub angular_acceleration: Vec3,
-}
+pub use feedcore::rigid::RigidMotion as CabinKinematics;
 
 /// Work done in one step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

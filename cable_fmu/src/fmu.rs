@@ -83,14 +83,6 @@ pub struct CableFmu {
     scratch: std::cell::RefCell<Vec<f64>>,
 }
 
-fn embedded_scene(name: &str) -> Option<&'static str> {
-    match name {
-        "lt50m_B.toml" => Some(include_str!("../../scenes/lt50m_B.toml")),
-        "lt50m_C.toml" => Some(include_str!("../../scenes/lt50m_C.toml")),
-        _ => None,
-    }
-}
-
 /// The static wrench of the scene's Stewart platform at its starting pose (the input start).
 fn static_wrench(scene: &Scene) -> Vector6<f64> {
     let net = crate::net::CableNet::from_scene(scene);
@@ -139,28 +131,6 @@ fn input_names() -> Vec<String> {
 }
 
 impl CableFmu {
-    fn scene_path(&self, name: &str) -> Result<PathBuf, String> {
-        let p = Path::new(name);
-        if p.is_absolute() {
-            return Ok(p.to_owned());
-        }
-        self.resources
-            .as_ref()
-            .map(|r| r.join(p))
-            .ok_or_else(|| format!("scene `{name}` is relative but the FMU was given no resource location"))
-    }
-
-    /// Reads a scene file (the shipped ones are also known without a resource directory).
-    fn load_scene(&self, name: &str) -> Result<Scene, String> {
-        let path = self.scene_path(name);
-        match (path, embedded_scene(name)) {
-            (Ok(p), _) if p.is_file() => Scene::load(&p).map_err(|e| e.to_string()),
-            (_, Some(text)) => Scene::from_toml(text, name).map_err(|e| e.to_string()),
-            (Ok(p), None) => Err(format!("scene file {} does not exist", p.display())),
-            (Err(e), None) => Err(e),
-        }
-    }
-
     /// The scene with the scalar overrides applied and validated.
     fn effective_scene(&self) -> Result<Scene, String> {
         let mut s = self.scene.clone().ok_or("no scene loaded")?;
@@ -241,7 +211,8 @@ fn delta_output(d: &CabinDelta, q: &nalgebra::Quaternion<f64>, vr: u32) -> Optio
 
 impl Model for CableFmu {
     fn description() -> ModelDescription {
-        let default = Scene::from_toml(embedded_scene(DEFAULT_SCENE).expect("shipped"), DEFAULT_SCENE).expect("valid");
+        let default = Scene::from_toml(feedcore::shipped::embedded(DEFAULT_SCENE).expect("shipped"), DEFAULT_SCENE)
+            .expect("valid");
         let w0 = static_wrench(&default);
         let inputs = input_names();
         let mut variables: Vec<Variable> = inputs
@@ -296,9 +267,9 @@ impl Model for CableFmu {
     }
 
     fn resources() -> Vec<Resource> {
-        ["lt50m_B.toml", "lt50m_C.toml"]
+        feedcore::shipped::SCENES
             .iter()
-            .map(|n| Resource { name: n.to_string(), bytes: embedded_scene(n).expect("shipped").as_bytes().to_vec() })
+            .map(|(n, text)| Resource { name: n.to_string(), bytes: text.as_bytes().to_vec() })
             .collect()
     }
 
@@ -323,7 +294,7 @@ impl Model for CableFmu {
             tensions: [(0.0, 0.0); CABLES],
             scratch: std::cell::RefCell::new(Vec::new()),
         };
-        let scene = m.load_scene(DEFAULT_SCENE)?;
+        let scene = feedcore::shipped::load_scene_parameter(DEFAULT_SCENE, m.resources.as_deref())?;
         m.wrench = static_wrench(&scene);
         m.scene = Some(scene);
         Ok(m)
@@ -410,7 +381,7 @@ impl Model for CableFmu {
         if vr != vr::SCENE {
             return Err(format!("value reference {vr} is not a settable String"));
         }
-        let scene = self.load_scene(value)?;
+        let scene = feedcore::shipped::load_scene_parameter(value, self.resources.as_deref())?;
         self.scene = Some(scene);
         self.settings.scene_name = value.to_string();
         self.settings_changed();
@@ -517,7 +488,8 @@ impl Model for CableFmu {
         // A state carries its parameters: an instance configured otherwise adopts them.
         if settings != self.settings {
             if settings.scene_name != self.settings.scene_name {
-                self.scene = Some(self.load_scene(&settings.scene_name)?);
+                self.scene =
+                    Some(feedcore::shipped::load_scene_parameter(&settings.scene_name, self.resources.as_deref())?);
             }
             self.settings = settings;
             self.settings_changed();

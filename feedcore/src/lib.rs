@@ -9,6 +9,7 @@ pub mod benchkit;
 pub mod genalpha;
 pub mod rigid;
 pub mod scene;
+pub mod shipped;
 pub mod stewart_geometry;
 
 pub use nalgebra;

@@ -460,6 +460,13 @@ impl Coupled {
         if self.y.iter().any(|x| !x.is_finite()) {
             return Err(self.err(t1, "an output is not finite (the coupled motion diverged)"));
         }
+        // A coupling value a hundred times its scale (kilonewtons for a weight of a few, hundreds
+        // of m/s² for a cabin): the coupled motion has run away; stop before the numbers lie.
+        let mut u = vec![0.0; self.u.len()];
+        self.couple(&self.y, &mut u);
+        if u.iter().zip(&self.scale).any(|(x, s)| (x / s).abs() > 100.0) {
+            return Err(self.unstable(self.err(t1, format!("{} diverged", self.options.scheme.name()))));
+        }
         self.time = t1;
         Ok(report)
     }

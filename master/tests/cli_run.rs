@@ -63,7 +63,7 @@ fn failures_exit_non_zero_with_a_reason() {
     let out = master(&["run", "--scene", f, "--scheme", "jacobi", "--t-end", "5", "--quiet"]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("FMU `cable`") && err.contains("t = ") && err.contains("unstable"), "{err}");
+    assert!(err.contains("jacobi diverged") && err.contains("t = ") && err.contains("unstable"), "{err}");
     let out = master(&["run", "--scene", f, "--scheme", "iterative", "--max-iter", "2", "--t-end", "1", "--quiet"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("did not converge in 2 iterations"));
@@ -73,6 +73,16 @@ fn failures_exit_non_zero_with_a_reason() {
     let out = master(&["run", "--scene", f, "--scheme", "ijcsa", "--plot", "x.png", "--t-end", "0.02", "--quiet"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("only SVG"));
+}
+
+/// An FMU that returns an error stops the run with a message naming the FMU and the problem.
+#[test]
+fn an_fmu_error_names_the_fmu() {
+    let (_, file) = common::scene("lt50m_C.toml", "cli-fmu-error", |s| s.motion.radius_m = 1.5);
+    let out = master(&["run", "--scene", file.to_str().unwrap(), "--scheme", "ijcsa", "--quiet"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("FMU `stewart_fmu`") && err.contains("leg") && err.contains("t = "), "{err}");
 }
 
 #[test]

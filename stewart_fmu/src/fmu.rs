@@ -92,14 +92,6 @@ pub struct StewartFmu {
     cache: Cache,
 }
 
-fn embedded_scene(name: &str) -> Option<&'static str> {
-    match name {
-        "lt50m_B.toml" => Some(include_str!("../../scenes/lt50m_B.toml")),
-        "lt50m_C.toml" => Some(include_str!("../../scenes/lt50m_C.toml")),
-        _ => None,
-    }
-}
-
 /// The scene's static pose at rest, as input values.
 fn rest_inputs(scene: &Scene) -> [f64; INPUTS] {
     let mut u = [0.0; INPUTS];
@@ -129,17 +121,6 @@ fn rotation_of(q: &[f64], dq: &[f64]) -> Vec3 {
 }
 
 impl StewartFmu {
-    fn load_scene(&self, name: &str) -> Result<Scene, String> {
-        let p = Path::new(name);
-        let path = if p.is_absolute() { Some(p.to_owned()) } else { self.resources.as_ref().map(|r| r.join(p)) };
-        match (path, embedded_scene(name)) {
-            (Some(p), _) if p.is_file() => Scene::load(&p).map_err(|e| e.to_string()),
-            (_, Some(text)) => Scene::from_toml(text, name).map_err(|e| e.to_string()),
-            (Some(p), None) => Err(format!("scene file {} does not exist", p.display())),
-            (None, None) => Err(format!("scene `{name}` is relative but the FMU was given no resource location")),
-        }
-    }
-
     fn model(&mut self) -> Result<&Stewart, String> {
         if self.model.is_none() || self.built_for.as_ref() != Some(&self.settings) {
             let mut s = self.scene.clone().ok_or("no scene loaded")?;
@@ -255,7 +236,8 @@ impl StewartFmu {
 
 impl Model for StewartFmu {
     fn description() -> ModelDescription {
-        let default = Scene::from_toml(embedded_scene(DEFAULT_SCENE).expect("shipped"), DEFAULT_SCENE).expect("valid");
+        let default = Scene::from_toml(feedcore::shipped::embedded(DEFAULT_SCENE).expect("shipped"), DEFAULT_SCENE)
+            .expect("valid");
         let rest = rest_inputs(&default);
         let inputs = input_names();
         let units = |i: usize| match i {
@@ -358,9 +340,9 @@ impl Model for StewartFmu {
     }
 
     fn resources() -> Vec<Resource> {
-        ["lt50m_B.toml", "lt50m_C.toml"]
+        feedcore::shipped::SCENES
             .iter()
-            .map(|n| Resource { name: n.to_string(), bytes: embedded_scene(n).expect("shipped").as_bytes().to_vec() })
+            .map(|(n, text)| Resource { name: n.to_string(), bytes: text.as_bytes().to_vec() })
             .collect()
     }
 
@@ -383,7 +365,7 @@ impl Model for StewartFmu {
             inputs_set: [false; INPUTS],
             cache: Cache::default(),
         };
-        let scene = m.load_scene(DEFAULT_SCENE)?;
+        let scene = feedcore::shipped::load_scene_parameter(DEFAULT_SCENE, m.resources.as_deref())?;
         m.inputs = rest_inputs(&scene);
         m.scene = Some(scene);
         Ok(m)
@@ -449,7 +431,7 @@ impl Model for StewartFmu {
         if vr != vr::SCENE {
             return Err(format!("value reference {vr} is not a settable String"));
         }
-        self.scene = Some(self.load_scene(value)?);
+        self.scene = Some(feedcore::shipped::load_scene_parameter(value, self.resources.as_deref())?);
         self.settings.scene_name = value.to_string();
         self.settings_changed();
         Ok(())
@@ -583,7 +565,8 @@ impl Model for StewartFmu {
         r.finish()?;
         if settings != self.settings {
             if settings.scene_name != self.settings.scene_name {
-                self.scene = Some(self.load_scene(&settings.scene_name)?);
+                self.scene =
+                    Some(feedcore::shipped::load_scene_parameter(&settings.scene_name, self.resources.as_deref())?);
             }
             self.settings = settings;
             self.settings_changed();

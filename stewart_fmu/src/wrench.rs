@@ -21,49 +21,10 @@ use nalgebra::{Matrix6, Vector6};
 
 use crate::relative::RelativeState;
 
-/// Pose, velocity and acceleration of a rigid body; all vectors in the world frame. `position`
-/// is the body's reference point: the centre of mass of a Stewart body, the centre point of the
-/// cabin.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RigidMotion {
-    pub position: Vec3,
-    /// Body to world.
-    pub orientation: Quat,
-    pub velocity: Vec3,
-    pub angular_velocity: Vec3,
-    pub acceleration: Vec3,
-    pub angular_acceleration: Vec3,
-}
+pub use feedcore::rigid::RigidMotion;
 
 /// Motion of the cabin centre point and of the cabin frame.
 pub type CabinMotion = RigidMotion;
-
-impl RigidMotion {
-    pub fn at_rest(position: Vec3, orientation: Quat) -> Self {
-        Self {
-            position,
-            orientation,
-            velocity: Vec3::zeros(),
-            angular_velocity: Vec3::zeros(),
-            acceleration: Vec3::zeros(),
-            angular_acceleration: Vec3::zeros(),
-        }
-    }
-
-    /// The first field that is not finite, as (name, value).
-    pub fn non_finite(&self) -> Option<(&'static str, String)> {
-        let q = self.orientation.coords;
-        let fields: [(&str, &[f64]); 6] = [
-            ("position", self.position.as_slice()),
-            ("orientation", q.as_slice()),
-            ("velocity", self.velocity.as_slice()),
-            ("angular_velocity", self.angular_velocity.as_slice()),
-            ("acceleration", self.acceleration.as_slice()),
-            ("angular_acceleration", self.angular_acceleration.as_slice()),
-        ];
-        fields.into_iter().find(|(_, v)| v.iter().any(|x| !x.is_finite())).map(|(n, v)| (n, format!("{v:?}")))
-    }
-}
 
 /// What the platform exerts on the cabin: force, and moment about the cabin centre point; world frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
