@@ -9,7 +9,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use feedcore::Vec3;
-use feedcore::scene::Scene;
+use feedcore::scene::{Quantity, Scene};
 
 use crate::cosim::{Coupled, Options};
 use crate::monolithic::Monolithic;
@@ -101,16 +101,30 @@ impl Trace {
         self.disp_mm.iter().map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()).fold(0.0, f64::max)
     }
 
-    pub fn write_csv(&self, path: &Path) -> std::io::Result<()> {
+    /// Writes the time histories the scene asks for (`outputs.quantities`): `t`, then
+    /// `dx_mm, dy_mm, dz_mm` (cabin displacement), `rx_mrad, ry_mrad, rz_mrad` (rotation),
+    /// `fx_n … mz_nm` (Stewart wrench), each group only if asked for.
+    pub fn write_csv(&self, path: &Path, quantities: &[Quantity]) -> std::io::Result<()> {
+        let groups: [(Quantity, &str, &dyn Fn(usize) -> Vec<f64>); 3] = [
+            (Quantity::CabinDisplacement, "dx_mm,dy_mm,dz_mm", &|i| self.disp_mm[i].to_vec()),
+            (Quantity::CabinRotation, "rx_mrad,ry_mrad,rz_mrad", &|i| self.rot_mrad[i].to_vec()),
+            (Quantity::Wrench, "fx_n,fy_n,fz_n,mx_nm,my_nm,mz_nm", &|i| self.wrench[i].to_vec()),
+        ];
+        let chosen: Vec<_> = groups.iter().filter(|g| quantities.contains(&g.0)).collect();
         let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-        writeln!(f, "t,dx_mm,dy_mm,dz_mm,rx_mrad,ry_mrad,rz_mrad,fx_n,fy_n,fz_n,mx_nm,my_nm,mz_nm")?;
+        write!(f, "t")?;
+        for g in &chosen {
+            write!(f, ",{}", g.1)?;
+        }
+        writeln!(f)?;
         for i in 0..self.t.len() {
-            let (d, r, w) = (self.disp_mm[i], self.rot_mrad[i], self.wrench[i]);
-            writeln!(
-                f,
-                "{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
-                self.t[i], d[0], d[1], d[2], r[0], r[1], r[2], w[0], w[1], w[2], w[3], w[4], w[5]
-            )?;
+            write!(f, "{}", self.t[i])?;
+            for g in &chosen {
+                for x in (g.2)(i) {
+                    write!(f, ",{x:e}")?;
+                }
+            }
+            writeln!(f)?;
         }
         Ok(())
     }
@@ -147,6 +161,8 @@ struct CosimProbe {
     r: [u32; 3],
     q: [u32; 4],
     w: [u32; 6],
+    /// Read the wrench only when the scene asks for it.
+    read_wrench: bool,
 }
 
 impl CosimProbe {
@@ -175,6 +191,7 @@ impl CosimProbe {
                 vr(c, "stewart", "wrench.m[2]".into())?,
                 vr(c, "stewart", "wrench.m[3]".into())?,
             ],
+            read_wrench: true,
         })
     }
 
@@ -183,7 +200,9 @@ impl CosimProbe {
         let cable = c.instance("cable").expect("checked in new");
         cable.get_real(&self.r, &mut r)?;
         cable.get_real(&self.q, &mut q)?;
-        c.instance("stewart").expect("checked in new").get_real(&self.w, &mut w)?;
+        if self.read_wrench {
+            c.instance("stewart").expect("checked in new").get_real(&self.w, &mut w)?;
+        }
         Ok(Probe {
             position: Vec3::from(r),
             orientation: feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3])),
@@ -281,7 +300,8 @@ pub fn simulate(
                 options.scheme = crate::cosim::Scheme::Sequential;
             }
             let mut c = Coupled::new(&sc, scene_file, options)?;
-            let probe = CosimProbe::new(&mut c)?;
+            let mut probe = CosimProbe::new(&mut c)?;
+            probe.read_wrench = scene.outputs.quantities.contains(&Quantity::Wrench);
             rec.record(0.0, &probe.read(&mut c)?);
             for k in 1..=steps {
                 let report = c.step(dt)?;

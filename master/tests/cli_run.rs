@@ -128,12 +128,27 @@ fn a_cable_only_scene_loads_and_computes_only_the_cable_model() {
     let scene = feedcore::scene::Scene::load(&path).unwrap();
     assert!(scene.system.is_none());
     assert!(cable_fmu::model::CableCabin::build(&scene, 0).unwrap().modes.is_none(), "no eigen solve");
-    let out = master(&["run", "--scene", path.to_str().unwrap(), "--scheme", "cable", "--t-end", "10", "--json"]);
+    let csv = common::fmu_dir().join("cable-only.csv");
+    let out = master(&[
+        "run",
+        "--scene",
+        path.to_str().unwrap(),
+        "--scheme",
+        "cable",
+        "--t-end",
+        "10",
+        "--json",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     // the 50 N rotating force moves the cabin by millimetres (static compliance ≈ 0.09 mm/N)
     let x = v["max_abs_disp_mm"][0].as_f64().unwrap();
     assert!(x > 1.0 && x < 20.0, "{x}");
+    // the scene asks for displacement and rotation only: no wrench columns
+    let header = std::fs::read_to_string(&csv).unwrap().lines().next().unwrap().to_string();
+    assert_eq!(header, "t,dx_mm,dy_mm,dz_mm,rx_mrad,ry_mrad,rz_mrad");
     let out = master(&["run", "--scene", path.to_str().unwrap(), "--scheme", "ijcsa", "--quiet"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no moving platform"));

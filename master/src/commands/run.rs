@@ -26,7 +26,8 @@ pub struct Args {
     #[arg(long)]
     pub t_end: Option<f64>,
     /// Write the time histories as CSV: t, dx_mm, dy_mm, dz_mm (cabin-centre displacement from the
-    /// static equilibrium), rx_mrad, ry_mrad, rz_mrad (rotation), fx_n … mz_nm (Stewart wrench).
+    /// static equilibrium), rx_mrad, ry_mrad, rz_mrad (rotation), fx_n … mz_nm (Stewart wrench) —
+    /// the groups the scene's outputs.quantities ask for, at its outputs.sample_interval_s.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Print a JSON summary instead of text.
@@ -98,7 +99,7 @@ pub fn run(args: &Args) -> CmdResult {
     let trace = simulate(&scene, &args.scene, method, dt, t_end, quiet)?;
     if let Some(out) = &args.out {
         create_parent(out)?;
-        trace.write_csv(out)?;
+        trace.write_csv(out, &scene.outputs.quantities)?;
     }
     if let Some(p) = &args.plot {
         plot_traces(&[&trace], &format!("{}: cabin-centre response, {} at h = {dt} s", scene.name, trace.method), p)?;
