@@ -90,7 +90,7 @@ fn directional_derivatives_match_finite_differences_with_rollback() {
     let unknowns: Vec<u32> = (vr::POSITION..vr::DAMPING_RATIO).collect();
     let knowns: Vec<u32> = (0..6).collect();
     let base: Vec<f64> = (0..6).map(|k| m.get_real(vr::WRENCH + k).unwrap()).collect();
-    let mut step_with = |m: &mut CableFmu, w: &[f64]| {
+    let step_with = |m: &mut CableFmu, w: &[f64]| {
         m.restore_state(&saved).unwrap();
         for (i, x) in w.iter().enumerate() {
             m.set_real(vr::WRENCH + i as u32, *x).unwrap();
