@@ -1,8 +1,12 @@
 #!/usr/bin/env bash
-# The whole test suite: Rust tests, then the fmpy cross-checks of the packaged FMUs.
+# The whole test suite: formatting and lints, Rust tests, then the fmpy cross-checks of the packaged FMUs.
 # Installs fmpy into a local virtual environment (.venv) on first use.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+echo "== format and lints =="
+cargo fmt --all --check
+cargo clippy --workspace --all-targets --release --locked -- -D warnings
 
 echo "== build (release) =="
 cargo build --release --workspace --locked

@@ -601,17 +601,17 @@ impl Check<'_> {
         self.positive(&format!("{key}.radius_m"), ring.radius_m)?;
         self.finite(&format!("{key}.z_m"), ring.z_m)?;
         self.vector(&format!("{key}.angle_deg"), &ring.angle_deg)?;
-        if let Some(n) = count {
-            if ring.angle_deg.len() != n {
-                return Err(self.err(
-                    &format!("{key}.angle_deg"),
-                    &format!("{:?}", ring.angle_deg),
-                    &format!(
-                        "{n} points are needed, one per {}",
-                        if n == LEGS && key.starts_with("stewart") { "leg" } else { "cable" }
-                    ),
-                ));
-            }
+        if let Some(n) = count
+            && ring.angle_deg.len() != n
+        {
+            return Err(self.err(
+                &format!("{key}.angle_deg"),
+                &format!("{:?}", ring.angle_deg),
+                &format!(
+                    "{n} points are needed, one per {}",
+                    if n == LEGS && key.starts_with("stewart") { "leg" } else { "cable" }
+                ),
+            ));
         }
         Ok(())
     }

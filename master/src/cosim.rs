@@ -142,11 +142,14 @@ pub struct Coupled {
     options: Options,
     /// Outputs at the last two communication points (for extrapolation).
     y: Vec<f64>,
-    y_prev: Option<Vec<f64>>,
-    /// Interface Jacobian ∂Y/∂U (block diagonal over the units), dense, and its age.
-    dydu: Option<nalgebra::DMatrix<f64>>,
-    // scratch
-    u: Vec<f64>,
+    y_prev: Vec<f64>,
+    has_prev: bool,
+    /// Interface Jacobian ∂Y/∂U (block diagonal over the units), dense; set once computed.
+    dydu: nalgebra::DMatrix<f64>,
+    has_jacobian: bool,
+    /// The order in which Gauss–Seidel-type schemes step the units.
+    order: Vec<usize>,
+    work: Work,
 }
 
 /// Resolves a scene-relative path.
@@ -302,10 +305,14 @@ impl Coupled {
             time: 0.0,
             options,
             y: vec![0.0; ny],
-            y_prev: None,
-            dydu: None,
-            u: vec![0.0; nu],
+            y_prev: vec![0.0; ny],
+            has_prev: false,
+            dydu: nalgebra::DMatrix::zeros(ny, nu),
+            has_jacobian: false,
+            order: Vec::new(),
+            work: Work::new(nu, ny),
         };
+        c.order = c.sequence();
         c.read_outputs()?;
         // Scale of each input for the convergence test: the largest start value among the
         // inputs of its FMU with the same unit (so the components of a force share one scale),
@@ -362,18 +369,6 @@ impl Coupled {
         Ok(())
     }
 
-    fn set_inputs(unit: &mut Unit, u: &[f64]) -> Result<(), fmi2::import::Error> {
-        let (o, n) = (unit.input_offset, unit.inputs.len());
-        unit.inst.set_real(&unit.inputs, &u[o..o + n])
-    }
-
-    /// `C y` into `u`.
-    fn couple(&self, y: &[f64], u: &mut [f64]) {
-        for (ui, &s) in u.iter_mut().zip(&self.source) {
-            *ui = y[s];
-        }
-    }
-
     /// Largest scaled |U − C Y|.
     fn residual(&self, u: &[f64]) -> (f64, usize) {
         let mut worst = (0.0, 0);
@@ -390,28 +385,35 @@ impl Coupled {
         CosimError { time: t, reason: reason.into() }
     }
 
-    /// The first guess of the end-of-step inputs (and, for linear extrapolation, their slope).
-    fn predict(&self, h: f64) -> (Vec<f64>, Option<Vec<f64>>) {
-        let mut u = vec![0.0; self.u.len()];
-        self.couple(&self.y, &mut u);
-        match (&self.y_prev, self.options.extrapolation) {
-            (Some(prev), Extrapolation::Linear) => {
-                let mut up = vec![0.0; u.len()];
-                self.couple(prev, &mut up);
-                let slope: Vec<f64> = u.iter().zip(&up).map(|(a, b)| (a - b) / h).collect();
-                (u, Some(slope))
+    /// The first guess of the end-of-step inputs into `work.guess` (extrapolated linearly if
+    /// asked), and for non-iterating schemes the slope into `work.slope`. Returns whether a
+    /// slope is set.
+    fn predict(&mut self, h: f64) -> bool {
+        let Coupled { work, source, y, y_prev, has_prev, options, .. } = self;
+        for (g, &s) in work.guess.iter_mut().zip(source.iter()) {
+            *g = y[s];
+        }
+        if !(*has_prev && options.extrapolation == Extrapolation::Linear) {
+            return false;
+        }
+        for ((sl, g), &s) in work.slope.iter_mut().zip(&work.guess).zip(source.iter()) {
+            *sl = (g - y_prev[s]) / h;
+        }
+        true
+    }
+
+    /// The guess extrapolated to the end of the step (iterating schemes set end values).
+    fn predict_end(&mut self, h: f64) {
+        if self.predict(h) {
+            for (g, s) in self.work.guess.iter_mut().zip(&self.work.slope) {
+                *g += s * h;
             }
-            _ => (u, None),
         }
     }
 
     /// An explicit scheme whose interface values grew far beyond their scale is unstable: say so.
     fn unstable(&self, e: CosimError) -> CosimError {
-        let mut u = vec![0.0; self.u.len()];
-        self.couple(&self.y, &mut u);
-        let (i, g) = (0..u.len())
-            .map(|i| (i, (u[i] / self.scale[i]).abs()))
-            .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+        let Some((i, g)) = self.largest_coupled_value() else { return e };
         if g < 10.0 {
             return e;
         }
@@ -422,21 +424,21 @@ impl Coupled {
                  (the platform's added mass on the cabin); use ijcsa or iterative",
                 e.reason,
                 self.input_names[i],
-                u[i],
+                self.y[self.source[i]],
                 self.options.scheme.name()
             ),
         }
     }
 
-    /// The first guess of the end-of-step inputs, extrapolated if asked.
-    fn predict_end(&self, h: f64) -> Vec<f64> {
-        let (mut u, slope) = self.predict(h);
-        if let Some(slope) = slope {
-            for (ui, s) in u.iter_mut().zip(&slope) {
-                *ui += s * h;
-            }
-        }
-        u
+    /// The coupled value C·Y largest relative to its scale: (index, ratio).
+    fn largest_coupled_value(&self) -> Option<(usize, f64)> {
+        (0..self.source.len()).map(|i| (i, (self.y[self.source[i]] / self.scale[i]).abs())).fold(
+            None,
+            |a: Option<(usize, f64)>, b| match a {
+                Some(a) if !(b.1 > a.1) => Some(a),
+                _ => Some(b),
+            },
+        )
     }
 
     /// One macro step of size `h`.
@@ -445,15 +447,8 @@ impl Coupled {
         let t1 = t + h;
         let report = match self.options.scheme {
             Scheme::Jacobi => self.step_jacobi(t, h).map_err(|e| self.unstable(e))?,
-            Scheme::GaussSeidel { reversed } => {
-                let order: Vec<usize> =
-                    if reversed { (0..self.units.len()).rev().collect() } else { (0..self.units.len()).collect() };
-                self.step_gauss_seidel(t, h, &order).map_err(|e| self.unstable(e))?
-            }
-            Scheme::Sequential => {
-                let order = self.flow_order();
-                self.step_gauss_seidel(t, h, &order)?
-            }
+            Scheme::GaussSeidel { .. } => self.step_gauss_seidel(t, h).map_err(|e| self.unstable(e))?,
+            Scheme::Sequential => self.step_gauss_seidel(t, h)?,
             Scheme::Iterative => self.step_iterative(t, h)?,
             Scheme::Ijcsa => self.step_ijcsa(t, h)?,
         };
@@ -462,45 +457,52 @@ impl Coupled {
         }
         // A coupling value a hundred times its scale (kilonewtons for a weight of a few, hundreds
         // of m/s² for a cabin): the coupled motion has run away; stop before the numbers lie.
-        let mut u = vec![0.0; self.u.len()];
-        self.couple(&self.y, &mut u);
-        if u.iter().zip(&self.scale).any(|(x, s)| (x / s).abs() > 100.0) {
+        if self.largest_coupled_value().is_some_and(|(_, g)| g > 100.0) {
             return Err(self.unstable(self.err(t1, format!("{} diverged", self.options.scheme.name()))));
         }
         self.time = t1;
         Ok(report)
     }
 
-    /// Sets a unit's inputs from `u` (and the slope for interpolating FMUs), then steps it.
-    /// With a `slope`, an FMU that interpolates inputs gets it through
-    /// `fmi2SetRealInputDerivatives`; another gets the extrapolated end-of-step value.
-    fn advance(&mut self, k: usize, u: &[f64], slope: Option<&[f64]>, t: f64, h: f64) -> Result<(), CosimError> {
-        let unit = &mut self.units[k];
+    /// The outputs before the step become the history for extrapolation.
+    fn keep_history(&mut self) {
+        self.y_prev.copy_from_slice(&self.y);
+        self.has_prev = true;
+    }
+
+    /// Sets unit `k`'s inputs from `work.guess` (with `slope`: an FMU that interpolates inputs
+    /// gets it through `fmi2SetRealInputDerivatives`, another the extrapolated end value), then
+    /// steps it.
+    fn advance(&mut self, k: usize, slope: bool, t: f64, h: f64) -> Result<(), CosimError> {
+        let Coupled { units, work, .. } = self;
+        let unit = &mut units[k];
+        let (o, n) = (unit.input_offset, unit.inputs.len());
+        let (u, s) = (&work.guess[o..o + n], &work.slope[o..o + n]);
         let r = (|| {
-            let (o, n) = (unit.input_offset, unit.inputs.len());
-            match slope {
-                Some(s) if unit.interpolates => {
-                    unit.inst.set_real(&unit.inputs, &u[o..o + n])?;
-                    unit.inst.set_real_input_derivatives(&unit.inputs, &vec![1; n], &s[o..o + n])?;
+            if slope && unit.interpolates {
+                unit.inst.set_real(&unit.inputs, u)?;
+                unit.inst.set_real_input_derivatives(&unit.inputs, &work.ones[..n], s)?;
+            } else if slope {
+                for i in 0..n {
+                    work.end[i] = u[i] + s[i] * h;
                 }
-                Some(s) => {
-                    let end: Vec<f64> = (o..o + n).map(|i| u[i] + s[i] * h).collect();
-                    unit.inst.set_real(&unit.inputs, &end)?;
-                }
-                None => Self::set_inputs(unit, u)?,
+                unit.inst.set_real(&unit.inputs, &work.end[..n])?;
+            } else {
+                unit.inst.set_real(&unit.inputs, u)?;
             }
             unit.inst.do_step(t, h)
         })();
-        r.map_err(|e| CosimError { time: t + h, reason: format!("FMU `{}`: {e}", self.units[k].name) })
+        r.map_err(|e| CosimError { time: t + h, reason: format!("FMU `{}`: {e}", unit.name) })
     }
 
     fn step_jacobi(&mut self, t: f64, h: f64) -> Result<StepReport, CosimError> {
-        let (u, slope) = self.predict(h);
         // With a slope the FMUs extrapolate from the last communication point themselves.
+        let slope = self.predict(h);
+        self.keep_history();
         for k in 0..self.units.len() {
-            self.advance(k, &u, slope.as_deref(), t, h)?;
+            self.advance(k, slope, t, h)?;
         }
-        self.finish_step(&u, t + h)
+        self.finish_step(t + h)
     }
 
     /// The units ordered so that each comes after those it takes inputs from (Kahn's algorithm;
@@ -527,36 +529,42 @@ impl Coupled {
         order
     }
 
-    fn step_gauss_seidel(&mut self, t: f64, h: f64, order: &[usize]) -> Result<StepReport, CosimError> {
-        let (mut u, mut slope) = self.predict(h);
-        for &k in order {
-            self.advance(k, &u, slope.as_deref(), t, h)?;
+    /// The order in which Gauss–Seidel-type schemes step the units.
+    fn sequence(&self) -> Vec<usize> {
+        match self.options.scheme {
+            Scheme::GaussSeidel { reversed: true } => (0..self.units.len()).rev().collect(),
+            Scheme::Sequential => self.flow_order(),
+            _ => (0..self.units.len()).collect(),
+        }
+    }
+
+    fn step_gauss_seidel(&mut self, t: f64, h: f64) -> Result<StepReport, CosimError> {
+        let slope = self.predict(h);
+        self.keep_history();
+        for step in 0..self.order.len() {
+            let k = self.order[step];
+            self.advance(k, slope, t, h)?;
             // the newest outputs of this unit feed the ones after it
-            let unit = &mut self.units[k];
+            let Coupled { units, y, work, source, .. } = self;
+            let unit = &mut units[k];
             let (o, n) = (unit.output_offset, unit.outputs.len());
             unit.inst
-                .get_real(&unit.outputs, &mut self.y[o..o + n])
+                .get_real(&unit.outputs, &mut y[o..o + n])
                 .map_err(|e| CosimError { time: t + h, reason: e.to_string() })?;
-            let mut fresh = vec![0.0; u.len()];
-            self.couple(&self.y, &mut fresh);
-            for (i, f) in fresh.iter().enumerate() {
-                if self.source[i] >= o && self.source[i] < o + n {
-                    u[i] = *f; // already an end-of-step value: no extrapolation
-                    if let Some(s) = slope.as_mut() {
-                        s[i] = 0.0;
-                    }
+            for (i, &src) in source.iter().enumerate() {
+                if src >= o && src < o + n {
+                    work.guess[i] = y[src]; // already an end-of-step value: no extrapolation
+                    work.slope[i] = 0.0;
                 }
             }
         }
-        self.finish_step(&u, t + h)
+        self.finish_step(t + h)
     }
 
-    /// After the FMUs stepped with (end-of-step) inputs `u`: new outputs, residual, history.
-    fn finish_step(&mut self, u: &[f64], t1: f64) -> Result<StepReport, CosimError> {
-        let prev = self.y.clone();
+    /// After the FMUs stepped with (end-of-step) inputs `work.guess`: new outputs and residual.
+    fn finish_step(&mut self, t1: f64) -> Result<StepReport, CosimError> {
         self.read_outputs().map_err(|e| self.err(t1, e.to_string()))?;
-        let residual = self.residual(u).0;
-        self.y_prev = Some(prev);
+        let residual = self.residual(&self.work.guess).0;
         Ok(StepReport { iterations: 1, residual })
     }
 
@@ -579,162 +587,153 @@ impl Coupled {
         Ok(())
     }
 
-    /// Steps every unit from the saved states with inputs `u`; outputs into `self.y`.
-    fn evaluate(&mut self, u: &[f64], t: f64, h: f64, rollback: bool) -> Result<(), CosimError> {
-        if rollback {
+    /// Steps every unit from the saved states with the inputs `work.guess`; outputs into
+    /// `self.y`. Returns the finished step's report once the interface residual is within the
+    /// tolerance, and fails at the iteration limit.
+    fn evaluate(&mut self, it: usize, t: f64, h: f64) -> Result<Option<StepReport>, CosimError> {
+        if it > 1 {
             self.restore_states(t)?;
         }
         for k in 0..self.units.len() {
-            self.advance(k, u, None, t, h)?;
+            self.advance(k, false, t, h)?;
         }
-        self.read_outputs().map_err(|e| self.err(t + h, e.to_string()))
+        self.read_outputs().map_err(|e| self.err(t + h, e.to_string()))?;
+        let (res, worst) = self.residual(&self.work.guess);
+        if res <= self.options.tol {
+            return Ok(Some(StepReport { iterations: it, residual: res }));
+        }
+        if it == self.options.max_iter {
+            return Err(self.not_converged(t + h, res, worst));
+        }
+        // the fixed-point residual C·Y − U into `work.r`
+        let Coupled { work, source, y, .. } = self;
+        for (i, &s) in source.iter().enumerate() {
+            work.r[i] = y[s] - work.guess[i];
+        }
+        Ok(None)
     }
 
     fn step_iterative(&mut self, t: f64, h: f64) -> Result<StepReport, CosimError> {
-        let prev = self.y.clone();
+        self.predict_end(h);
+        self.keep_history();
         self.save_states(t)?;
-        let u = self.predict_end(h);
-        let mut u = u;
-        let n = u.len();
         let mut omega = match self.options.relaxation {
             Relaxation::Fixed(w) => w,
             Relaxation::Aitken => 0.3,
         };
-        let mut r_prev: Option<Vec<f64>> = None;
-        let mut cu = vec![0.0; n];
         for it in 1..=self.options.max_iter {
-            self.evaluate(&u, t, h, it > 1)?;
-            let (res, worst) = self.residual(&u);
-            if res <= self.options.tol {
-                self.y_prev = Some(prev);
-                return Ok(StepReport { iterations: it, residual: res });
+            if let Some(done) = self.evaluate(it, t, h)? {
+                return Ok(done);
             }
-            if it == self.options.max_iter {
-                return Err(self.not_converged(t + h, res, worst));
-            }
-            self.couple(&self.y, &mut cu);
-            let r: Vec<f64> = (0..n).map(|i| cu[i] - u[i]).collect();
-            if let (Relaxation::Aitken, Some(rp)) = (self.options.relaxation, &r_prev) {
-                // Aitken Δ²: ω ← −ω · (r_prev · (r − r_prev)) / |r − r_prev|²
-                let d: Vec<f64> = (0..n).map(|i| (r[i] - rp[i]) / self.scale[i]).collect();
-                let dd: f64 = d.iter().map(|x| x * x).sum();
+            let Coupled { work, scale, options, .. } = self;
+            if options.relaxation == Relaxation::Aitken && it > 1 {
+                // Aitken Δ²: ω ← −ω · (r_prev · (r − r_prev)) / |r − r_prev|², scaled entries
+                let (mut num, mut dd) = (0.0, 0.0);
+                for i in 0..work.r.len() {
+                    let d = (work.r[i] - work.r_prev[i]) / scale[i];
+                    dd += d * d;
+                    num += work.r_prev[i] / scale[i] * d;
+                }
                 if dd > 0.0 {
-                    let num: f64 = (0..n).map(|i| rp[i] / self.scale[i] * d[i]).sum();
                     omega = (-omega * num / dd).clamp(0.05, 1.0);
                 }
             }
-            for i in 0..n {
-                u[i] += omega * r[i];
+            for (g, r) in work.guess.iter_mut().zip(&work.r) {
+                *g += omega * r;
             }
-            r_prev = Some(r);
+            work.r_prev.copy_from_slice(&work.r);
         }
-        unreachable!("the loop returns")
+        unreachable!("evaluate fails at the iteration limit")
     }
 
     fn step_ijcsa(&mut self, t: f64, h: f64) -> Result<StepReport, CosimError> {
-        let prev = self.y.clone();
+        self.predict_end(h);
+        self.keep_history();
         self.save_states(t)?;
-        let mut u = self.predict_end(h);
-        let n = u.len();
-        let mut cu = vec![0.0; n];
         let mut fresh_jacobian = false;
         let mut last_res = f64::INFINITY;
         for it in 1..=self.options.max_iter {
-            self.evaluate(&u, t, h, it > 1)?;
-            let (res, worst) = self.residual(&u);
-            if res <= self.options.tol {
-                self.y_prev = Some(prev);
-                return Ok(StepReport { iterations: it, residual: res });
-            }
-            if it == self.options.max_iter {
-                return Err(self.not_converged(t + h, res, worst));
+            if let Some(done) = self.evaluate(it, t, h)? {
+                return Ok(done);
             }
             // Jacobian of the step just taken (derivatives at the current inputs)
+            let res = self.residual(&self.work.guess).0;
             let slow = res > 0.1 * last_res;
-            if self.dydu.is_none()
+            if !self.has_jacobian
                 || self.options.jacobian == JacobianUpdate::EveryStep && it == 1
                 || (slow && !fresh_jacobian)
             {
-                let j = self.interface_jacobian(&u, t, h)?;
-                self.dydu = Some(j);
+                self.interface_jacobian(t, h)?;
                 fresh_jacobian = true;
             }
             last_res = res;
-            // Newton: (I − C ∂Y/∂U) ΔU = C Y − U
-            self.couple(&self.y, &mut cu);
-            let dydu = self.dydu.as_ref().expect("computed above");
-            let mut a = nalgebra::DMatrix::<f64>::identity(n, n);
+            // Newton: (I − C ∂Y/∂U) ΔU = C Y − U, in place
+            let Coupled { work, source, dydu, .. } = self;
+            let n = work.r.len();
             for i in 0..n {
-                let row = dydu.row(self.source[i]);
                 for j in 0..n {
-                    a[(i, j)] -= row[j];
+                    work.newton[i * n + j] = f64::from(u8::from(i == j)) - dydu[(source[i], j)];
                 }
             }
-            let rhs = nalgebra::DVector::from_iterator(n, (0..n).map(|i| cu[i] - u[i]));
-            let du = a.lu().solve(&rhs).ok_or_else(|| self.err(t + h, "the interface Jacobian is singular"))?;
-            for i in 0..n {
-                u[i] += du[i];
+            if !solve_dense_in_place(&mut work.newton, n, &mut work.r) {
+                return Err(self.err(t + h, "the interface Jacobian is singular"));
+            }
+            for (g, d) in work.guess.iter_mut().zip(&work.r) {
+                *g += d;
             }
         }
-        unreachable!("the loop returns")
+        unreachable!("evaluate fails at the iteration limit")
     }
 
-    /// ∂Y/∂U after stepping with `u` (the FMUs' step maps); directional derivatives where the FMU
-    /// provides them, central differences with rollback otherwise.
-    fn interface_jacobian(&mut self, u: &[f64], t: f64, h: f64) -> Result<nalgebra::DMatrix<f64>, CosimError> {
-        let (ny, nu) = (self.y.len(), u.len());
-        let mut j = nalgebra::DMatrix::zeros(ny, nu);
-        let y_now = self.y.clone();
+    /// ∂Y/∂U after stepping with `work.guess` (the FMUs' step maps) into `self.dydu`: directional
+    /// derivatives where the FMU provides them, central differences with rollback otherwise.
+    fn interface_jacobian(&mut self, t: f64, h: f64) -> Result<(), CosimError> {
+        let fail =
+            |e: fmi2::import::Error, name: &str| CosimError { time: t + h, reason: format!("FMU `{name}`: {e}") };
         for k in 0..self.units.len() {
-            let (io, ni) = (self.units[k].input_offset, self.units[k].inputs.len());
-            let (oo, no) = (self.units[k].output_offset, self.units[k].outputs.len());
-            if self.units[k].derivatives {
-                let unit = &mut self.units[k];
-                let mut seed = vec![0.0; ni];
-                let mut col = vec![0.0; no];
+            let Coupled { units, work, dydu, scale, .. } = self;
+            let unit = &mut units[k];
+            let (io, ni) = (unit.input_offset, unit.inputs.len());
+            let (oo, no) = (unit.output_offset, unit.outputs.len());
+            let (seed, col) = (&mut work.seed[..ni], &mut work.col[..no]);
+            if unit.derivatives {
                 for c in 0..ni {
-                    seed.iter_mut().for_each(|s| *s = 0.0);
+                    seed.fill(0.0);
                     seed[c] = 1.0;
                     unit.inst
-                        .directional_derivative(&unit.outputs, &unit.inputs, &seed, &mut col)
-                        .map_err(|e| CosimError { time: t + h, reason: format!("FMU `{}`: {e}", unit.name) })?;
+                        .directional_derivative(&unit.outputs, &unit.inputs, seed, col)
+                        .map_err(|e| fail(e, &unit.name))?;
                     for r in 0..no {
-                        j[(oo + r, io + c)] = col[r];
+                        dydu[(oo + r, io + c)] = col[r];
                     }
                 }
-            } else {
-                for c in 0..ni {
-                    let delta = 1e-6 * self.scale[io + c];
-                    let mut column = vec![0.0; no];
-                    for sign in [1.0, -1.0] {
-                        let mut up = u.to_vec();
-                        up[io + c] += sign * delta;
-                        let unit = &mut self.units[k];
-                        let s = unit.state.as_ref().expect("saved");
-                        unit.inst.set_state(s).map_err(|e| CosimError { time: t, reason: e.to_string() })?;
-                        self.advance(k, &up, None, t, h)?;
-                        let unit = &mut self.units[k];
-                        let mut out = vec![0.0; no];
-                        unit.inst
-                            .get_real(&unit.outputs, &mut out)
-                            .map_err(|e| CosimError { time: t + h, reason: e.to_string() })?;
-                        for r in 0..no {
-                            column[r] += sign * out[r] / (2.0 * delta);
-                        }
-                    }
-                    for r in 0..no {
-                        j[(oo + r, io + c)] = column[r];
-                    }
-                }
-                // back to the nominal step of this unit
-                let unit = &mut self.units[k];
-                let s = unit.state.as_ref().expect("saved");
-                unit.inst.set_state(s).map_err(|e| CosimError { time: t, reason: e.to_string() })?;
-                self.advance(k, u, None, t, h)?;
+                continue;
             }
+            // central differences, each from the saved state; the nominal step last
+            let state = unit.state.as_ref().expect("saved");
+            for c in 0..ni {
+                let delta = 1e-6 * scale[io + c];
+                for r in 0..no {
+                    dydu[(oo + r, io + c)] = 0.0;
+                }
+                for sign in [1.0, -1.0] {
+                    work.end[..ni].copy_from_slice(&work.guess[io..io + ni]);
+                    work.end[c] += sign * delta;
+                    unit.inst.set_state(state).map_err(|e| fail(e, &unit.name))?;
+                    unit.inst.set_real(&unit.inputs, &work.end[..ni]).map_err(|e| fail(e, &unit.name))?;
+                    unit.inst.do_step(t, h).map_err(|e| fail(e, &unit.name))?;
+                    unit.inst.get_real(&unit.outputs, col).map_err(|e| fail(e, &unit.name))?;
+                    for r in 0..no {
+                        dydu[(oo + r, io + c)] += sign * col[r] / (2.0 * delta);
+                    }
+                }
+            }
+            unit.inst.set_state(state).map_err(|e| fail(e, &unit.name))?;
+            unit.inst.set_real(&unit.inputs, &work.guess[io..io + ni]).map_err(|e| fail(e, &unit.name))?;
+            unit.inst.do_step(t, h).map_err(|e| fail(e, &unit.name))?;
         }
-        self.y = y_now;
-        Ok(j)
+        self.has_jacobian = true;
+        Ok(())
     }
 
     fn not_converged(&self, t: f64, res: f64, worst: usize) -> CosimError {
@@ -749,5 +748,89 @@ impl Coupled {
                 self.options.tol
             ),
         )
+    }
+}
+
+/// Buffers the schemes reuse every step (no allocation inside the time loop).
+struct Work {
+    /// Inputs being tried (end-of-step values), their slope, and the fixed-point residual.
+    guess: Vec<f64>,
+    slope: Vec<f64>,
+    r: Vec<f64>,
+    r_prev: Vec<f64>,
+    /// One unit's input values or seeds, and output column.
+    end: Vec<f64>,
+    seed: Vec<f64>,
+    col: Vec<f64>,
+    ones: Vec<i32>,
+    /// The interface Newton matrix, row-major.
+    newton: Vec<f64>,
+}
+
+impl Work {
+    fn new(nu: usize, ny: usize) -> Work {
+        Work {
+            guess: vec![0.0; nu],
+            slope: vec![0.0; nu],
+            r: vec![0.0; nu],
+            r_prev: vec![0.0; nu],
+            end: vec![0.0; nu],
+            seed: vec![0.0; nu],
+            col: vec![0.0; ny],
+            ones: vec![1; nu],
+            newton: vec![0.0; nu * nu],
+        }
+    }
+}
+
+/// Solves the dense system `a x = b` (row-major `a`, n × n) in place by Gaussian elimination
+/// with partial pivoting: the interface system is small (25 unknowns here) and solved every
+/// iteration, so it reuses its buffers. `b` becomes x; false if `a` is singular.
+fn solve_dense_in_place(a: &mut [f64], n: usize, b: &mut [f64]) -> bool {
+    for c in 0..n {
+        let p = (c..n).max_by(|&i, &j| a[i * n + c].abs().total_cmp(&a[j * n + c].abs())).expect("n > c");
+        if a[p * n + c] == 0.0 || !a[p * n + c].is_finite() {
+            return false;
+        }
+        if p != c {
+            for j in 0..n {
+                a.swap(p * n + j, c * n + j);
+            }
+            b.swap(p, c);
+        }
+        for i in c + 1..n {
+            let f = a[i * n + c] / a[c * n + c];
+            if f != 0.0 {
+                for j in c..n {
+                    a[i * n + j] -= f * a[c * n + j];
+                }
+                b[i] -= f * b[c];
+            }
+        }
+    }
+    for c in (0..n).rev() {
+        let s: f64 = (c + 1..n).map(|j| a[c * n + j] * b[j]).sum();
+        b[c] = (b[c] - s) / a[c * n + c];
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dense_solve_needs_pivoting_and_matches_the_product() {
+        // a zero leading entry forces a row swap
+        let a0 = [0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0];
+        let x = [1.0, -2.0, 0.5];
+        let mut b: Vec<f64> = (0..3).map(|i| (0..3).map(|j| a0[i * 3 + j] * x[j]).sum()).collect();
+        let mut a = a0.to_vec();
+        assert!(solve_dense_in_place(&mut a, 3, &mut b));
+        for k in 0..3 {
+            assert!((b[k] - x[k]).abs() < 1e-14);
+        }
+        let mut singular = vec![1.0, 2.0, 2.0, 4.0];
+        assert!(!solve_dense_in_place(&mut singular, 2, &mut [1.0, 1.0]));
     }
 }

@@ -105,7 +105,8 @@ impl Trace {
     /// `dx_mm, dy_mm, dz_mm` (cabin displacement), `rx_mrad, ry_mrad, rz_mrad` (rotation),
     /// `fx_n … mz_nm` (Stewart wrench), each group only if asked for.
     pub fn write_csv(&self, path: &Path, quantities: &[Quantity]) -> std::io::Result<()> {
-        let groups: [(Quantity, &str, &dyn Fn(usize) -> Vec<f64>); 3] = [
+        type Column<'a> = &'a dyn Fn(usize) -> Vec<f64>;
+        let groups: [(Quantity, &str, Column); 3] = [
             (Quantity::CabinDisplacement, "dx_mm,dy_mm,dz_mm", &|i| self.disp_mm[i].to_vec()),
             (Quantity::CabinRotation, "rx_mrad,ry_mrad,rz_mrad", &|i| self.rot_mrad[i].to_vec()),
             (Quantity::Wrench, "fx_n,fy_n,fz_n,mx_nm,my_nm,mz_nm", &|i| self.wrench[i].to_vec()),

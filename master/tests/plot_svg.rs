@@ -51,7 +51,7 @@ fn pieces(d: &str) -> Vec<Vec<(f64, f64)>> {
     let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
     let mut nums: Vec<f64> = Vec::new();
     let flush = |nums: &mut Vec<f64>, out: &mut Vec<Vec<(f64, f64)>>, new_piece: bool| {
-        assert!(nums.len() % 2 == 0, "odd number count in {d}");
+        assert!(nums.len().is_multiple_of(2), "odd number count in {d}");
         if new_piece {
             out.push(Vec::new());
         }

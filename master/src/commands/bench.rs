@@ -188,7 +188,7 @@ pub fn run(args: &Args) -> CmdResult {
     let mut names: Vec<&str> = cells.iter().map(|c| c.scheme.as_str()).collect();
     names.dedup();
     for name in names {
-        let ok: Vec<(&Cell, &(f64, f64, f64, f64))> =
+        let ok: Vec<(&Cell, &_)> =
             cells.iter().filter(|c| c.scheme == name).filter_map(|c| c.result.as_ref().ok().map(|r| (c, r))).collect();
         let best = ok.iter().min_by(|a, b| a.1.1.total_cmp(&b.1.1));
         let cheap = ok.iter().filter(|(_, r)| r.1 <= 0.01 * peak).min_by(|a, b| a.1.0.total_cmp(&b.1.0));

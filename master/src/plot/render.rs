@@ -101,16 +101,16 @@ struct Prepared<'a> {
 }
 
 fn check_log(panel: &str, series: &str, axis: Axis, scale: Scale, values: &[f64]) -> Result<(), PlotError> {
-    if scale == Scale::Log10 {
-        if let Some((index, &value)) = values.iter().enumerate().find(|&(_, &v)| v.is_finite() && v <= 0.0) {
-            return Err(PlotError::NonPositiveOnLog {
-                panel: panel.to_owned(),
-                series: series.to_owned(),
-                axis,
-                index,
-                value,
-            });
-        }
+    if scale == Scale::Log10
+        && let Some((index, &value)) = values.iter().enumerate().find(|&(_, &v)| v.is_finite() && v <= 0.0)
+    {
+        return Err(PlotError::NonPositiveOnLog {
+            panel: panel.to_owned(),
+            series: series.to_owned(),
+            axis,
+            index,
+            value,
+        });
     }
     Ok(())
 }
@@ -793,10 +793,10 @@ fn write_panel(
             write_dash(out, d.dash, d.width)?;
             writeln!(out, "/>")?;
         }
-        if let Some((marker, size)) = d.marker {
-            if !d.markers.is_empty() {
-                write_markers(out, &d.name, marker, size, d.color, &d.markers)?;
-            }
+        if let Some((marker, size)) = d.marker
+            && !d.markers.is_empty()
+        {
+            write_markers(out, &d.name, marker, size, d.color, &d.markers)?;
         }
     }
     writeln!(out, "</g>")?;

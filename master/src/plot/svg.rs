@@ -22,7 +22,7 @@ impl fmt::Display for Num {
         write!(f, "{}", h / 100)?;
         let frac = h % 100;
         if frac != 0 {
-            if frac % 10 == 0 { write!(f, ".{}", frac / 10) } else { write!(f, ".{frac:02}") }
+            if frac.is_multiple_of(10) { write!(f, ".{}", frac / 10) } else { write!(f, ".{frac:02}") }
         } else {
             Ok(())
         }
