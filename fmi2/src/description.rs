@@ -301,6 +301,36 @@ pub struct ModelDescription {
     pub variables: Vec<Variable>,
 }
 
+impl ModelDescription {
+    /// A Co-Simulation description with this workspace's defaults: model name = identifier,
+    /// default experiment 0 … 100 s at 0.01 s, SI units only.
+    pub fn co_simulation(
+        identifier: &str,
+        guid: &str,
+        description: &str,
+        version: &str,
+        capabilities: Capabilities,
+        variables: Vec<Variable>,
+    ) -> ModelDescription {
+        ModelDescription {
+            model_name: identifier.into(),
+            model_identifier: identifier.into(),
+            guid: guid.into(),
+            description: description.into(),
+            version: version.into(),
+            capabilities,
+            default_experiment: Some(DefaultExperiment {
+                start_time: 0.0,
+                stop_time: 100.0,
+                step_size: 0.01,
+                tolerance: None,
+            }),
+            extra_units: vec![],
+            variables,
+        }
+    }
+}
+
 /// The log categories every exported FMU declares (name, description).
 pub const LOG_CATEGORIES: [(&str, &str); 3] = [
     (
@@ -445,7 +475,13 @@ impl ModelInfo {
                     None => return err(format!("variable `{}`: unit `{unit}` is not defined", v.name)),
                 }
             }
-            vars.push(VarInfo { var: v.clone(), initial, index: pos + 1, dependencies: None, initial_dependencies: None });
+            vars.push(VarInfo {
+                var: v.clone(),
+                initial,
+                index: pos + 1,
+                dependencies: None,
+                initial_dependencies: None,
+            });
         }
         if independents > 1 {
             return err("more than one variable has causality `independent`".into());

@@ -20,6 +20,13 @@ pub struct Resource {
     pub bytes: Vec<u8>,
 }
 
+impl Resource {
+    /// Text files given as (name, text), e.g. the scenes a model ships.
+    pub fn texts(files: &[(&str, &str)]) -> Vec<Resource> {
+        files.iter().map(|(n, t)| Resource { name: (*n).to_owned(), bytes: t.as_bytes().to_vec() }).collect()
+    }
+}
+
 /// What a model's callbacks return on failure: any error (a `thiserror` enum of the model, or
 /// a plain message through `.into()`); the layer logs it with its source chain, the function
 /// and the variable.
@@ -1176,7 +1183,8 @@ pub mod entry {
                 {
                     return Err(format!("step to {} goes past stopTime = {stop}", t + h));
                 }
-                let outcome = inst.model.do_step(t, h).msg().map_err(|e| format!("step from t = {t} with h = {h}: {e}"))?;
+                let outcome =
+                    inst.model.do_step(t, h).msg().map_err(|e| format!("step from t = {t} with h = {h}: {e}"))?;
                 match outcome {
                     StepOutcome::Complete => {
                         inst.time = t + h;

@@ -136,7 +136,9 @@ impl Oscillator {
         let [sx, sv] = if step_map { self.sens } else { [0.0, 0.0] };
         for &kn in knowns {
             if kn != vr::F {
-                return Err(format!("derivatives with respect to value reference {kn} are not provided (only F)").into());
+                return Err(
+                    format!("derivatives with respect to value reference {kn} are not provided (only F)").into()
+                );
             }
         }
         let df: f64 = seed.iter().sum(); // every known is F
@@ -157,8 +159,14 @@ impl Model for Oscillator {
     fn description() -> Result<ModelDescription, ModelError> {
         let mut variables = vec![
             Variable::real_input("F", vr::F, 0.0, "N").describe("force on the mass"),
-            Variable::real_output("x", vr::X, "m").describe("position").depends_on::<&str>(&[]).initially_depends_on(&["x0"]),
-            Variable::real_output("v", vr::V, "m/s").describe("velocity").depends_on::<&str>(&[]).initially_depends_on(&["v0"]),
+            Variable::real_output("x", vr::X, "m")
+                .describe("position")
+                .depends_on::<&str>(&[])
+                .initially_depends_on(&["x0"]),
+            Variable::real_output("v", vr::V, "m/s")
+                .describe("velocity")
+                .depends_on::<&str>(&[])
+                .initially_depends_on(&["v0"]),
             Variable::real_output("a", vr::A, "m/s2")
                 .describe("acceleration")
                 .depends_on(&["F"])
@@ -168,8 +176,9 @@ impl Model for Oscillator {
             Variable::parameter("x0", vr::X0, 0.1, false).unit("m").describe("initial position"),
             Variable::parameter("v0", vr::V0, 0.0, false).unit("m/s").describe("initial velocity"),
             Variable::parameter("substeps", vr::SUBSTEPS, 1, false).describe("integrator steps per communication step"),
-            Variable::parameter("max_steps", vr::MAX_STEPS, 0, false)
-                .describe("communication steps after which fmi2DoStep returns fmi2Discard (the model has ended); 0: no end"),
+            Variable::parameter("max_steps", vr::MAX_STEPS, 0, false).describe(
+                "communication steps after which fmi2DoStep returns fmi2Discard (the model has ended); 0: no end",
+            ),
             Variable::parameter("gravity", vr::GRAVITY, false, false).describe("add the weight m g in −x"),
             Variable::parameter("config", vr::CONFIG, DEFAULT_CONFIG, false)
                 .describe("configuration file (mass_kg); relative paths resolve against resources/"),
