@@ -102,7 +102,10 @@ pub struct StewartFmu {
     settings: Settings,
     scene: Scene,
     model: Option<Stewart>,
-    built_for: Option<Settings>,
+    /// The settings the model was built for, and whether in step mode (in initialization mode
+    /// the platform rests at its start pose).
+    built_for: Option<(Settings, bool)>,
+    initialized: bool,
     time: f64,
     inputs: [f64; INPUTS],
     rates: [f64; INPUTS],
@@ -139,7 +142,8 @@ fn rotation_of(q: &[f64], dq: &[f64]) -> Vec3 {
 
 impl StewartFmu {
     fn model(&mut self) -> Result<&Stewart, ModelError> {
-        if self.model.is_none() || self.built_for.as_ref() != Some(&self.settings) {
+        let key = (self.settings.clone(), self.initialized);
+        if self.model.is_none() || self.built_for.as_ref() != Some(&key) {
             let mut s = self.scene.clone();
             let st = &self.settings;
             if st.radius >= 0.0 {
@@ -157,8 +161,13 @@ impl StewartFmu {
                 _ => {}
             }
             s.validate(&st.scene_name)?;
-            self.model = Some(Stewart::from_scene(&s)?);
-            self.built_for = Some(self.settings.clone());
+            // Before the start the platform rests at its start pose: the motion (and an abrupt
+            // start's jump) begins at the start time, so that a consistent initialization puts
+            // the cable net in its static equilibrium under the platform's weight.
+            let mut held = s.clone();
+            held.motion.speed_m_s = 0.0;
+            self.model = Some(Stewart::from_scene(if self.initialized { &s } else { &held })?);
+            self.built_for = Some(key);
             self.cache = Cache::default();
         }
         Ok(self.model.as_ref().expect("built"))
@@ -292,7 +301,8 @@ impl Model for StewartFmu {
             d
         };
         let all_but_position: Vec<&str> = (3..7).chain(10..19).map(name).collect();
-        let params = ["scene", "radius", "speed", "ramp_time", "start"];
+        // in initialization mode the platform rests at its start pose: speed and start do not count
+        let params = ["scene", "radius"];
         let deps = |vr: u32| -> Vec<&str> {
             match vr {
                 vr::FORCE..vr::MOMENT => force((vr - vr::FORCE) as usize),
@@ -409,6 +419,7 @@ impl Model for StewartFmu {
             scene,
             model: None,
             built_for: None,
+            initialized: false,
             time: 0.0,
             rates: [0.0; INPUTS],
             cache: Cache::default(),
@@ -488,6 +499,7 @@ impl Model for StewartFmu {
     }
 
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
+        self.initialized = true;
         self.model()?;
         self.time = start_time;
         self.cache = Cache::default();
@@ -601,7 +613,7 @@ impl Model for StewartFmu {
     fn save_state(&self, out: &mut Vec<u8>) -> Result<(), ModelError> {
         let mut w = StateWriter::new(out);
         let s = &self.settings;
-        w.str(&s.scene_name).f64(s.radius).f64(s.speed).f64(s.ramp_time).i32(s.start).f64(self.time);
+        w.str(&s.scene_name).f64(s.radius).f64(s.speed).f64(s.ramp_time).i32(s.start).f64(self.time).bool(self.initialized);
         for k in 0..INPUTS {
             w.f64(self.inputs[k]).f64(self.rates[k]);
         }
@@ -618,6 +630,7 @@ impl Model for StewartFmu {
             start: r.i32()?,
         };
         let time = r.f64()?;
+        let initialized = r.bool()?;
         let mut inputs = [0.0; INPUTS];
         let mut rates = [0.0; INPUTS];
         for k in 0..INPUTS {
@@ -632,6 +645,7 @@ impl Model for StewartFmu {
             self.settings = settings;
             self.settings_changed();
         }
+        self.initialized = initialized;
         self.model()?;
         self.time = time;
         self.inputs = inputs;
