@@ -613,7 +613,13 @@ impl Model for StewartFmu {
     fn save_state(&self, out: &mut Vec<u8>) -> Result<(), ModelError> {
         let mut w = StateWriter::new(out);
         let s = &self.settings;
-        w.str(&s.scene_name).f64(s.radius).f64(s.speed).f64(s.ramp_time).i32(s.start).f64(self.time).bool(self.initialized);
+        w.str(&s.scene_name)
+            .f64(s.radius)
+            .f64(s.speed)
+            .f64(s.ramp_time)
+            .i32(s.start)
+            .f64(self.time)
+            .bool(self.initialized);
         for k in 0..INPUTS {
             w.f64(self.inputs[k]).f64(self.rates[k]);
         }
