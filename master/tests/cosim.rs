@@ -13,6 +13,7 @@ fn options(scheme: Scheme) -> Options {
         jacobian: JacobianUpdate::EveryStep,
         tol: 1e-8,
         max_iter: 100,
+        ..Options::default()
     }
 }
 

@@ -76,7 +76,8 @@ pub fn run(args: &Args) -> CmdResult {
     let quiet = args.quiet || !std::io::stderr().is_terminal();
     let reference_dt = args.reference_dt.unwrap_or(dts.iter().cloned().fold(f64::INFINITY, f64::min) / 4.0);
     eprintln!("reference: monolithic at h = {reference_dt} s …");
-    let reference = simulate(&scene, &file, args.options.method("monolithic")?, reference_dt, t_end, quiet)?;
+    let reference =
+        simulate(&scene, &file, args.options.fixed_step().method("monolithic")?, reference_dt, t_end, quiet)?;
     let peak = reference.peak_mm();
     let mut cells = Vec::new();
     for name in args.schemes.split(',').map(str::trim).filter(|s| !s.is_empty()) {

@@ -44,7 +44,7 @@ pub fn run(args: &Args) -> CmdResult {
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
-    let reference = simulate(&scene, &args.scene, args.options.method("monolithic")?, dt, t_end, quiet)?;
+    let reference = simulate(&scene, &args.scene, args.options.fixed_step().method("monolithic")?, dt, t_end, quiet)?;
     let peak = reference.peak_mm();
     let mut rows = Vec::new();
     let mut traces = vec![reference.clone()];

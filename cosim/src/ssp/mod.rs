@@ -1,0 +1,1 @@
+//! SSP 1.0 system structure descriptions: read (`.ssp` archives, `.ssd` files) and written.
