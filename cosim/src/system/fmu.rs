@@ -9,7 +9,7 @@
 use fmi2::import::{Capability, Fmu, FmuState, Instance, ScalarVariable};
 use fmi2::{Causality, VarType};
 
-use super::spec::{Connection, Linear, Matching, SystemSpec, Value};
+use super::spec::{Connection, Endpoint, Linear, Matching, Parameter, SystemSpec, Value};
 use super::{Capabilities, Layout, UnitError, UnitLayout, Units};
 use crate::error::SetupError;
 use crate::iqn::{Accelerator, IqnOptions};
@@ -87,125 +87,13 @@ impl FmuSystem {
     /// parameterizes, connects and initializes them at t = 0.
     pub fn load(spec: &SystemSpec, needs: &Needs) -> Result<FmuSystem, SetupError> {
         let origin = &spec.origin;
-        let mut fmus = Vec::with_capacity(spec.components.len());
-        for c in &spec.components {
-            let path = &c.source;
-            let fmu = if path.is_dir() {
-                Fmu::load_unpacked(path)
-            } else if path.is_file() {
-                Fmu::load(path)
-            } else {
-                return Err(SetupError::File {
-                    path: path.clone(),
-                    message: format!(
-                        "FMU of component `{}` ({origin}) not found (the FMUs of this workspace are built by \
-                         `cargo build --release --workspace && target/release/master package --out dist`)",
-                        c.name
-                    ),
-                });
-            };
-            let fmu = fmu.map_err(|e| SetupError::Fmu { component: c.name.clone(), source: e })?;
-            if needs.rollback && fmu.require(Capability::GetSetState).is_err() {
-                return Err(SetupError::Capability {
-                    what: needs.what.clone(),
-                    capability: "rollback (get/set FMU state)",
-                    component: c.name.clone(),
-                    fmu: fmu.name().to_owned(),
-                    attribute: Capability::GetSetState.attribute(),
-                });
-            }
-            fmus.push(fmu);
-        }
-        let index = |name: &str, what: &str| {
-            spec.components.iter().position(|c| c.name == name).ok_or_else(|| {
-                let names: Vec<&str> = spec.components.iter().map(|c| c.name.as_str()).collect();
-                SetupError::Invalid(format!("{origin}: {what}: no component named `{name}` (components: {names:?})"))
-            })
-        };
+        let fmus = load_fmus(spec, needs)?;
+        let index = |name: &str, what: &str| component_index(spec, name, what);
         let fmu_err = |k: usize| {
             let component = spec.components[k].name.clone();
             move |e: fmi2::import::Error| SetupError::Fmu { component: component.clone(), source: e }
         };
-
-        // every link, by name
-        let mut links: Vec<Link> = Vec::new();
-        for c in &spec.connections {
-            let what = format!("connection {} → {}", c.from, c.to);
-            let (a, b) = (index(&c.from.component, &what)?, index(&c.to.component, &what)?);
-            let before = links.len();
-            match c.matching {
-                Matching::Exact => {
-                    let v = fmus[a]
-                        .variable(&c.from.variable)
-                        .map_err(|e| SetupError::Invalid(format!("{origin}: {what}: {e}")))?;
-                    let t = fmus[b]
-                        .variable(&c.to.variable)
-                        .map_err(|e| SetupError::Invalid(format!("{origin}: {what}: {e}")))?;
-                    links.push(Link { from: (a, v), to: (b, t), transform: c.transform });
-                }
-                Matching::Prefix => {
-                    for v in &fmus[a].description().variables {
-                        let Some(suffix) = v
-                            .name
-                            .strip_prefix(c.from.variable.as_str())
-                            .filter(|s| s.starts_with('.') || s.starts_with('[') || s.is_empty())
-                        else {
-                            continue;
-                        };
-                        if v.causality != Causality::Output {
-                            continue;
-                        }
-                        let target = format!("{}{suffix}", c.to.variable);
-                        let t = fmus[b].variable(&target).map_err(|_| {
-                            SetupError::Invalid(format!(
-                                "{origin}: {what}: `{}` has no input `{target}` for output `{}`",
-                                c.to.component, v.name
-                            ))
-                        })?;
-                        links.push(Link { from: (a, v), to: (b, t), transform: c.transform });
-                    }
-                    if links.len() == before {
-                        return Err(SetupError::Invalid(format!(
-                            "{origin}: {what}: `{}` has no output named `{}…`",
-                            c.from.component, c.from.variable
-                        )));
-                    }
-                }
-            }
-            for l in &links[before..] {
-                check_link(origin, &spec.components[l.from.0].name, &spec.components[l.to.0].name, l, c)?;
-            }
-        }
-        for (i, l) in links.iter().enumerate() {
-            if links[..i].iter().any(|m| m.to.0 == l.to.0 && m.to.1.value_reference == l.to.1.value_reference) {
-                return Err(SetupError::Invalid(format!(
-                    "{origin}: input `{}.{}` is connected twice; an input takes one output",
-                    spec.components[l.to.0].name, l.to.1.name
-                )));
-            }
-        }
-        for d in &spec.connectors {
-            let k = index(&d.endpoint.component, "connector")?;
-            let v = fmus[k]
-                .variable(&d.endpoint.variable)
-                .map_err(|e| SetupError::Invalid(format!("{origin}: connector `{}`: {e}", d.endpoint)))?;
-            if v.var_type != d.var_type {
-                return Err(SetupError::Invalid(format!(
-                    "{origin}: connector `{}` is declared {} but the FMU's variable is {}",
-                    d.endpoint,
-                    type_name(d.var_type),
-                    type_name(v.var_type)
-                )));
-            }
-            if let (Some(declared), Some(actual)) = (&d.unit, &v.unit)
-                && declared != actual
-            {
-                return Err(SetupError::Invalid(format!(
-                    "{origin}: connector `{}` declares unit `{declared}` but the FMU's variable has `{actual}`",
-                    d.endpoint
-                )));
-            }
-        }
+        let links = match_links(spec, &fmus)?;
 
         // instances, parameters
         let mut units = Vec::with_capacity(fmus.len());
@@ -473,6 +361,197 @@ impl FmuSystem {
         }
         Ok(())
     }
+}
+
+/// Loads every component's FMU, checking what `needs` asks of it.
+fn load_fmus(spec: &SystemSpec, needs: &Needs) -> Result<Vec<Fmu>, SetupError> {
+    let origin = &spec.origin;
+    let mut fmus = Vec::with_capacity(spec.components.len());
+    for c in &spec.components {
+        let path = &c.source;
+        let fmu = if path.is_dir() {
+            Fmu::load_unpacked(path)
+        } else if path.is_file() {
+            Fmu::load(path)
+        } else {
+            return Err(SetupError::File {
+                path: path.clone(),
+                message: format!(
+                    "FMU of component `{}` ({origin}) not found (the FMUs of this workspace are built by \
+                     `cargo build --release --workspace && target/release/master package --out dist`)",
+                    c.name
+                ),
+            });
+        };
+        let fmu = fmu.map_err(|e| SetupError::Fmu { component: c.name.clone(), source: e })?;
+        if needs.rollback && fmu.require(Capability::GetSetState).is_err() {
+            return Err(SetupError::Capability {
+                what: needs.what.clone(),
+                capability: "rollback (get/set FMU state)",
+                component: c.name.clone(),
+                fmu: fmu.name().to_owned(),
+                attribute: Capability::GetSetState.attribute(),
+            });
+        }
+        fmus.push(fmu);
+    }
+    Ok(fmus)
+}
+
+fn component_index(spec: &SystemSpec, name: &str, what: &str) -> Result<usize, SetupError> {
+    spec.components.iter().position(|c| c.name == name).ok_or_else(|| {
+        let names: Vec<&str> = spec.components.iter().map(|c| c.name.as_str()).collect();
+        SetupError::Invalid(format!("{}: {what}: no component named `{name}` (components: {names:?})", spec.origin))
+    })
+}
+
+/// Every connection of `spec` resolved to one output and one input, checked (causality, type,
+/// units, declared connectors, inputs connected once).
+fn match_links<'a>(spec: &SystemSpec, fmus: &'a [Fmu]) -> Result<Vec<Link<'a>>, SetupError> {
+    let origin = &spec.origin;
+    let index = |name: &str, what: &str| component_index(spec, name, what);
+    // every link, by name
+    let mut links: Vec<Link> = Vec::new();
+    for c in &spec.connections {
+        let what = format!("connection {} → {}", c.from, c.to);
+        let (a, b) = (index(&c.from.component, &what)?, index(&c.to.component, &what)?);
+        let before = links.len();
+        match c.matching {
+            Matching::Exact => {
+                let v = fmus[a]
+                    .variable(&c.from.variable)
+                    .map_err(|e| SetupError::Invalid(format!("{origin}: {what}: {e}")))?;
+                let t = fmus[b]
+                    .variable(&c.to.variable)
+                    .map_err(|e| SetupError::Invalid(format!("{origin}: {what}: {e}")))?;
+                links.push(Link { from: (a, v), to: (b, t), transform: c.transform });
+            }
+            Matching::Prefix => {
+                for v in &fmus[a].description().variables {
+                    let Some(suffix) = v
+                        .name
+                        .strip_prefix(c.from.variable.as_str())
+                        .filter(|s| s.starts_with('.') || s.starts_with('[') || s.is_empty())
+                    else {
+                        continue;
+                    };
+                    if v.causality != Causality::Output {
+                        continue;
+                    }
+                    let target = format!("{}{suffix}", c.to.variable);
+                    let t = fmus[b].variable(&target).map_err(|_| {
+                        SetupError::Invalid(format!(
+                            "{origin}: {what}: `{}` has no input `{target}` for output `{}`",
+                            c.to.component, v.name
+                        ))
+                    })?;
+                    links.push(Link { from: (a, v), to: (b, t), transform: c.transform });
+                }
+                if links.len() == before {
+                    return Err(SetupError::Invalid(format!(
+                        "{origin}: {what}: `{}` has no output named `{}…`",
+                        c.from.component, c.from.variable
+                    )));
+                }
+            }
+        }
+        for l in &links[before..] {
+            check_link(origin, &spec.components[l.from.0].name, &spec.components[l.to.0].name, l, c)?;
+        }
+    }
+    for (i, l) in links.iter().enumerate() {
+        if links[..i].iter().any(|m| m.to.0 == l.to.0 && m.to.1.value_reference == l.to.1.value_reference) {
+            return Err(SetupError::Invalid(format!(
+                "{origin}: input `{}.{}` is connected twice; an input takes one output",
+                spec.components[l.to.0].name, l.to.1.name
+            )));
+        }
+    }
+    for d in &spec.connectors {
+        let k = index(&d.endpoint.component, "connector")?;
+        let v = fmus[k]
+            .variable(&d.endpoint.variable)
+            .map_err(|e| SetupError::Invalid(format!("{origin}: connector `{}`: {e}", d.endpoint)))?;
+        if v.var_type != d.var_type {
+            return Err(SetupError::Invalid(format!(
+                "{origin}: connector `{}` is declared {} but the FMU's variable is {}",
+                d.endpoint,
+                type_name(d.var_type),
+                type_name(v.var_type)
+            )));
+        }
+        if let (Some(declared), Some(actual)) = (&d.unit, &v.unit)
+            && declared != actual
+        {
+            return Err(SetupError::Invalid(format!(
+                "{origin}: connector `{}` declares unit `{declared}` but the FMU's variable has `{actual}`",
+                d.endpoint
+            )));
+        }
+    }
+
+    Ok(links)
+}
+
+/// A connection of one output to one input, as the FMUs resolve it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResolvedConnection {
+    pub from: Endpoint,
+    pub to: Endpoint,
+    pub var_type: VarType,
+    pub from_unit: Option<String>,
+    pub to_unit: Option<String>,
+    pub transform: Option<Linear>,
+}
+
+/// A system description resolved against its FMUs (loaded, not instantiated): connections one
+/// output to one input, parameter values typed as the variables they set.
+pub struct Resolved {
+    pub fmus: Vec<Fmu>,
+    pub connections: Vec<ResolvedConnection>,
+    pub parameters: Vec<(Parameter, VarType, Option<String>)>,
+}
+
+/// Resolves `spec` against its FMUs, checking it as [`FmuSystem::load`] does.
+pub fn resolve(spec: &SystemSpec) -> Result<Resolved, SetupError> {
+    let fmus = load_fmus(spec, &Needs::default())?;
+    let links = match_links(spec, &fmus)?;
+    let name = |k: usize| spec.components[k].name.clone();
+    let connections = links
+        .iter()
+        .map(|l| ResolvedConnection {
+            from: Endpoint { component: name(l.from.0), variable: l.from.1.name.clone() },
+            to: Endpoint { component: name(l.to.0), variable: l.to.1.name.clone() },
+            var_type: l.from.1.var_type,
+            from_unit: l.from.1.unit.clone(),
+            to_unit: l.to.1.unit.clone(),
+            transform: l.transform,
+        })
+        .collect();
+    let mut parameters = Vec::new();
+    for p in &spec.parameters {
+        let k = component_index(spec, &p.target.component, "parameter")?;
+        let v = fmus[k]
+            .variable(&p.target.variable)
+            .map_err(|e| SetupError::Invalid(format!("{}: parameter `{}`: {e}", spec.origin, p.target)))?;
+        let bad =
+            |m: String| SetupError::Invalid(format!("{}: parameter `{}` = {}: {m}", spec.origin, p.target, p.value));
+        let value = match (&p.value, v.var_type) {
+            (Value::Text(x), VarType::Real) => {
+                Value::Real(x.trim().parse().map_err(|e| bad(format!("not a Real: {e}")))?)
+            }
+            (Value::Text(x), VarType::Integer) => {
+                Value::Integer(x.trim().parse().map_err(|e| bad(format!("not an Integer: {e}")))?)
+            }
+            (Value::Text(x), VarType::Boolean) => {
+                Value::Boolean(x.trim().parse().map_err(|e| bad(format!("not a Boolean: {e}")))?)
+            }
+            (Value::Text(x), VarType::String) => Value::String(x.clone()),
+            (other, _) => other.clone(),
+        };
+        parameters.push((Parameter { target: p.target.clone(), value }, v.var_type, v.unit.clone()));
+    }
+    Ok(Resolved { fmus, connections, parameters })
 }
 
 /// Checks one link: causalities, types, units.
