@@ -172,7 +172,7 @@ impl<S: Units> Coupled<S> {
         }
         let mut c = Coupled {
             iqn: Accelerator::new(nu, options.iqn, options.scheme == Scheme::IqnImvj),
-            adaptive: adaptive::History::new(nu),
+            adaptive: adaptive::History::new(nu, ny),
             units,
             options,
             time: 0.0,
@@ -214,6 +214,10 @@ impl<S: Units> Coupled<S> {
     pub fn step(&mut self, h: f64) -> Result<StepReport, StepError> {
         let t = self.time;
         let t1 = t + h;
+        // what `undo_step` restores besides the units
+        self.adaptive.y.copy_from_slice(&self.y);
+        self.adaptive.y_prev.copy_from_slice(&self.y_prev);
+        self.adaptive.has_prev = self.has_prev;
         self.units.exchange_discrete().map_err(|e| self.unit_err(t, 0, e))?;
         let report = match self.options.scheme {
             Scheme::Jacobi => self.step_jacobi(t, h).map_err(|e| self.unstable(e))?,
@@ -232,8 +236,19 @@ impl<S: Units> Coupled<S> {
             let e = self.failed(t1, format!("{} diverged", self.options.scheme.name()));
             return Err(self.unstable(e));
         }
+        self.adaptive.t_before = t;
         self.time = t1;
         Ok(report)
+    }
+
+    /// Undoes the last step of an implicit scheme: every unit back to the state saved at its
+    /// start (bit for bit), the coupled values and the time as before it.
+    pub fn undo_step(&mut self) -> Result<(), StepError> {
+        if !self.options.scheme.is_implicit() {
+            return Err(self.failed(self.time, "only the implicit schemes save the states to undo a step"));
+        }
+        let t0 = self.adaptive.t_before;
+        self.roll_back(t0)
     }
 
     fn failed(&self, time: f64, reason: impl Into<String>) -> StepError {

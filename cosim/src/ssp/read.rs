@@ -39,7 +39,8 @@ pub fn load(path: &Path) -> Result<LoadedSsp, SetupError> {
             let file = std::fs::File::open(path).map_err(|e| invalid(path, format!("cannot open: {e}")))?;
             let mut zip = zip::ZipArchive::new(std::io::BufReader::new(file))
                 .map_err(|e| invalid(path, format!("not a valid zip archive: {e}")))?;
-            let dir = TempDir::new("ssp").map_err(|e| invalid(path, format!("cannot create a temporary directory: {e}")))?;
+            let dir =
+                TempDir::new("ssp").map_err(|e| invalid(path, format!("cannot create a temporary directory: {e}")))?;
             zip.extract(dir.path()).map_err(|e| invalid(path, format!("cannot unpack: {e}")))?;
             let ssd = dir.path().join("SystemStructure.ssd");
             if !ssd.is_file() {
@@ -74,7 +75,10 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
     let root = doc.root_element();
     let fail = |n: Node, m: String| invalid(ssd, format!("{}: {m}", at(&doc, n)));
     if root.tag_name().name() != "SystemStructureDescription" {
-        return Err(fail(root, format!("root element <{}>, expected <ssd:SystemStructureDescription>", root.tag_name().name())));
+        return Err(fail(
+            root,
+            format!("root element <{}>, expected <ssd:SystemStructureDescription>", root.tag_name().name()),
+        ));
     }
     let version = root.attribute("version").unwrap_or("");
     if !(version == "1.0" || version.starts_with("1.0.")) {
@@ -83,7 +87,10 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
     let base = ssd.parent().unwrap_or(Path::new(".")).to_owned();
     let system = child(root, "System").ok_or_else(|| fail(root, "no <ssd:System>".into()))?;
     if child(system, "ParameterBindings").is_some() {
-        return Err(fail(system, "parameter bindings on the system itself are not supported; bind them to its components".into()));
+        return Err(fail(
+            system,
+            "parameter bindings on the system itself are not supported; bind them to its components".into(),
+        ));
     }
     let mut spec = SystemSpec {
         origin: origin.to_owned(),
@@ -99,7 +106,9 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
             let name = e.attribute("name").ok_or_else(|| fail(e, "an element without `name`".into()))?;
             match e.tag_name().name() {
                 "Component" => {}
-                "System" => return Err(fail(e, format!("`{name}` is a nested system; only flat systems are supported"))),
+                "System" => {
+                    return Err(fail(e, format!("`{name}` is a nested system; only flat systems are supported")));
+                }
                 other => return Err(fail(e, format!("element <{other}> `{name}` is not supported"))),
             }
             let mime = e.attribute("type").unwrap_or("application/x-fmu-sharedlibrary");
@@ -122,9 +131,15 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
                         "Integer" => VarType::Integer,
                         "Boolean" => VarType::Boolean,
                         "String" => VarType::String,
-                        other => return Err(fail(ty, format!("connector `{endpoint}`: type <{other}> is not supported"))),
+                        other => {
+                            return Err(fail(ty, format!("connector `{endpoint}`: type <{other}> is not supported")));
+                        }
                     };
-                    spec.connectors.push(Connector { endpoint, var_type, unit: ty.attribute("unit").map(str::to_owned) });
+                    spec.connectors.push(Connector {
+                        endpoint,
+                        var_type,
+                        unit: ty.attribute("unit").map(str::to_owned),
+                    });
                 }
             }
             if let Some(bindings) = child(e, "ParameterBindings") {
@@ -138,7 +153,12 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
         for c in children(connections, "Connection") {
             let end = |el: &str, co: &str| -> Result<Endpoint, SetupError> {
                 let element = c.attribute(el).ok_or_else(|| {
-                    fail(c, format!("a connection without `{el}`: connections to the system's own connectors are not supported"))
+                    fail(
+                        c,
+                        format!(
+                            "a connection without `{el}`: connections to the system's own connectors are not supported"
+                        ),
+                    )
                 })?;
                 let connector = c.attribute(co).ok_or_else(|| fail(c, format!("a connection without `{co}`")))?;
                 Ok(Endpoint { component: element.to_owned(), variable: connector.to_owned() })
@@ -154,7 +174,9 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
                     "LinearTransformation" => {
                         let num = |a: &str, default: f64| -> Result<f64, SetupError> {
                             t.attribute(a).map_or(Ok(default), |v| {
-                                v.trim().parse().map_err(|_| fail(t, format!("LinearTransformation `{a}` = `{v}` is not a number")))
+                                v.trim()
+                                    .parse()
+                                    .map_err(|_| fail(t, format!("LinearTransformation `{a}` = `{v}` is not a number")))
                             })
                         };
                         transform = Some(Linear { factor: num("factor", 1.0)?, offset: num("offset", 0.0)? });
@@ -172,7 +194,11 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
     let time = |a: &str| -> Result<Option<f64>, SetupError> {
         match experiment.and_then(|e| e.attribute(a)) {
             None => Ok(None),
-            Some(v) => v.trim().parse().map(Some).map_err(|_| invalid(ssd, format!("DefaultExperiment `{a}` = `{v}` is not a number"))),
+            Some(v) => v
+                .trim()
+                .parse()
+                .map(Some)
+                .map_err(|_| invalid(ssd, format!("DefaultExperiment `{a}` = `{v}` is not a number"))),
         }
     };
     Ok(LoadedSsp { start_time: time("startTime")?, stop_time: time("stopTime")?, spec, _unpacked: None })
@@ -210,7 +236,9 @@ fn read_binding(
     out: &mut Vec<Parameter>,
 ) -> Result<(), SetupError> {
     let fail = |n: Node, m: String| invalid(ssd, format!("{}: {m}", at(doc, n)));
-    if child(b, "ParameterMapping").is_some() || b.attribute("type").is_some_and(|t| t != "application/x-ssp-parameter-set") {
+    if child(b, "ParameterMapping").is_some()
+        || b.attribute("type").is_some_and(|t| t != "application/x-ssp-parameter-set")
+    {
         return Err(fail(b, format!("component `{component}`: only parameter sets without mappings are supported")));
     }
     let prefix = b.attribute("prefix").unwrap_or("");
@@ -220,8 +248,9 @@ fn read_binding(
         let ssv = Document::parse(&text).map_err(|e| invalid(&file, format!("not well-formed XML: {e}")))?;
         read_parameter_set(&ssv, &file, ssv.root_element(), component, prefix, out)
     } else if let Some(values) = child(b, "ParameterValues") {
-        let set = child(values, "ParameterSet")
-            .ok_or_else(|| fail(values, format!("component `{component}`: <ssd:ParameterValues> without <ssv:ParameterSet>")))?;
+        let set = child(values, "ParameterSet").ok_or_else(|| {
+            fail(values, format!("component `{component}`: <ssd:ParameterValues> without <ssv:ParameterSet>"))
+        })?;
         read_parameter_set(doc, ssd, set, component, prefix, out)
     } else {
         Err(fail(b, format!("component `{component}`: a parameter binding with neither `source` nor values")))

@@ -148,7 +148,8 @@ pub fn ssd_text(s: &SspSystem) -> String {
 /// Writes the archive to `path` (through a temporary file renamed at the end).
 pub fn write_ssp(path: &Path, s: &SspSystem) -> Result<(), SetupError> {
     let io = |e: std::io::Error| SetupError::File { path: path.to_owned(), message: format!("cannot write: {e}") };
-    let zerr = |e: zip::result::ZipError| SetupError::File { path: path.to_owned(), message: format!("cannot write: {e}") };
+    let zerr =
+        |e: zip::result::ZipError| SetupError::File { path: path.to_owned(), message: format!("cannot write: {e}") };
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".part");
     let part = path.with_file_name(name);
@@ -171,7 +172,8 @@ pub fn write_ssp(path: &Path, s: &SspSystem) -> Result<(), SetupError> {
 pub fn with_resource(fmu: &Path, name: &str, bytes: &[u8]) -> Result<Vec<u8>, SetupError> {
     let err = |m: String| SetupError::File { path: fmu.to_owned(), message: m };
     let file = std::fs::File::open(fmu).map_err(|e| err(format!("cannot open: {e}")))?;
-    let mut src = zip::ZipArchive::new(std::io::BufReader::new(file)).map_err(|e| err(format!("not a zip archive: {e}")))?;
+    let mut src =
+        zip::ZipArchive::new(std::io::BufReader::new(file)).map_err(|e| err(format!("not a zip archive: {e}")))?;
     let mut out = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
     let target = format!("resources/{name}");
     for i in 0..src.len() {
