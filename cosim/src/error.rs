@@ -47,10 +47,11 @@ pub enum StepError {
     Unstable { cause: Box<StepError>, growth: f64, variable: String, value: f64, scheme: &'static str },
     #[error("co-simulation stopped at t = {time:.6} s: {reason}")]
     Failed { time: f64, reason: String },
-    /// The adaptive step could not meet the tolerance with the smallest step allowed.
+    /// The adaptive step found no step down to the smallest allowed that converged with a
+    /// finite error estimate.
     #[error(
-        "co-simulation stopped at t = {time:.6} s: the local error estimate {error:.3e} (relative to the \
-         tolerance) needs a step below --h-min {h_min} s; loosen --rtol or lower --h-min"
+        "co-simulation stopped at t = {time:.6} s: no step down to --h-min {h_min} s converged with a finite \
+         error estimate (last: {error:.3e} relative to the tolerance); lower --h-min or check the FMUs"
     )]
     StepTooSmall { time: f64, error: f64, h_min: f64 },
 }

@@ -28,12 +28,14 @@ pub enum Decision {
     Reject {
         h_retry: f64,
     },
-    /// The step is at `h_min` and still too inaccurate.
+    /// The error is not a number: nothing can be judged.
     Fail,
 }
 
 /// Elementary (integral) controller `h' = h · safety · err^(−1/order)`, the factor bounded,
-/// no growth right after a rejection, the step within the limits.
+/// no growth right after a rejection, the step within the limits. A step at `h_min` is accepted
+/// whatever its error (and counted): a discontinuity — an abrupt start, an event — has an error
+/// estimate that no step size brings down, and refusing it would stop the run there.
 #[derive(Clone, Debug)]
 pub struct Controller {
     limits: Limits,
@@ -41,6 +43,8 @@ pub struct Controller {
     just_rejected: bool,
     pub accepted: usize,
     pub rejected: usize,
+    /// Steps accepted at `h_min` with an error above the tolerance.
+    pub forced: usize,
     pub h_min_used: f64,
     pub h_max_used: f64,
 }
@@ -64,6 +68,7 @@ impl Controller {
             just_rejected: false,
             accepted: 0,
             rejected: 0,
+            forced: 0,
             h_min_used: f64::INFINITY,
             h_max_used: 0.0,
         })
@@ -88,16 +93,21 @@ impl Controller {
         } else {
             MAX_SHRINK
         };
-        if err <= 1.0 {
+        if err.is_nan() {
+            return Decision::Fail;
+        }
+        let at_minimum = h <= h_min * (1.0 + 1e-12);
+        if err <= 1.0 || at_minimum {
             self.accepted += 1;
+            if err > 1.0 {
+                self.forced += 1;
+            }
             self.h_min_used = self.h_min_used.min(h);
             self.h_max_used = self.h_max_used.max(h);
             let growth = if self.just_rejected { 1.0 } else { MAX_GROWTH };
             self.just_rejected = false;
             self.h_next = (h * factor.clamp(MAX_SHRINK, growth)).clamp(h_min, h_max);
             Decision::Accept { h_next: self.h_next }
-        } else if h <= h_min * (1.0 + 1e-12) {
-            Decision::Fail
         } else {
             self.rejected += 1;
             self.just_rejected = true;
@@ -144,7 +154,9 @@ mod tests {
         assert_eq!(c.decide(0.0, 0.01, 2), Decision::Accept { h_next: 0.02 });
         assert_eq!(c.decide(0.0, 0.02, 2), Decision::Accept { h_next: 0.02 });
         assert!(matches!(c.decide(10.0, 0.02, 2), Decision::Reject { h_retry } if h_retry == 0.01));
-        assert_eq!(c.decide(10.0, 0.01, 2), Decision::Fail);
+        assert_eq!(c.decide(10.0, 0.01, 2), Decision::Accept { h_next: 0.01 });
+        assert_eq!(c.forced, 1);
+        assert_eq!(c.decide(f64::NAN, 0.01, 2), Decision::Fail);
         assert!(Controller::new(Limits { h_min: 0.1, h_max: 0.01, h_init: 0.05 }).is_err());
     }
 }

@@ -44,6 +44,7 @@ impl TwoMasses {
             gain: vec![1.0, 1.0],
             offset: vec![0.0, 0.0],
             scale: vec![1.0, 1.0],
+            group: vec![0, 1],
             input_names: vec!["a.force".into(), "b.x1".into()],
             output_names: vec!["a.x".into(), "a.v".into(), "b.force".into(), "b.x".into()],
         };
@@ -291,6 +292,7 @@ impl LinearMaps {
             gain: vec![1.0; n],
             offset: vec![0.0; n],
             scale: vec![1.0; n],
+            group: (0..n).collect(),
             input_names: (0..n).map(|i| format!("u{i}")).collect(),
             output_names: (0..n).map(|i| format!("y{i}")).collect(),
         };

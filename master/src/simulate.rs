@@ -341,7 +341,7 @@ pub fn simulate(
             probe.read_wrench = scene.outputs.quantities.contains(&Quantity::Wrench);
             rec.record(0.0, &probe.read(&mut c)?);
             if let Some(a) = adaptive {
-                let mut ctl = a.controller(dt)?;
+                let mut ctl = a.controller()?;
                 rec.trace.h_min_used = f64::INFINITY;
                 let mut k = 0;
                 while c.time() < t_end * (1.0 - 1e-12) {

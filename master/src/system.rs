@@ -79,9 +79,11 @@ pub struct Adaptive {
 }
 
 impl Adaptive {
-    /// The controller, starting from `h0` (clamped into the limits).
-    pub fn controller(&self, h0: f64) -> Result<Controller, String> {
-        Controller::new(Limits { h_min: self.h_min, h_max: self.h_max, h_init: h0.clamp(self.h_min, self.h_max) })
+    /// The controller. The first steps cannot be judged (no history), so they are small: ten
+    /// times the smallest step.
+    pub fn controller(&self) -> Result<Controller, String> {
+        let h_init = (10.0 * self.h_min).min(self.h_max);
+        Controller::new(Limits { h_min: self.h_min, h_max: self.h_max, h_init })
     }
 }
 
@@ -214,7 +216,7 @@ pub fn run_system(
     let mut iterations = 0usize;
     let fixed_steps = (t_end / dt).round() as usize;
     let mut bar = Progress::stderr(fixed_steps as u64, t_end, quiet);
-    let mut controller = adaptive.map(|a| a.controller(dt)).transpose()?;
+    let mut controller = adaptive.map(|a| a.controller()).transpose()?;
     loop {
         let (done, k) = match &controller {
             Some(_) => (c.time() >= t_end * (1.0 - 1e-12), run.steps),

@@ -11,12 +11,14 @@
 //! Tolerance: local errors of an oscillating system add up (a phase error grows with every
 //! step), so the estimate is held per unit of time — error per unit step over the run's
 //! horizon T: `|est_i| · T / h ≤ atol · scale_i + rtol · range_i`, whose sum over the run stays
-//! within the tolerance. `scale_i` is the unit-group scale of the convergence test and
-//! `range_i` the largest departure of the quantity from its initial value so far — relative to
+//! within the tolerance; the norm is the root mean square over the quantities. `scale_i` is the
+//! unit-group scale of the convergence test and `range_i` the largest departure of the
+//! quantities of its unit group from their initial values so far — relative to
 //! how far each quantity moves, so that positions metres from the origin are not judged by
-//! their distance to it. The first two steps have too little history to estimate from: they are
-//! taken at the controller's first step size (keep it small), and the controller grows the step
-//! from there.
+//! their distance to it. The history starts after the first step (the start may be abrupt, a
+//! kink no extrapolation may span), so the first three steps have nothing to be judged by: they
+//! are taken at the controller's first step size (keep it small), and the controller grows the
+//! step from there.
 
 use super::{Coupled, StepReport};
 use crate::error::StepError;
@@ -52,7 +54,10 @@ pub(super) struct History {
     u: [Vec<f64>; 3],
     count: usize,
     u0: Vec<f64>,
+    started: bool,
+    /// Per unit group: the largest departure of its quantities from their initial values.
     range: Vec<f64>,
+    group: Vec<usize>,
     candidate: Vec<f64>,
     /// |U'''| of the step being judged, and of the last MEMORY accepted steps (ring, per input).
     third: Vec<f64>,
@@ -72,7 +77,9 @@ impl History {
             u: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
             count: 0,
             u0: vec![0.0; n],
+            started: false,
             range: vec![0.0; n],
+            group: Vec::new(),
             candidate: vec![0.0; n],
             third: vec![0.0; n],
             recent: vec![0.0; n * MEMORY],
@@ -89,31 +96,30 @@ impl History {
         self.u.rotate_right(1);
         self.t[0] = t;
         self.u[0].copy_from_slice(u);
-        if self.count == 0 {
-            self.u0.copy_from_slice(u);
-        }
         self.count = (self.count + 1).min(3);
         for i in 0..u.len() {
-            self.range[i] = self.range[i].max((u[i] - self.u0[i]).abs());
+            let moved = (u[i] - self.u0[i]).abs();
+            let g = self.group[i];
+            self.range[g] = self.range[g].max(moved);
             self.recent[i * MEMORY + self.slot] = self.third[i];
         }
         self.slot = (self.slot + 1) % MEMORY;
     }
 
+    /// The Lagrange weight of history point `a` for extrapolating to `t`.
+    fn weight(&self, a: usize, t: f64) -> f64 {
+        let mut l = 1.0;
+        for b in 0..self.count {
+            if a != b {
+                l *= (t - self.t[b]) / (self.t[a] - self.t[b]);
+            }
+        }
+        l
+    }
+
     /// Extrapolation of entry i to time `t` by the polynomial through the kept points.
     fn predict(&self, i: usize, t: f64) -> f64 {
-        let m = self.count;
-        let mut p = 0.0;
-        for a in 0..m {
-            let mut l = 1.0;
-            for b in 0..m {
-                if a != b {
-                    l *= (t - self.t[b]) / (self.t[a] - self.t[b]);
-                }
-            }
-            p += l * self.u[a][i];
-        }
-        p
+        (0..self.count).map(|a| self.weight(a, t) * self.u[a][i]).sum()
     }
 }
 
@@ -138,15 +144,16 @@ impl<S: Units> Coupled<S> {
         }
         let t = self.time;
         let n = self.work.guess.len();
-        if self.adaptive.count == 0 {
+        if !self.adaptive.started {
+            // the origin of the ranges; not a history point: the start may be a discontinuity
+            // (an abrupt start), which no smooth extrapolation across it may see
             let Coupled { adaptive, units, y, .. } = self;
             let l = units.layout();
             for i in 0..n {
-                adaptive.candidate[i] = l.coupled(i, y);
+                adaptive.u0[i] = l.coupled(i, y);
             }
-            let c = std::mem::take(&mut adaptive.candidate);
-            adaptive.push(t, &c);
-            adaptive.candidate = c;
+            adaptive.started = true;
+            adaptive.group = l.group.clone();
         }
         let mut rejected = 0;
         let mut h = ctl.next_step();
@@ -215,22 +222,30 @@ impl<S: Units> Coupled<S> {
     /// The error norm of the step that ended at `t1` (its coupled values in
     /// `adaptive.candidate`) and the order of the norm in h. `|U'''|` is taken as its largest
     /// value over this and the last few accepted steps: for an oscillation it passes through zero
-    /// twice a period while the phase error it stands for keeps growing.
+    /// twice a period while the phase error it stands for keeps growing. The interface is only
+    /// converged to `tol · scale`: the part of the predictor–corrector difference that this
+    /// noise can explain (amplified by the extrapolation weights) is not counted as error.
     fn estimate(&mut self, t1: f64, h: f64, horizon: f64, tol: Tolerances) -> (f64, u32) {
-        let Coupled { adaptive, units, .. } = self;
+        let Coupled { adaptive, units, options, .. } = self;
         let l = units.layout();
         let a = &mut *adaptive;
         // U''' ≈ 6 (U − P(t1)) / ((t1 − t0)(t1 − t1')(t1 − t2)), P the parabola of the history
         let spread = (t1 - a.t[0]) * (t1 - a.t[1]) * (t1 - a.t[2]);
+        let amplification = 1.0 + (0..3).map(|k| a.weight(k, t1).abs()).sum::<f64>();
+        // root mean square over the coupled quantities (one quantity at its limit does not force
+        // the step down alone)
         let mut worst: f64 = 0.0;
         for i in 0..l.inputs() {
-            let third = (6.0 * (a.candidate[i] - a.predict(i, t1)) / spread).abs();
+            let noise = amplification * options.tol * l.scale[i];
+            let difference = ((a.candidate[i] - a.predict(i, t1)).abs() - noise).max(0.0);
+            let third = 6.0 * difference / spread.abs();
             a.third[i] = third;
             let recent = a.recent[i * MEMORY..(i + 1) * MEMORY].iter().fold(third, |m, x| m.max(*x));
             let local = h * h * h * recent / ERROR_CONSTANT;
-            let e = local * horizon / (h * (tol.atol * l.scale[i] + tol.rtol * a.range[i]));
-            worst = worst.max(e);
+            let e = local * horizon / (h * (tol.atol * l.scale[i] + tol.rtol * a.range[l.group[i]]));
+            worst += e * e / l.inputs() as f64;
         }
+        worst = worst.sqrt();
         (worst, 2)
     }
 }

@@ -138,6 +138,7 @@ impl FmuSystem {
             gain: Vec::new(),
             offset: Vec::new(),
             scale: Vec::new(),
+            group: Vec::new(),
             input_names: Vec::new(),
             output_names: Vec::new(),
         };
@@ -220,6 +221,7 @@ impl FmuSystem {
             })
             .collect();
         system.layout.scale = Layout::group_scales(&u0, &keys);
+        system.layout.group = Layout::groups(&keys);
         Ok(system)
     }
 

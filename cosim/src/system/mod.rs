@@ -34,6 +34,9 @@ pub struct Layout {
     pub offset: Vec<f64>,
     /// Scale of every entry of `U` (positive): residuals and errors are measured relative to it.
     pub scale: Vec<f64>,
+    /// Unit group of every entry of `U` (inputs of one unit with one unit of measure, e.g. the
+    /// components of a force): they share a scale, and the adaptive step a range.
+    pub group: Vec<usize>,
     /// `unit.variable` of every entry of `U` and of `Y`, for messages.
     pub input_names: Vec<String>,
     pub output_names: Vec<String>,
@@ -65,6 +68,21 @@ impl Layout {
     pub fn group_scales<K: PartialEq>(values: &[f64], key: &[K]) -> Vec<f64> {
         (0..values.len())
             .map(|i| (0..values.len()).filter(|&j| key[j] == key[i]).map(|j| values[j].abs()).fold(1.0, f64::max))
+            .collect()
+    }
+
+    /// Group numbers from group keys: equal keys, equal numbers (first appearance order).
+    pub fn groups<K: PartialEq>(key: &[K]) -> Vec<usize> {
+        let mut firsts: Vec<usize> = Vec::new();
+        key.iter()
+            .enumerate()
+            .map(|(i, k)| match firsts.iter().position(|&f| key[f] == *k) {
+                Some(g) => g,
+                None => {
+                    firsts.push(i);
+                    firsts.len() - 1
+                }
+            })
             .collect()
     }
 }
