@@ -40,7 +40,7 @@ pub struct IqnOptions {
 
 impl Default for IqnOptions {
     fn default() -> IqnOptions {
-        IqnOptions { reuse: 16, filter: 1e-2, initial_relaxation: 0.1 }
+        IqnOptions { reuse: 32, filter: 1e-4, initial_relaxation: 0.1 }
     }
 }
 
@@ -104,6 +104,32 @@ impl Accelerator {
     /// Secant pairs kept now.
     pub fn columns(&self) -> usize {
         self.cols.len()
+    }
+
+    /// Copies the whole history into `other` (of the same size), reusing its buffers: a step
+    /// that is undone must leave the history as it was, for the step taken again to repeat
+    /// the same iterates.
+    pub fn copy_into(&self, other: &mut Accelerator) {
+        while other.cols.len() > self.cols.len() {
+            let c = other.cols.pop_back().expect("longer");
+            other.spare.push(c);
+        }
+        while other.cols.len() < self.cols.len() {
+            let c =
+                other.spare.pop().unwrap_or_else(|| Column { v: vec![0.0; self.n], w: vec![0.0; self.n], window: 0 });
+            other.cols.push_back(c);
+        }
+        for (a, b) in self.cols.iter().zip(other.cols.iter_mut()) {
+            b.v.copy_from_slice(&a.v);
+            b.w.copy_from_slice(&a.w);
+            b.window = a.window;
+        }
+        other.window = self.window;
+        other.has_last = self.has_last;
+        other.r_last.copy_from_slice(&self.r_last);
+        other.xt_last.copy_from_slice(&self.xt_last);
+        other.j0.copy_from_slice(&self.j0);
+        other.has_j0 = self.has_j0;
     }
 
     /// A new time window: forget the last iterate and the windows beyond the reuse limit.

@@ -215,7 +215,9 @@ impl<S: Units> Coupled<S> {
         self.y_prev.copy_from_slice(&self.adaptive.y_prev);
         self.has_prev = self.adaptive.has_prev;
         self.time = t;
-        self.iqn.discard_window();
+        if matches!(self.options.scheme, super::Scheme::IqnIls | super::Scheme::IqnImvj) {
+            self.iqn_before.copy_into(&mut self.iqn);
+        }
         Ok(())
     }
 

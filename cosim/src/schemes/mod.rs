@@ -138,6 +138,8 @@ pub struct Coupled<S: Units> {
     /// The order in which Gauss–Seidel-type schemes step the units.
     order: Vec<usize>,
     iqn: Accelerator,
+    /// The quasi-Newton history before the last step (for rollback).
+    iqn_before: Accelerator,
     adaptive: adaptive::History,
     work: Work,
 }
@@ -172,6 +174,7 @@ impl<S: Units> Coupled<S> {
         }
         let mut c = Coupled {
             iqn: Accelerator::new(nu, options.iqn, options.scheme == Scheme::IqnImvj),
+            iqn_before: Accelerator::new(nu, options.iqn, options.scheme == Scheme::IqnImvj),
             adaptive: adaptive::History::new(nu, ny),
             units,
             options,
@@ -218,6 +221,9 @@ impl<S: Units> Coupled<S> {
         self.adaptive.y.copy_from_slice(&self.y);
         self.adaptive.y_prev.copy_from_slice(&self.y_prev);
         self.adaptive.has_prev = self.has_prev;
+        if matches!(self.options.scheme, Scheme::IqnIls | Scheme::IqnImvj) {
+            self.iqn.copy_into(&mut self.iqn_before);
+        }
         self.units.exchange_discrete().map_err(|e| self.unit_err(t, 0, e))?;
         let report = match self.options.scheme {
             Scheme::Jacobi => self.step_jacobi(t, h).map_err(|e| self.unstable(e))?,
@@ -242,7 +248,9 @@ impl<S: Units> Coupled<S> {
     }
 
     /// Undoes the last step of an implicit scheme: every unit back to the state saved at its
-    /// start (bit for bit), the coupled values and the time as before it.
+    /// start (bit for bit), the coupled values, the quasi-Newton history and the time as before
+    /// it — the step taken again repeats the same iterates. (The `reuse` Jacobian of IJCSA is
+    /// not restored.)
     pub fn undo_step(&mut self) -> Result<(), StepError> {
         if !self.options.scheme.is_implicit() {
             return Err(self.failed(self.time, "only the implicit schemes save the states to undo a step"));

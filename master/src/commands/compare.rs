@@ -18,7 +18,7 @@ pub struct Args {
     #[arg(long)]
     pub scene: PathBuf,
     /// Comma-separated methods to compare with `monolithic`.
-    #[arg(long, default_value = "ijcsa,iterative,gauss-seidel,jacobi,decoupled", long_help = format!("Comma-separated methods to compare with the monolithic reference: {SCHEMES}."))]
+    #[arg(long, default_value = "ijcsa,iqn-ils,iterative,gauss-seidel,jacobi,decoupled", long_help = format!("Comma-separated methods to compare with the monolithic reference: {SCHEMES}."))]
     pub schemes: String,
     /// Macro step (s) of every run; default: the scene's solver.dt_s.
     #[arg(long)]
