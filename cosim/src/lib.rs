@@ -4,7 +4,7 @@
 //!   it ([`Units`]), the FMU implementation ([`FmuSystem`]) and the name-based description it is
 //!   built from ([`SystemSpec`]);
 //! * [`schemes`]: the coupling schemes and the adaptive macro step ([`Coupled`]);
-//! * [`iqn`]: interface quasi-Newton acceleration (IQN-ILS, IQN-IMVJ);
+//! * [`iqn`]: interface quasi-Newton acceleration (IQN-ILS);
 //! * [`step_control`]: step-size control that sees only error norms and step sizes;
 //! * [`ssp`]: SSP 1.0 system descriptions, read and written;
 //! * [`error`]: set-up and run errors.

@@ -137,7 +137,7 @@ impl<S: Units> Coupled<S> {
             return Err(self.failed(
                 self.time,
                 format!(
-                    "the adaptive step needs an implicit scheme (iterative, ijcsa, iqn-ils, iqn-imvj), not {}",
+                    "the adaptive step needs an implicit scheme (iterative, ijcsa, iqn-ils), not {}",
                     self.options.scheme.name()
                 ),
             ));
@@ -215,7 +215,7 @@ impl<S: Units> Coupled<S> {
         self.y_prev.copy_from_slice(&self.adaptive.y_prev);
         self.has_prev = self.adaptive.has_prev;
         self.time = t;
-        if matches!(self.options.scheme, super::Scheme::IqnIls | super::Scheme::IqnImvj) {
+        if self.options.scheme == super::Scheme::IqnIls {
             self.iqn_before.copy_into(&mut self.iqn);
         }
         Ok(())

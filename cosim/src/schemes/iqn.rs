@@ -14,10 +14,7 @@ impl<S: Units> Coupled<S> {
         for it in 1..=self.options.max_iter {
             let done = self.evaluate(it, t, h);
             match done {
-                Ok(Some(report)) => {
-                    self.iqn.end_window();
-                    return Ok(report);
-                }
+                Ok(Some(report)) => return Ok(report),
                 Ok(None) => {}
                 Err(e) => {
                     self.iqn.discard_window();

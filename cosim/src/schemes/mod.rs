@@ -7,8 +7,8 @@
 //! * `ijcsa`: interface-Jacobian co-simulation (Sicklinger et al. 2014): Newton on
 //!   `R(U) = U − C·Y(U)` with the units' step-map derivatives, or central differences with
 //!   rollback for a unit without them (rollback);
-//! * `iqn-ils`, `iqn-imvj`: interface quasi-Newton (Degroote et al. 2009; Lindner et al. 2015):
-//!   the inverse Jacobian from the residual history of this and the last time windows (rollback).
+//! * `iqn-ils`: interface quasi-Newton (Degroote et al. 2009): the inverse Jacobian from the
+//!   residual history of this and the last time windows, least squares (rollback).
 //!
 //! Inputs are values at the end of the macro step (the FMUs of this workspace evaluate their
 //! inputs there). With `linear` extrapolation the first guess extrapolates the last two
@@ -38,8 +38,6 @@ pub enum Scheme {
     Ijcsa,
     /// Interface quasi-Newton, least squares on the residual history.
     IqnIls,
-    /// Interface quasi-Newton with a multi-vector inverse Jacobian kept across time windows.
-    IqnImvj,
     /// Gauss–Seidel in the order of the data flow: every unit after the ones it takes inputs
     /// from (exact for a system without feedback, e.g. the decoupled model).
     Sequential,
@@ -54,14 +52,13 @@ impl Scheme {
             Scheme::Iterative => "iterative",
             Scheme::Ijcsa => "ijcsa",
             Scheme::IqnIls => "iqn-ils",
-            Scheme::IqnImvj => "iqn-imvj",
             Scheme::Sequential => "sequential",
         }
     }
 
     /// Iterates every step to a converged interface (and so needs rollback).
     pub fn is_implicit(self) -> bool {
-        matches!(self, Scheme::Iterative | Scheme::Ijcsa | Scheme::IqnIls | Scheme::IqnImvj)
+        matches!(self, Scheme::Iterative | Scheme::Ijcsa | Scheme::IqnIls)
     }
 }
 
@@ -173,8 +170,8 @@ impl<S: Units> Coupled<S> {
             })?;
         }
         let mut c = Coupled {
-            iqn: Accelerator::new(nu, options.iqn, options.scheme == Scheme::IqnImvj),
-            iqn_before: Accelerator::new(nu, options.iqn, options.scheme == Scheme::IqnImvj),
+            iqn: Accelerator::new(nu, options.iqn),
+            iqn_before: Accelerator::new(nu, options.iqn),
             adaptive: adaptive::History::new(nu, ny),
             units,
             options,
@@ -221,7 +218,7 @@ impl<S: Units> Coupled<S> {
         self.adaptive.y.copy_from_slice(&self.y);
         self.adaptive.y_prev.copy_from_slice(&self.y_prev);
         self.adaptive.has_prev = self.has_prev;
-        if matches!(self.options.scheme, Scheme::IqnIls | Scheme::IqnImvj) {
+        if self.options.scheme == Scheme::IqnIls {
             self.iqn.copy_into(&mut self.iqn_before);
         }
         self.units.exchange_discrete().map_err(|e| self.unit_err(t, 0, e))?;
@@ -231,7 +228,7 @@ impl<S: Units> Coupled<S> {
             Scheme::Sequential => self.step_gauss_seidel(t, h)?,
             Scheme::Iterative => self.step_iterative(t, h)?,
             Scheme::Ijcsa => self.step_ijcsa(t, h)?,
-            Scheme::IqnIls | Scheme::IqnImvj => self.step_iqn(t, h)?,
+            Scheme::IqnIls => self.step_iqn(t, h)?,
         };
         if self.y.iter().any(|x| !x.is_finite()) {
             return Err(self.failed(t1, "an output is not finite (the coupled motion diverged)"));

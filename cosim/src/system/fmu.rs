@@ -254,7 +254,7 @@ impl FmuSystem {
         for i in 0..nu {
             x[i] = self.layout.coupled(i, &y) / scale[i];
         }
-        let mut iqn = Accelerator::new(nu, IqnOptions { reuse: 0, filter: 1e-10, initial_relaxation: 1.0 }, false);
+        let mut iqn = Accelerator::new(nu, IqnOptions { reuse: 0, filter: 1e-10, initial_relaxation: 1.0 });
         iqn.start_window();
         for _ in 0..PASSES {
             for k in 0..self.units.len() {

@@ -140,12 +140,7 @@ pub fn run(args: &Args) -> CmdResult {
     // adaptive runs: (scheme, rtol, wall, max error, steps, rejected, h_min, h_max) or a failure
     let mut adaptive_rows = Vec::new();
     for &rtol in &rtols {
-        for name in args
-            .schemes
-            .split(',')
-            .map(str::trim)
-            .filter(|s| matches!(*s, "iterative" | "ijcsa" | "iqn-ils" | "iqn-imvj"))
-        {
+        for name in args.schemes.split(',').map(str::trim).filter(|s| matches!(*s, "iterative" | "ijcsa" | "iqn-ils")) {
             let mut o = args.options.clone();
             o.adaptive = true;
             o.rtol = rtol;

@@ -20,7 +20,7 @@ pub fn run(args: &Args, file: &Path) -> CmdResult {
         other => {
             return Err(format!(
                 "--scheme {}: runs only the LT50m scene (--scene); a --system runs with a coupling scheme \
-                 (jacobi, gauss-seidel, iterative, ijcsa, iqn-ils, iqn-imvj)",
+                 (jacobi, gauss-seidel, iterative, ijcsa, iqn-ils)",
                 other.name()
             )
             .into());

@@ -32,14 +32,14 @@ pub struct SchemeOptions {
     /// Time windows whose residual history `iqn-ils` reuses (0: this step's only).
     #[arg(long, default_value_t = IqnOptions::default().reuse)]
     pub iqn_reuse: usize,
-    /// QR filter limit of `iqn-ils`/`iqn-imvj` in [0, 1): a history column keeping less than this
+    /// QR filter limit of `iqn-ils` in [0, 1): a history column keeping less than this
     /// fraction of its norm after orthogonalization against newer ones is deleted.
     #[arg(long, default_value_t = IqnOptions::default().filter)]
     pub iqn_filter: f64,
-    /// Relaxation of the first update of `iqn-ils`/`iqn-imvj` while there is no history, in (0, 1].
+    /// Relaxation of the first update of `iqn-ils` while there is no history, in (0, 1].
     #[arg(long, default_value_t = IqnOptions::default().initial_relaxation)]
     pub iqn_relaxation: f64,
-    /// Adaptive macro step (implicit schemes: iterative, ijcsa, iqn-ils, iqn-imvj): local error
+    /// Adaptive macro step (implicit schemes: iterative, ijcsa, iqn-ils): local error
     /// estimate of the coupled quantities (predictor against corrector), rejected steps rolled
     /// back; --dt is the first step.
     #[arg(long)]
@@ -65,7 +65,6 @@ pub const SCHEMES: &str = "cable (the cable–cabin model alone with the platfor
     gauss-seidel-reversed (Stewart first), iterative (needs get/set FMU state), \
     ijcsa (needs get/set FMU state; directional derivatives, else finite differences), \
     iqn-ils (interface quasi-Newton, least squares on the residual history; needs get/set FMU state), \
-    iqn-imvj (interface quasi-Newton, multi-vector Jacobian; needs get/set FMU state), \
     decoupled (ref. [3]: the Stewart wrench on a fixed cabin fed to the cable model)";
 
 impl SchemeOptions {
@@ -98,7 +97,7 @@ impl SchemeOptions {
         if !(self.iqn_relaxation > 0.0 && self.iqn_relaxation <= 1.0) {
             return Err(format!("--iqn-relaxation {}: give a factor in (0, 1]", self.iqn_relaxation));
         }
-        if self.adaptive && !matches!(scheme, "iterative" | "ijcsa" | "iqn-ils" | "iqn-imvj") {
+        if self.adaptive && !matches!(scheme, "iterative" | "ijcsa" | "iqn-ils") {
             self.adaptive_settings(scheme)?;
         }
         options.scheme = match scheme {
@@ -111,7 +110,6 @@ impl SchemeOptions {
             "iterative" => Scheme::Iterative,
             "ijcsa" => Scheme::Ijcsa,
             "iqn-ils" => Scheme::IqnIls,
-            "iqn-imvj" => Scheme::IqnImvj,
             other => return Err(format!("unknown scheme `{other}`; known: {SCHEMES}")),
         };
         if self.adaptive {
@@ -127,9 +125,9 @@ impl SchemeOptions {
 
     /// The adaptive step's settings, checked; `scheme` must iterate.
     pub fn adaptive_settings(&self, scheme: &str) -> Result<Adaptive, String> {
-        if !matches!(scheme, "iterative" | "ijcsa" | "iqn-ils" | "iqn-imvj") {
+        if !matches!(scheme, "iterative" | "ijcsa" | "iqn-ils") {
             return Err(format!(
-                "--adaptive needs an implicit scheme (iterative, ijcsa, iqn-ils, iqn-imvj); `{scheme}` has no adaptive step"
+                "--adaptive needs an implicit scheme (iterative, ijcsa, iqn-ils); `{scheme}` has no adaptive step"
             ));
         }
         if !(self.rtol > 0.0 && self.rtol < 1.0) {

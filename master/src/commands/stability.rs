@@ -169,7 +169,7 @@ pub fn run(args: &Args) -> CmdResult {
             let mut cells = vec![format!("×{f}")];
             for (ix, &dt) in dts.iter().enumerate() {
                 let r = rows.iter().find(|r| &r.0 == name && r.1 == f && r.2 == dt).expect("every cell was run");
-                let iterating = matches!(*name, "iterative" | "ijcsa" | "iqn-ils" | "iqn-imvj");
+                let iterating = matches!(*name, "iterative" | "ijcsa" | "iqn-ils");
                 let text = if r.3 == Verdict::Stable && iterating { format!("{:.1}", r.4) } else { String::new() };
                 grid.set(ix, iy, r.3 as usize, &text);
                 cells.push(match r.3 {
