@@ -110,30 +110,11 @@ pub fn run(args: &Args) -> CmdResult {
         let method = args.options.method(name)?;
         for &dt in &dts {
             eprintln!("{name} at h = {dt} s …");
-            let mut walls = Vec::new();
-            let mut last: Option<Trace> = None;
-            let mut failure = None;
-            for _ in 0..args.repeats {
-                match simulate(&scene, &file, method, dt, t_end, quiet) {
-                    Ok(t) => {
-                        walls.push(t.wall_time_s);
-                        last = Some(t);
-                    }
-                    Err(e) => {
-                        failure = Some(e.to_string());
-                        break;
-                    }
-                }
-            }
-            let result = match (failure, last) {
-                (Some(e), _) => Err(e),
-                (None, Some(t)) => {
-                    walls.sort_by(f64::total_cmp);
+            let result =
+                repeated(args.repeats, || simulate(&scene, &file, method, dt, t_end, quiet)).map(|(wall, t)| {
                     let (max, rms) = t.error_against(&reference);
-                    Ok((walls[walls.len() / 2], max, rms, t.mean_iterations()))
-                }
-                (None, None) => Err("no run".into()),
-            };
+                    (wall, max, rms, t.mean_iterations())
+                });
             cells.push(Cell { scheme: name.to_string(), dt, result });
         }
     }
@@ -146,38 +127,11 @@ pub fn run(args: &Args) -> CmdResult {
             o.rtol = rtol;
             let method = o.method(name)?;
             eprintln!("{name} adaptive at rtol = {rtol} …");
-            let mut walls = Vec::new();
-            let mut last = None;
-            let mut failure = None;
-            for _ in 0..args.repeats {
-                match simulate(&scene, &file, method, dts[0], t_end, quiet) {
-                    Ok(t) => {
-                        walls.push(t.wall_time_s);
-                        last = Some(t);
-                    }
-                    Err(e) => {
-                        failure = Some(e.to_string());
-                        break;
-                    }
-                }
-            }
-            walls.sort_by(f64::total_cmp);
-            adaptive_rows.push((
-                name.to_string(),
-                rtol,
-                match (failure, last) {
-                    (Some(e), _) => Err(e),
-                    (None, Some(t)) => Ok((
-                        walls[walls.len() / 2],
-                        t.error_against(&reference).0,
-                        t.steps,
-                        t.rejected_steps,
-                        t.h_min_used,
-                        t.h_max_used,
-                    )),
-                    (None, None) => Err("no run".to_string()),
-                },
-            ));
+            let result =
+                repeated(args.repeats, || simulate(&scene, &file, method, dts[0], t_end, quiet)).map(|(wall, t)| {
+                    (wall, t.error_against(&reference).0, t.steps, t.rejected_steps, t.h_min_used, t.h_max_used)
+                });
+            adaptive_rows.push((name.to_string(), rtol, result));
         }
     }
     std::fs::create_dir_all(&args.out)?;
@@ -342,4 +296,21 @@ pub fn run(args: &Args) -> CmdResult {
     }
     println!("{} and {} written", csv_path.display(), svg.display());
     Ok(())
+}
+
+/// Runs `run` `repeats` times: the median wall time and the last trace, or the first failure.
+fn repeated(
+    repeats: usize,
+    mut run: impl FnMut() -> Result<Trace, Box<dyn std::error::Error>>,
+) -> Result<(f64, Trace), String> {
+    let mut walls = Vec::with_capacity(repeats);
+    let mut last = None;
+    for _ in 0..repeats {
+        let t = run().map_err(|e| e.to_string())?;
+        walls.push(t.wall_time_s);
+        last = Some(t);
+    }
+    walls.sort_by(f64::total_cmp);
+    let trace = last.ok_or("no run")?;
+    Ok((walls[walls.len() / 2], trace))
 }
