@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use feedcore::benchkit::bench;
 use feedcore::scene::Scene;
 use fmi2::import::Fmu;
-use master::cosim::{Coupled, Extrapolation, JacobianUpdate, Options, Relaxation, Scheme};
+use master::cosim::{Coupled, Extrapolation, FmuSystem, JacobianUpdate, Options, Relaxation, Scheme};
 use master::monolithic::Monolithic;
 
 fn library(name: &str) -> PathBuf {
@@ -71,8 +71,11 @@ fn main() {
         jacobian: JacobianUpdate::EveryStep,
         tol: 1e-8,
         max_iter: 100,
+        ..Options::default()
     };
-    let mut c = Coupled::new(&scene, &file, options).unwrap();
+    let spec = master::system::scene_spec(&scene, &file).unwrap();
+    let system = FmuSystem::load(&spec, &master::system::needs(&options, false)).unwrap();
+    let mut c = Coupled::new(system, options).unwrap();
     bench("ijcsa macro step (2 iterations + Jacobian)", 2.0, || c.step(0.01).unwrap());
     let mut m = Monolithic::new(&scene).unwrap();
     bench("monolithic step (eq. 7, sparse LU)", 2.0, || m.step(0.01).unwrap());

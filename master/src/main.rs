@@ -41,6 +41,8 @@ enum Command {
     Stability(commands::stability::Args),
     /// Long and hard runs (1000 s, stiff cables, fine nets, slack cable, abrupt start) with their bounds.
     Stress(commands::stress::Args),
+    /// Write the scene's co-simulated system (FMUs, connections, parameters) as an SSP 1.0 archive.
+    ExportSsp(commands::export_ssp::Args),
     /// Build the FMI 2.0 Co-Simulation archives cable_fmu.fmu and stewart_fmu.fmu.
     Package(commands::package::Args),
     /// Run a model's library in-process on an input table (the reference of the fmpy cross-checks).
@@ -59,6 +61,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => commands::bench::run(&args),
         Command::Stability(args) => commands::stability::run(&args),
         Command::Stress(args) => commands::stress::run(&args),
+        Command::ExportSsp(args) => commands::export_ssp::run(&args),
         Command::Package(args) => commands::package::run(&args),
         Command::Replay(args) => commands::replay::run(&args),
     };

@@ -11,9 +11,11 @@ use std::time::Instant;
 use feedcore::Vec3;
 use feedcore::scene::{Quantity, Scene};
 
-use crate::cosim::{Coupled, Options};
+use cosim::{Coupled, FmuSystem, Options};
+
 use crate::monolithic::Monolithic;
 use crate::progress::Progress;
+use crate::system::{Adaptive, needs, scene_spec};
 
 /// How the system is solved.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,6 +25,8 @@ pub enum Method {
     CableOnly,
     Monolithic,
     Cosim(Options),
+    /// A co-simulation with the adaptive macro step (implicit schemes).
+    CosimAdaptive(Options, Adaptive),
     Decoupled(Options),
 }
 
@@ -31,7 +35,7 @@ impl Method {
         match self {
             Method::CableOnly => "cable",
             Method::Monolithic => "monolithic",
-            Method::Cosim(o) => o.scheme.name(),
+            Method::Cosim(o) | Method::CosimAdaptive(o, _) => o.scheme.name(),
             Method::Decoupled(_) => "decoupled",
         }
     }
@@ -54,6 +58,12 @@ pub struct Trace {
     /// Iterations (system evaluations) per macro step, and the interface residual at its end.
     pub iterations: Vec<usize>,
     pub residual: Vec<f64>,
+    /// Adaptive runs: the step that ended at every sample (they sample every accepted step),
+    /// the steps rejected, and the smallest and largest step taken.
+    pub h: Vec<f64>,
+    pub rejected_steps: usize,
+    pub h_min_used: f64,
+    pub h_max_used: f64,
     /// Largest position-constraint residual (monolithic only), m.
     pub constraint_residual: f64,
     pub wall_time_s: f64,
@@ -82,16 +92,31 @@ impl Trace {
         self.residual.iter().cloned().fold(0.0, f64::max)
     }
 
-    /// Largest and RMS distance (mm) of the cabin centre from another run's at the common
-    /// sample times (the traces must share their sampling).
+    /// Largest and RMS distance (mm) of the cabin centre from another run's at this run's
+    /// sample times within the other's span (the other run interpolated linearly between its
+    /// samples: sample it at least as finely).
     pub fn error_against(&self, reference: &Trace) -> (f64, f64) {
-        let n = self.t.len().min(reference.t.len());
-        let (mut max, mut sum) = (0.0f64, 0.0);
-        for i in 0..n {
-            debug_assert!((self.t[i] - reference.t[i]).abs() < 1e-9);
-            let d: f64 = (0..3).map(|k| (self.disp_mm[i][k] - reference.disp_mm[i][k]).powi(2)).sum::<f64>().sqrt();
+        let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0usize);
+        let mut j = 0;
+        for i in 0..self.t.len() {
+            let t = self.t[i];
+            while j + 1 < reference.t.len() && reference.t[j + 1] <= t + 1e-9 {
+                j += 1;
+            }
+            if reference.t.is_empty() || t > reference.t[reference.t.len() - 1] + 1e-9 {
+                break;
+            }
+            let r = if (reference.t[j] - t).abs() <= 1e-9 || j + 1 == reference.t.len() {
+                reference.disp_mm[j]
+            } else {
+                let w = (t - reference.t[j]) / (reference.t[j + 1] - reference.t[j]);
+                let (a, b) = (reference.disp_mm[j], reference.disp_mm[j + 1]);
+                [a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1]), a[2] + w * (b[2] - a[2])]
+            };
+            let d: f64 = (0..3).map(|k| (self.disp_mm[i][k] - r[k]).powi(2)).sum::<f64>().sqrt();
             max = max.max(d);
             sum += d * d;
+            n += 1;
         }
         (max, (sum / n.max(1) as f64).sqrt())
     }
@@ -114,12 +139,18 @@ impl Trace {
         let chosen: Vec<_> = groups.iter().filter(|g| quantities.contains(&g.0)).collect();
         let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
         write!(f, "t")?;
+        if !self.h.is_empty() {
+            write!(f, ",h_s")?;
+        }
         for g in &chosen {
             write!(f, ",{}", g.1)?;
         }
         writeln!(f)?;
         for i in 0..self.t.len() {
             write!(f, "{}", self.t[i])?;
+            if !self.h.is_empty() {
+                write!(f, ",{}", self.h[i])?;
+            }
             for g in &chosen {
                 for x in (g.2)(i) {
                     write!(f, ",{x:e}")?;
@@ -167,9 +198,9 @@ struct CosimProbe {
 }
 
 impl CosimProbe {
-    fn new(c: &mut Coupled) -> Result<CosimProbe, Box<dyn std::error::Error>> {
-        let vr = |c: &mut Coupled, fmu: &str, name: String| -> Result<u32, Box<dyn std::error::Error>> {
-            let inst = c.instance(fmu).ok_or_else(|| format!("the system has no FMU named `{fmu}`"))?;
+    fn new(c: &mut Coupled<FmuSystem>) -> Result<CosimProbe, Box<dyn std::error::Error>> {
+        let vr = |c: &mut Coupled<FmuSystem>, fmu: &str, name: String| -> Result<u32, Box<dyn std::error::Error>> {
+            let inst = c.units_mut().instance(fmu).ok_or_else(|| format!("the system has no FMU named `{fmu}`"))?;
             Ok(inst.fmu().value_reference(&name)?)
         };
         Ok(CosimProbe {
@@ -196,13 +227,13 @@ impl CosimProbe {
         })
     }
 
-    fn read(&self, c: &mut Coupled) -> Result<Probe, fmi2::import::Error> {
+    fn read(&self, c: &mut Coupled<FmuSystem>) -> Result<Probe, fmi2::import::Error> {
         let (mut r, mut q, mut w) = ([0.0; 3], [0.0; 4], [0.0; 6]);
-        let cable = c.instance("cable").expect("checked in new");
+        let cable = c.units_mut().instance("cable").expect("checked in new");
         cable.get_real(&self.r, &mut r)?;
         cable.get_real(&self.q, &mut q)?;
         if self.read_wrench {
-            c.instance("stewart").expect("checked in new").get_real(&self.w, &mut w)?;
+            c.units_mut().instance("stewart").expect("checked in new").get_real(&self.w, &mut w)?;
         }
         Ok(Probe {
             position: Vec3::from(r),
@@ -290,7 +321,7 @@ pub fn simulate(
                 bar.update(k as u64, k as f64 * dt);
             }
         }
-        Method::Cosim(options) | Method::Decoupled(options) => {
+        Method::Cosim(options) | Method::Decoupled(options) | Method::CosimAdaptive(options, _) => {
             let mut sc = scene.clone();
             let mut options = options;
             if matches!(method, Method::Decoupled(_)) {
@@ -298,20 +329,48 @@ pub fn simulate(
                 // forward to the cable model: cut the connections into the Stewart FMU
                 let sys = sc.system.as_mut().ok_or_else(|| format!("{}: no [system] section", scene_file.display()))?;
                 sys.connections.retain(|c| !c.to.starts_with("stewart."));
-                options.scheme = crate::cosim::Scheme::Sequential;
+                options.scheme = cosim::Scheme::Sequential;
             }
-            let mut c = Coupled::new(&sc, scene_file, options)?;
+            let adaptive = match method {
+                Method::CosimAdaptive(_, a) => Some(a),
+                _ => None,
+            };
+            let system = FmuSystem::load(&scene_spec(&sc, scene_file)?, &needs(&options, adaptive.is_some()))?;
+            let mut c = Coupled::new(system, options)?;
             let mut probe = CosimProbe::new(&mut c)?;
             probe.read_wrench = scene.outputs.quantities.contains(&Quantity::Wrench);
             rec.record(0.0, &probe.read(&mut c)?);
-            for k in 1..=steps {
-                let report = c.step(dt)?;
-                rec.trace.iterations.push(report.iterations);
-                rec.trace.residual.push(report.residual);
-                if k % rec.every == 0 {
-                    rec.record(k as f64 * dt, &probe.read(&mut c)?);
+            if let Some(a) = adaptive {
+                let mut ctl = a.controller()?;
+                rec.trace.h_min_used = f64::INFINITY;
+                let mut k = 0;
+                while c.time() < t_end * (1.0 - 1e-12) {
+                    let s = c.step_adaptive(&mut ctl, a.tolerances, t_end)?;
+                    k += 1;
+                    rec.trace.iterations.push(s.report.iterations);
+                    rec.trace.residual.push(s.report.residual);
+                    rec.trace.rejected_steps += s.rejected;
+                    rec.trace.h_min_used = rec.trace.h_min_used.min(s.h);
+                    rec.trace.h_max_used = rec.trace.h_max_used.max(s.h);
+                    rec.trace.h.push(s.h);
+                    rec.record(c.time(), &probe.read(&mut c)?);
+                    bar.update(((c.time() / dt) as u64).min(steps as u64), c.time());
                 }
-                bar.update(k as u64, k as f64 * dt);
+                rec.trace.steps = k;
+                // the first sample (t = 0) has no step
+                rec.trace.h.insert(0, 0.0);
+            } else {
+                rec.trace.h_min_used = dt;
+                rec.trace.h_max_used = dt;
+                for k in 1..=steps {
+                    let report = c.step(dt)?;
+                    rec.trace.iterations.push(report.iterations);
+                    rec.trace.residual.push(report.residual);
+                    if k % rec.every == 0 {
+                        rec.record(k as f64 * dt, &probe.read(&mut c)?);
+                    }
+                    bar.update(k as u64, k as f64 * dt);
+                }
             }
         }
     }

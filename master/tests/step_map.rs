@@ -36,6 +36,7 @@ fn ijcsa_with_the_extension_and_with_finite_differences_agree() {
         jacobian: JacobianUpdate::EveryStep,
         tol: 1e-8,
         max_iter: 100,
+        ..Options::default()
     };
     let t_end = 5.0;
     let with = simulate(&scene, &file, Method::Cosim(options), 0.01, t_end, true).unwrap();

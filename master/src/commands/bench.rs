@@ -20,7 +20,7 @@ pub struct Args {
     #[arg(long)]
     pub scene: PathBuf,
     /// Comma-separated methods.
-    #[arg(long, default_value = "monolithic,ijcsa,iterative,gauss-seidel,jacobi,decoupled", long_help = format!("Comma-separated methods: {SCHEMES}."))]
+    #[arg(long, default_value = "monolithic,ijcsa,iqn-ils,iterative,gauss-seidel,jacobi,decoupled", long_help = format!("Comma-separated methods: {SCHEMES}."))]
     pub schemes: String,
     /// Comma-separated macro steps (s).
     #[arg(long, default_value = "0.04,0.02,0.01,0.005,0.0025")]
@@ -34,6 +34,11 @@ pub struct Args {
     /// Step of the monolithic reference (s); default: the smallest step / 4.
     #[arg(long)]
     pub reference_dt: Option<f64>,
+    /// Also run every implicit scheme of --schemes with the adaptive step at these relative
+    /// tolerances (comma-separated, e.g. 1e-3), each against the cheapest fixed step of the same
+    /// scheme that reaches its error.
+    #[arg(long)]
+    pub adaptive_rtols: Option<String>,
     /// Directory for bench.csv and work_precision.svg.
     #[arg(long, default_value = "out/bench")]
     pub out: PathBuf,
@@ -75,39 +80,58 @@ pub fn run(args: &Args) -> CmdResult {
     let (scene, file) = write_variant(&scene, &args.scene, &format!("bench-{}", scene.name))?;
     let quiet = args.quiet || !std::io::stderr().is_terminal();
     let reference_dt = args.reference_dt.unwrap_or(dts.iter().cloned().fold(f64::INFINITY, f64::min) / 4.0);
+    let rtols: Vec<f64> = match &args.adaptive_rtols {
+        None => Vec::new(),
+        Some(text) => text
+            .split(',')
+            .map(|x| x.trim().parse::<f64>().map_err(|e| format!("--adaptive-rtols: `{x}`: {e}")))
+            .collect::<Result<_, _>>()?,
+    };
+    // adaptive runs sample every accepted step: compare them with a reference sampled at its step
+    let (reference_scene, reference_file) = if rtols.is_empty() {
+        (scene.clone(), file.clone())
+    } else {
+        let mut fine = scene.clone();
+        fine.outputs.sample_interval_s = reference_dt;
+        write_variant(&fine, &file, &format!("bench-reference-{}", scene.name))?
+    };
     eprintln!("reference: monolithic at h = {reference_dt} s …");
-    let reference = simulate(&scene, &file, args.options.method("monolithic")?, reference_dt, t_end, quiet)?;
+    let reference = simulate(
+        &reference_scene,
+        &reference_file,
+        args.options.fixed_step().method("monolithic")?,
+        reference_dt,
+        t_end,
+        quiet,
+    )?;
     let peak = reference.peak_mm();
     let mut cells = Vec::new();
     for name in args.schemes.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let method = args.options.method(name)?;
         for &dt in &dts {
             eprintln!("{name} at h = {dt} s …");
-            let mut walls = Vec::new();
-            let mut last: Option<Trace> = None;
-            let mut failure = None;
-            for _ in 0..args.repeats {
-                match simulate(&scene, &file, method, dt, t_end, quiet) {
-                    Ok(t) => {
-                        walls.push(t.wall_time_s);
-                        last = Some(t);
-                    }
-                    Err(e) => {
-                        failure = Some(e.to_string());
-                        break;
-                    }
-                }
-            }
-            let result = match (failure, last) {
-                (Some(e), _) => Err(e),
-                (None, Some(t)) => {
-                    walls.sort_by(f64::total_cmp);
+            let result =
+                repeated(args.repeats, || simulate(&scene, &file, method, dt, t_end, quiet)).map(|(wall, t)| {
                     let (max, rms) = t.error_against(&reference);
-                    Ok((walls[walls.len() / 2], max, rms, t.mean_iterations()))
-                }
-                (None, None) => Err("no run".into()),
-            };
+                    (wall, max, rms, t.mean_iterations())
+                });
             cells.push(Cell { scheme: name.to_string(), dt, result });
+        }
+    }
+    // adaptive runs: (scheme, rtol, wall, max error, steps, rejected, h_min, h_max) or a failure
+    let mut adaptive_rows = Vec::new();
+    for &rtol in &rtols {
+        for name in args.schemes.split(',').map(str::trim).filter(|s| matches!(*s, "iterative" | "ijcsa" | "iqn-ils")) {
+            let mut o = args.options.clone();
+            o.adaptive = true;
+            o.rtol = rtol;
+            let method = o.method(name)?;
+            eprintln!("{name} adaptive at rtol = {rtol} …");
+            let result =
+                repeated(args.repeats, || simulate(&scene, &file, method, dts[0], t_end, quiet)).map(|(wall, t)| {
+                    (wall, t.error_against(&reference).0, t.steps, t.rejected_steps, t.h_min_used, t.h_max_used)
+                });
+            adaptive_rows.push((name.to_string(), rtol, result));
         }
     }
     std::fs::create_dir_all(&args.out)?;
@@ -202,6 +226,91 @@ pub fn run(args: &Args) -> CmdResult {
     }
     print!("{}", summary.render());
     println!();
+    if !adaptive_rows.is_empty() {
+        let mut t = Table::new([
+            "adaptive",
+            "rtol",
+            "wall s",
+            "max error mm",
+            "% of peak",
+            "steps",
+            "rejected",
+            "h min … max s",
+            "cheapest fixed h reaching it",
+            "its wall s",
+            "cost ratio",
+        ]);
+        let mut lines = vec!["scheme,rtol,wall_time_s,max_error_mm,max_error_percent_of_peak,steps,rejected_steps,h_min_used,h_max_used,fixed_dt_s,fixed_wall_time_s,cost_ratio,failure".to_string()];
+        for (name, rtol, r) in &adaptive_rows {
+            match r {
+                Ok((wall, err, steps, rejected, hmin, hmax)) => {
+                    let fixed = cells
+                        .iter()
+                        .filter(|c| &c.scheme == name)
+                        .filter_map(|c| c.result.as_ref().ok().filter(|x| x.1 <= *err).map(|x| (c.dt, x.0)))
+                        .min_by(|a, b| a.1.total_cmp(&b.1));
+                    t.row([
+                        name.clone(),
+                        format!("{rtol:e}"),
+                        format!("{wall:.3}"),
+                        format!("{err:.3e}"),
+                        format!("{:.4}", 100.0 * err / peak),
+                        steps.to_string(),
+                        rejected.to_string(),
+                        format!("{hmin:.1e} … {hmax:.1e}"),
+                        fixed.map_or("none in --dts".into(), |f| format!("h = {}", f.0)),
+                        fixed.map_or("—".into(), |f| format!("{:.3}", f.1)),
+                        fixed.map_or("—".into(), |f| format!("{:.2}", wall / f.1)),
+                    ]);
+                    lines.push(format!(
+                        "{name},{rtol:e},{wall},{err:e},{},{steps},{rejected},{hmin},{hmax},{},{},{},",
+                        100.0 * err / peak,
+                        fixed.map_or(String::new(), |f| f.0.to_string()),
+                        fixed.map_or(String::new(), |f| f.1.to_string()),
+                        fixed.map_or(String::new(), |f| (wall / f.1).to_string())
+                    ));
+                }
+                Err(e) => {
+                    t.row([
+                        name.clone(),
+                        format!("{rtol:e}"),
+                        "failed".into(),
+                        "".into(),
+                        "".into(),
+                        "".into(),
+                        "".into(),
+                        "".into(),
+                        "".into(),
+                        "".into(),
+                        e.chars().take(60).collect(),
+                    ]);
+                    lines.push(format!("{name},{rtol:e},,,,,,,,,,,\"{}\"", e.replace('"', "'")));
+                }
+            }
+        }
+        print!("{}", t.render());
+        println!();
+        let adaptive_csv = args.out.join("bench_adaptive.csv");
+        std::fs::write(&adaptive_csv, lines.join("\n") + "\n")?;
+        println!("{} written", adaptive_csv.display());
+    }
     println!("{} and {} written", csv_path.display(), svg.display());
     Ok(())
+}
+
+/// Runs `run` `repeats` times: the median wall time and the last trace, or the first failure.
+fn repeated(
+    repeats: usize,
+    mut run: impl FnMut() -> Result<Trace, Box<dyn std::error::Error>>,
+) -> Result<(f64, Trace), String> {
+    let mut walls = Vec::with_capacity(repeats);
+    let mut last = None;
+    for _ in 0..repeats {
+        let t = run().map_err(|e| e.to_string())?;
+        walls.push(t.wall_time_s);
+        last = Some(t);
+    }
+    walls.sort_by(f64::total_cmp);
+    let trace = last.ok_or("no run")?;
+    Ok((walls[walls.len() / 2], trace))
 }

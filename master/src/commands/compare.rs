@@ -18,7 +18,7 @@ pub struct Args {
     #[arg(long)]
     pub scene: PathBuf,
     /// Comma-separated methods to compare with `monolithic`.
-    #[arg(long, default_value = "ijcsa,iterative,gauss-seidel,jacobi,decoupled", long_help = format!("Comma-separated methods to compare with the monolithic reference: {SCHEMES}."))]
+    #[arg(long, default_value = "ijcsa,iqn-ils,iterative,gauss-seidel,jacobi,decoupled", long_help = format!("Comma-separated methods to compare with the monolithic reference: {SCHEMES}."))]
     pub schemes: String,
     /// Macro step (s) of every run; default: the scene's solver.dt_s.
     #[arg(long)]
@@ -44,7 +44,7 @@ pub fn run(args: &Args) -> CmdResult {
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
-    let reference = simulate(&scene, &args.scene, args.options.method("monolithic")?, dt, t_end, quiet)?;
+    let reference = simulate(&scene, &args.scene, args.options.fixed_step().method("monolithic")?, dt, t_end, quiet)?;
     let peak = reference.peak_mm();
     let mut rows = Vec::new();
     let mut traces = vec![reference.clone()];

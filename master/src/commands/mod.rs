@@ -2,10 +2,12 @@
 
 pub mod bench;
 pub mod compare;
+pub mod export_ssp;
 pub mod modes;
 pub mod package;
 pub mod replay;
 pub mod run;
+pub mod run_system;
 pub mod scheme_args;
 pub mod stability;
 pub mod statics;

@@ -14,8 +14,12 @@ use super::scheme_args::{SCHEMES, SchemeOptions};
 #[derive(clap::Args)]
 pub struct Args {
     /// Scene file (TOML), e.g. scenes/lt50m_C.toml. Its [system] section names the FMUs.
+    #[arg(long, required_unless_present = "system", conflicts_with = "system")]
+    pub scene: Option<PathBuf>,
+    /// Any system of FMI 2.0 Co-Simulation FMUs in SSP 1.0: an `.ssp` archive, or an `.ssd` with
+    /// the FMUs beside it. The CSV then holds `time` and every output as `<component>.<variable>`.
     #[arg(long)]
-    pub scene: PathBuf,
+    pub system: Option<PathBuf>,
     /// Method: monolithic, jacobi, gauss-seidel, gauss-seidel-reversed, iterative, ijcsa, decoupled, cable.
     #[arg(long, long_help = format!("Method: {SCHEMES}."))]
     pub scheme: String,
@@ -65,6 +69,9 @@ pub fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
         "mean_iterations": t.mean_iterations(),
         "max_interface_residual": t.max_residual(),
         "max_constraint_residual_m": t.constraint_residual,
+        "rejected_steps": t.rejected_steps,
+        "h_min_used": t.h_min_used,
+        "h_max_used": t.h_max_used,
     })
 }
 
@@ -91,12 +98,17 @@ pub fn plot_traces(traces: &[&Trace], title: &str, path: &PathBuf) -> CmdResult 
 }
 
 pub fn run(args: &Args) -> CmdResult {
-    let scene = Scene::load(&args.scene)?;
+    let scene_file = match (&args.scene, &args.system) {
+        (Some(f), _) => f,
+        (None, Some(system)) => return super::run_system::run(args, system),
+        (None, None) => return Err("give --scene or --system".into()),
+    };
+    let scene = Scene::load(scene_file)?;
     let method = args.options.method(&args.scheme)?;
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
-    let trace = simulate(&scene, &args.scene, method, dt, t_end, quiet)?;
+    let trace = simulate(&scene, scene_file, method, dt, t_end, quiet)?;
     if let Some(out) = &args.out {
         create_parent(out)?;
         trace.write_csv(out, &scene.outputs.quantities)?;

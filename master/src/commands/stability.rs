@@ -20,7 +20,7 @@ pub struct Args {
     #[arg(long)]
     pub scene: PathBuf,
     /// Comma-separated coupling schemes.
-    #[arg(long, default_value = "jacobi,gauss-seidel,gauss-seidel-reversed,iterative,ijcsa")]
+    #[arg(long, default_value = "jacobi,gauss-seidel,gauss-seidel-reversed,iterative,ijcsa,iqn-ils")]
     pub schemes: String,
     /// Factors on every mass and inertia of the Stewart platform (1: the scene's platform).
     #[arg(long, default_value = "0.1,0.2,0.5,1,2,5,10")]
@@ -169,7 +169,7 @@ pub fn run(args: &Args) -> CmdResult {
             let mut cells = vec![format!("×{f}")];
             for (ix, &dt) in dts.iter().enumerate() {
                 let r = rows.iter().find(|r| &r.0 == name && r.1 == f && r.2 == dt).expect("every cell was run");
-                let iterating = matches!(*name, "iterative" | "ijcsa");
+                let iterating = matches!(*name, "iterative" | "ijcsa" | "iqn-ils");
                 let text = if r.3 == Verdict::Stable && iterating { format!("{:.1}", r.4) } else { String::new() };
                 grid.set(ix, iy, r.3 as usize, &text);
                 cells.push(match r.3 {

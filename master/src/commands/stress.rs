@@ -35,6 +35,7 @@ fn ijcsa() -> Method {
         jacobian: JacobianUpdate::EveryStep,
         tol: 1e-8,
         max_iter: 100,
+        ..Options::default()
     })
 }
 

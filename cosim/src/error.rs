@@ -1,0 +1,79 @@
+//! What can go wrong: setting a system up, and running it.
+
+use std::path::PathBuf;
+
+use crate::system::UnitError;
+
+/// A system that cannot be set up: files, descriptions, connections, capabilities.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    #[error("{path}: {message}")]
+    File { path: PathBuf, message: String },
+    /// A call into an FMU failed while loading or initializing it.
+    #[error("component `{component}`: {source}")]
+    Fmu { component: String, source: fmi2::import::Error },
+    /// The description does not fit the FMUs (names, types, units, values); the message names
+    /// where, what and how to fix it.
+    #[error("{0}")]
+    Invalid(String),
+    /// A scheme needs a capability a component lacks.
+    #[error("{what} needs {capability} from every FMU: component `{component}` ({fmu}) does not declare {attribute}")]
+    Capability { what: String, capability: &'static str, component: String, fmu: String, attribute: &'static str },
+    /// The connected values did not settle in initialization mode.
+    #[error(
+        "initialization: the connected values did not settle in {iterations} passes over the loop \
+         (still changing: `{variable}` by {change:.3e}); the system's algebraic loop does not contract"
+    )]
+    Initialization { iterations: usize, variable: String, change: f64 },
+}
+
+/// A run that could not go on: at what time and why. Every message starts with
+/// `co-simulation stopped at t = … s:`.
+#[derive(Debug, thiserror::Error)]
+pub enum StepError {
+    #[error("co-simulation stopped at t = {time:.6} s: FMU `{unit}`: {source}")]
+    Unit { time: f64, unit: String, source: Box<UnitError> },
+    #[error(
+        "co-simulation stopped at t = {time:.6} s: {scheme} did not converge in {iterations} iterations: \
+         interface residual {residual:.3e} (relative) at `{variable}` (tolerance {tol:.1e}); \
+         reduce the step size, raise --max-iter or loosen --tol"
+    )]
+    NotConverged { time: f64, scheme: &'static str, iterations: usize, residual: f64, variable: String, tol: f64 },
+    /// The coupled values ran away (explicit schemes on a strongly coupled system).
+    #[error(
+        "{cause}; the coupled inputs had grown to {growth:.0}× their scale (`{variable}` = {value:.3e}): \
+         {scheme} is unstable here (the platform's added mass on the cabin); use ijcsa, iqn-ils or iterative"
+    )]
+    Unstable { cause: Box<StepError>, growth: f64, variable: String, value: f64, scheme: &'static str },
+    #[error("co-simulation stopped at t = {time:.6} s: {reason}")]
+    Failed { time: f64, reason: String },
+    /// The adaptive step found no step down to the smallest allowed that converged with a
+    /// finite error estimate.
+    #[error(
+        "co-simulation stopped at t = {time:.6} s: no step down to --h-min {h_min} s converged with a finite \
+         error estimate (last: {error:.3e} relative to the tolerance); lower --h-min or check the FMUs"
+    )]
+    StepTooSmall { time: f64, error: f64, h_min: f64 },
+}
+
+impl StepError {
+    /// The time the run stopped at.
+    pub fn time(&self) -> f64 {
+        match self {
+            StepError::Unit { time, .. }
+            | StepError::NotConverged { time, .. }
+            | StepError::Failed { time, .. }
+            | StepError::StepTooSmall { time, .. } => *time,
+            StepError::Unstable { cause, .. } => cause.time(),
+        }
+    }
+
+    /// A unit ended the run on purpose (fmi2Discard / fmi2Terminated): not a failure. Returns
+    /// the unit and the error of the unit.
+    pub fn ended(&self) -> Option<(&str, &UnitError)> {
+        match self {
+            StepError::Unit { unit, source, .. } if matches!(**source, UnitError::Ended { .. }) => Some((unit, source)),
+            _ => None,
+        }
+    }
+}

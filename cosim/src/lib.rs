@@ -1,0 +1,25 @@
+//! Co-simulation of FMI 2.0 Co-Simulation FMUs.
+//!
+//! * [`system`]: the coupled system — units, connections, layout, scales — as the schemes see
+//!   it ([`Units`]), the FMU implementation ([`FmuSystem`]) and the name-based description it is
+//!   built from ([`SystemSpec`]);
+//! * [`schemes`]: the coupling schemes and the adaptive macro step ([`Coupled`]);
+//! * [`iqn`]: interface quasi-Newton acceleration (IQN-ILS);
+//! * [`step_control`]: step-size control that sees only error norms and step sizes;
+//! * [`ssp`]: SSP 1.0 system descriptions, read and written;
+//! * [`error`]: set-up and run errors.
+
+pub mod dense;
+pub mod error;
+pub mod iqn;
+pub mod schemes;
+pub mod ssp;
+pub mod step_control;
+pub mod system;
+
+pub use error::{SetupError, StepError};
+pub use iqn::IqnOptions;
+pub use schemes::{AdaptiveStep, Coupled, Extrapolation, JacobianUpdate, Options, Relaxation, Scheme, StepReport};
+pub use system::fmu::{FmuSystem, Needs};
+pub use system::spec::SystemSpec;
+pub use system::{Capabilities, Layout, UnitError, UnitLayout, Units};

@@ -1,0 +1,99 @@
+//! A system description independent of where it came from (a scene's `[system]` table, an SSP
+//! 1.0 `.ssd`): components, connections and parameter values, by name.
+
+use std::path::PathBuf;
+
+/// One FMU of the system.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Component {
+    /// Name used in connections and in output names (`component.variable`).
+    pub name: String,
+    /// The `.fmu` archive, or a directory holding an unpacked FMU.
+    pub source: PathBuf,
+}
+
+/// A variable of a component.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Endpoint {
+    pub component: String,
+    pub variable: String,
+}
+
+impl std::fmt::Display for Endpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}.{}", self.component, self.variable)
+    }
+}
+
+/// How a connection names its variables.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Matching {
+    /// One output to one input, by their full names.
+    Exact,
+    /// Every output whose name starts with `from.variable` (followed by `.`, `[` or nothing)
+    /// feeds the input of `to` with `to.variable` and the same suffix (the scene's `[system]`).
+    Prefix,
+}
+
+/// `input = factor · output + offset` (SSP `LinearTransformation`, or a unit conversion).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Linear {
+    pub factor: f64,
+    pub offset: f64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Connection {
+    pub from: Endpoint,
+    pub to: Endpoint,
+    pub matching: Matching,
+    /// Only for Real connections.
+    pub transform: Option<Linear>,
+}
+
+/// A parameter value: typed (SSP), or text converted to the variable's type (scene).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Value {
+    Real(f64),
+    Integer(i32),
+    Boolean(bool),
+    String(String),
+    Text(String),
+}
+
+impl std::fmt::Display for Value {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Value::Real(x) => write!(f, "{x:?}"),
+            Value::Integer(x) => write!(f, "{x}"),
+            Value::Boolean(x) => write!(f, "{x}"),
+            Value::String(x) | Value::Text(x) => write!(f, "\"{x}\""),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Parameter {
+    pub target: Endpoint,
+    pub value: Value,
+}
+
+/// A variable as the description declares it (an SSP connector), checked against the FMU.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Connector {
+    pub endpoint: Endpoint,
+    pub var_type: fmi2::VarType,
+    pub unit: Option<String>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct SystemSpec {
+    /// Where the description came from, for messages (a file, `scene.toml [system]`).
+    pub origin: String,
+    pub components: Vec<Component>,
+    pub connections: Vec<Connection>,
+    /// Applied in order before initialization.
+    pub parameters: Vec<Parameter>,
+    /// Declared variables to check (may be empty).
+    pub connectors: Vec<Connector>,
+}

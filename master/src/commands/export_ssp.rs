@@ -1,0 +1,98 @@
+//! `master export-ssp --scene F --out F.ssp`: the scene's co-simulated system as an SSP 1.0
+//! archive — both FMUs, every connection (one output to one input), the parameter values — that
+//! `master run --system` runs with the same result as `--scene`, and other SSP tools load.
+//!
+//! The scene file itself travels inside each FMU that reads it (`resources/exported_scene.toml`,
+//! the parameter set to that relative name, which the FMU resolves against its resources), so
+//! the archive stands alone.
+
+use std::path::PathBuf;
+
+use cosim::ssp::write::{SspComponent, SspConnector, SspSystem, with_resource, write_ssp};
+use cosim::system::fmu::resolve;
+use cosim::system::spec::Value;
+use feedcore::scene::Scene;
+use master::system::scene_spec;
+
+use super::CmdResult;
+use super::run::create_parent;
+
+/// The name of the scene file inside the FMUs' resources.
+pub const SCENE_RESOURCE: &str = "exported_scene.toml";
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scene file (TOML) whose [system] is exported.
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// The SSP archive to write (`.ssp`).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+pub fn run(args: &Args) -> CmdResult {
+    if args.out.extension().and_then(|e| e.to_str()) != Some("ssp") {
+        return Err(format!("--out {}: name the archive *.ssp", args.out.display()).into());
+    }
+    if args.out.exists() && std::fs::canonicalize(&args.out)? == std::fs::canonicalize(&args.scene)? {
+        return Err(format!("--out {}: that is the scene file; choose another name", args.out.display()).into());
+    }
+    let scene = Scene::load(&args.scene)?;
+    let sys = scene.system.as_ref().ok_or_else(|| format!("{}: the scene has no [system]", args.scene.display()))?;
+    let spec = scene_spec(&scene, &args.scene)?;
+    let resolved = resolve(&spec)?;
+    let scene_bytes = std::fs::read(&args.scene)?;
+    let mut components = Vec::new();
+    for c in &spec.components {
+        let reads_scene =
+            sys.parameters.iter().any(|(k, v)| v == "@scene" && k.split_once('.').is_some_and(|(f, _)| f == c.name));
+        let fmu = if reads_scene {
+            with_resource(&c.source, SCENE_RESOURCE, &scene_bytes)?
+        } else {
+            std::fs::read(&c.source).map_err(|e| format!("{}: {e}", c.source.display()))?
+        };
+        let mut connectors: Vec<SspConnector> = Vec::new();
+        let mut add = |name: &str, kind: &'static str, var_type| {
+            if !connectors.iter().any(|k| k.name == name) {
+                connectors.push(SspConnector { name: name.to_owned(), kind, var_type });
+            }
+        };
+        for l in &resolved.connections {
+            if l.from.component == c.name {
+                add(&l.from.variable, "output", l.var_type);
+            }
+            if l.to.component == c.name {
+                add(&l.to.variable, "input", l.var_type);
+            }
+        }
+        let mut parameters = Vec::new();
+        for (p, var_type, _) in resolved.parameters.iter().filter(|p| p.0.target.component == c.name) {
+            add(&p.target.variable, "parameter", *var_type);
+            let key = format!("{}.{}", c.name, p.target.variable);
+            let value = if sys.parameters.get(&key).is_some_and(|v| v == "@scene") {
+                Value::String(SCENE_RESOURCE.into())
+            } else {
+                p.value.clone()
+            };
+            parameters.push((p.target.variable.clone(), value));
+        }
+        components.push(SspComponent { name: c.name.clone(), fmu, connectors, parameters });
+    }
+    let system = SspSystem {
+        name: scene.name.clone(),
+        components,
+        connections: resolved.connections,
+        start_time: 0.0,
+        stop_time: scene.solver.t_end_s,
+    };
+    create_parent(&args.out)?;
+    write_ssp(&args.out, &system)?;
+    println!(
+        "{}: {} components, {} connections, {} parameter values",
+        args.out.display(),
+        system.components.len(),
+        system.connections.len(),
+        system.components.iter().map(|c| c.parameters.len()).sum::<usize>()
+    );
+    Ok(())
+}

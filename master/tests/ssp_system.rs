@@ -1,0 +1,276 @@
+//! SSP 1.0 systems of FMUs that know nothing of this project's physics (the fmi2 test
+//! oscillator): hand-written `.ssd`/`.ssv` files read, checked and run by the master.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+use master::cosim::{Coupled, FmuSystem, Needs, Options, Scheme, SetupError};
+
+/// The oscillator FMU, packaged once per test binary.
+fn oscillator() -> &'static Path {
+    static FMU: OnceLock<PathBuf> = OnceLock::new();
+    FMU.get_or_init(|| {
+        let exe = std::env::current_exe().unwrap();
+        let deps = exe.parent().unwrap();
+        let lib = [deps, deps.parent().unwrap()]
+            .iter()
+            .map(|d| d.join("libfmi2_testmodel.so"))
+            .find(|p| p.is_file())
+            .expect("libfmi2_testmodel.so: run `cargo build --release --workspace` first");
+        let dir = std::env::temp_dir().join(format!("master-ssp-tests-{}", std::process::id()));
+        fmi2::package::package_model::<fmi2_testmodel::Oscillator>(&dir, &lib).unwrap()
+    })
+}
+
+const SSD_HEAD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="pair">
+  <ssd:System name="pair">
+    <ssd:Elements>"#;
+
+/// Two oscillators pulling on each other: `a.F = KC · b.x`, `b.F = KC · a.x` (linear
+/// transformations convert the position into a force); b's parameters from an `.ssv` file,
+/// a's inline, of every type.
+fn pair_ssd(dir: &Path, extra_connection: &str) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::copy(oscillator(), dir.join("oscillator.fmu")).unwrap();
+    std::fs::write(
+        dir.join("b.ssv"),
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<ssv:ParameterSet xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="b">
+  <ssv:Parameters>
+    <ssv:Parameter name="x0"><ssv:Real value="-0.05"/></ssv:Parameter>
+    <ssv:Parameter name="k"><ssv:Real value="60"/></ssv:Parameter>
+  </ssv:Parameters>
+</ssv:ParameterSet>
+"#,
+    )
+    .unwrap();
+    let ssd = format!(
+        r#"{SSD_HEAD}
+      <ssd:Component name="a" source="oscillator.fmu">
+        <ssd:Connectors>
+          <ssd:Connector name="F" kind="input"><ssc:Real unit="N"/></ssd:Connector>
+          <ssd:Connector name="x" kind="output"><ssc:Real unit="m"/></ssd:Connector>
+        </ssd:Connectors>
+        <ssd:ParameterBindings>
+          <ssd:ParameterBinding>
+            <ssd:ParameterValues>
+              <ssv:ParameterSet version="1.0" name="a">
+                <ssv:Parameters>
+                  <ssv:Parameter name="x0"><ssv:Real value="0.2"/></ssv:Parameter>
+                  <ssv:Parameter name="substeps"><ssv:Integer value="3"/></ssv:Parameter>
+                  <ssv:Parameter name="gravity"><ssv:Boolean value="false"/></ssv:Parameter>
+                  <ssv:Parameter name="config"><ssv:String value="oscillator.txt"/></ssv:Parameter>
+                </ssv:Parameters>
+              </ssv:ParameterSet>
+            </ssd:ParameterValues>
+          </ssd:ParameterBinding>
+        </ssd:ParameterBindings>
+      </ssd:Component>
+      <ssd:Component name="b" source="oscillator.fmu">
+        <ssd:ParameterBindings>
+          <ssd:ParameterBinding source="b.ssv"/>
+        </ssd:ParameterBindings>
+      </ssd:Component>
+    </ssd:Elements>
+    <ssd:Connections>
+      <ssd:Connection startElement="b" startConnector="x" endElement="a" endConnector="F"><ssc:LinearTransformation factor="15" offset="0"/></ssd:Connection>
+      <ssd:Connection startElement="a" startConnector="x" endElement="b" endConnector="F"><ssc:LinearTransformation factor="15"/></ssd:Connection>
+      {extra_connection}
+    </ssd:Connections>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="0" stopTime="2"/>
+</ssd:SystemStructureDescription>
+"#
+    );
+    let path = dir.join("pair.ssd");
+    std::fs::write(&path, ssd).unwrap();
+    path
+}
+
+fn test_dir(tag: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("master-ssp-{tag}-{}", std::process::id()))
+}
+
+/// The master's Jacobi run of the SSP system is, bit for bit, a Jacobi loop written out here over
+/// the FMI importer (parameters, transformations and connections applied by hand); the implicit
+/// schemes reach one solution.
+#[test]
+fn ssp_pair_runs_like_a_hand_written_loop() {
+    let ssd = pair_ssd(&test_dir("pair"), "");
+    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    assert_eq!(loaded.stop_time, Some(2.0));
+    let (h, steps) = (0.01, 200);
+    let jacobi = Options { scheme: Scheme::Jacobi, ..Options::default() };
+    let mut c = Coupled::new(FmuSystem::load(&loaded.spec, &Needs::default()).unwrap(), jacobi).unwrap();
+    for _ in 0..steps {
+        c.step(h).unwrap();
+    }
+    let master_x = |c: &mut Coupled<FmuSystem>, name: &str| {
+        let inst = c.units_mut().instance(name).unwrap();
+        let vr = inst.fmu().value_reference("x").unwrap();
+        let mut x = [0.0];
+        inst.get_real(&[vr], &mut x).unwrap();
+        x[0]
+    };
+    let (xa, xb) = (master_x(&mut c, "a"), master_x(&mut c, "b"));
+
+    // by hand
+    let fmu = fmi2::import::Fmu::load(oscillator()).unwrap();
+    let vr = |n: &str| fmu.value_reference(n).unwrap();
+    let mut a = fmu.instantiate("a", false).unwrap();
+    let mut b = fmu.instantiate("b", false).unwrap();
+    for i in [&mut a, &mut b] {
+        i.setup_experiment(None, 0.0, None).unwrap();
+    }
+    a.set_real(&[vr("x0")], &[0.2]).unwrap();
+    a.set_integer(&[vr("substeps")], &[3]).unwrap();
+    a.set_boolean(&[vr("gravity")], &[false]).unwrap();
+    a.set_string(&[vr("config")], &["oscillator.txt"]).unwrap();
+    b.set_real(&[vr("x0"), vr("k")], &[-0.05, 60.0]).unwrap();
+    for i in [&mut a, &mut b] {
+        i.enter_initialization_mode().unwrap();
+    }
+    let x = |i: &mut fmi2::import::Instance| {
+        let mut v = [0.0];
+        i.get_real(&[vr("x")], &mut v).unwrap();
+        v[0]
+    };
+    // initialization: inputs from outputs (no feedthrough from F to x: one pass is consistent)
+    let (x_a, x_b) = (x(&mut a), x(&mut b));
+    a.set_real(&[vr("F")], &[15.0 * x_b]).unwrap();
+    b.set_real(&[vr("F")], &[15.0 * x_a]).unwrap();
+    for i in [&mut a, &mut b] {
+        i.exit_initialization_mode().unwrap();
+    }
+    let mut t = 0.0;
+    for _ in 0..steps {
+        let (x_a, x_b) = (x(&mut a), x(&mut b));
+        a.set_real(&[vr("F")], &[15.0 * x_b]).unwrap();
+        b.set_real(&[vr("F")], &[15.0 * x_a]).unwrap();
+        a.do_step(t, h).unwrap();
+        b.do_step(t, h).unwrap();
+        t += h;
+    }
+    assert_eq!((xa.to_bits(), xb.to_bits()), (x(&mut a).to_bits(), x(&mut b).to_bits()), "{xa} {xb}");
+
+    // the implicit schemes converge to one solution
+    let run = |scheme| {
+        let o = Options { scheme, tol: 1e-12, ..Options::default() };
+        let mut c =
+            Coupled::new(FmuSystem::load(&loaded.spec, &Needs { what: "test".into(), rollback: true }).unwrap(), o)
+                .unwrap();
+        for _ in 0..steps {
+            c.step(h).unwrap();
+        }
+        (master_x(&mut c, "a"), master_x(&mut c, "b"))
+    };
+    let reference = run(Scheme::Ijcsa);
+    for scheme in [Scheme::IqnIls, Scheme::Iterative] {
+        let r = run(scheme);
+        assert!((r.0 - reference.0).abs() < 1e-10 && (r.1 - reference.1).abs() < 1e-10, "{}: {r:?}", scheme.name());
+    }
+    // and the explicit one is a different (first-order) coupling of the same motion
+    assert!((xa - reference.0).abs() > 1e-8 && (xa - reference.0).abs() < 1e-2);
+}
+
+/// A connection between different units without a transformation is refused, naming both ends
+/// and the units; so is a connector whose declared unit is not the FMU's.
+#[test]
+fn unit_mismatches_are_refused() {
+    let ssd = pair_ssd(&test_dir("units"), "");
+    let text = std::fs::read_to_string(&ssd).unwrap();
+    let broken = text.replace(r#"<ssc:LinearTransformation factor="15"/>"#, "");
+    std::fs::write(&ssd, broken).unwrap();
+    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    let e = FmuSystem::load(&loaded.spec, &Needs::default()).err().expect("refused").to_string();
+    assert!(e.contains("`a.x` → `b.F`") && e.contains("`m` → `N`") && e.contains("LinearTransformation"), "{e}");
+
+    let ssd = pair_ssd(&test_dir("units2"), "");
+    let text = std::fs::read_to_string(&ssd).unwrap();
+    std::fs::write(
+        &ssd,
+        text.replace(r#"kind="output"><ssc:Real unit="m"/>"#, r#"kind="output"><ssc:Real unit="mm"/>"#),
+    )
+    .unwrap();
+    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    let e = FmuSystem::load(&loaded.spec, &Needs::default()).err().expect("refused").to_string();
+    assert!(e.contains("connector `a.x`") && e.contains("`mm`") && e.contains("`m`"), "{e}");
+}
+
+/// A scheme that needs rollback is refused up front for an FMU that cannot get/set its state,
+/// naming the component, the FMU and the attribute; Jacobi runs it.
+#[test]
+fn a_scheme_an_fmu_cannot_support_is_refused_up_front() {
+    let dir = test_dir("caps");
+    let ssd = pair_ssd(&dir, "");
+    // an unpacked copy of the oscillator that declares no state access
+    let unpacked = dir.join("stateless");
+    let fmu = fmi2::import::Fmu::load(oscillator()).unwrap();
+    copy_dir(fmu.root(), &unpacked);
+    let md = unpacked.join("modelDescription.xml");
+    let text = std::fs::read_to_string(&md).unwrap();
+    assert!(text.contains(r#"canGetAndSetFMUstate="true""#));
+    std::fs::write(&md, text.replace(r#"canGetAndSetFMUstate="true""#, r#"canGetAndSetFMUstate="false""#)).unwrap();
+    let text = std::fs::read_to_string(&ssd).unwrap();
+    std::fs::write(&ssd, text.replace(r#"name="b" source="oscillator.fmu""#, r#"name="b" source="stateless""#))
+        .unwrap();
+    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    let needs = Needs { what: "scheme iqn-ils".into(), rollback: true };
+    match FmuSystem::load(&loaded.spec, &needs) {
+        Err(e @ SetupError::Capability { .. }) => {
+            let m = e.to_string();
+            assert!(m.contains("scheme iqn-ils") && m.contains("`b`") && m.contains("canGetAndSetFMUstate"), "{m}");
+        }
+        Err(e) => panic!("wrong error: {e}"),
+        Ok(_) => panic!("accepted"),
+    }
+    assert!(FmuSystem::load(&loaded.spec, &Needs::default()).is_ok());
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &to.join(e.file_name()));
+        } else {
+            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+        }
+    }
+}
+
+/// `master run --system`: the CSV has `time` and every output of every component as
+/// `<component>.<variable>`; the JSON says the run was not stopped early; the end time comes from
+/// the description's DefaultExperiment.
+#[test]
+fn run_system_writes_every_output() {
+    let dir = test_dir("cli");
+    let ssd = pair_ssd(&dir, "");
+    let csv = dir.join("out.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_master"))
+        .args(["run", "--system", ssd.to_str().unwrap(), "--scheme", "iqn-ils", "--dt", "0.01", "--json", "--out"])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["stopped_early"], false);
+    assert_eq!(v["steps"], 200);
+    assert_eq!(v["t_end"], 2.0);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header = text.lines().next().unwrap();
+    assert_eq!(header, "time,a.x,a.v,a.a,a.steps,b.x,b.v,b.a,b.steps");
+    assert_eq!(text.lines().count(), 1 + 201);
+    let last: Vec<&str> = text.lines().last().unwrap().split(',').collect();
+    assert_eq!(last[4], "200", "the Integer output counts the steps");
+    assert!(!dir.join("out.csv.part").exists());
+    // a scheme that is not a coupling scheme is refused with the reason
+    let out = Command::new(env!("CARGO_BIN_EXE_master"))
+        .args(["run", "--system", ssd.to_str().unwrap(), "--scheme", "monolithic", "--dt", "0.01"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("runs only the LT50m scene"));
+}
