@@ -89,6 +89,61 @@ pub fn load_parsed<T, E: std::fmt::Display>(
     parse(&text, &origin).map_err(|e| ResourceError::Invalid { origin, message: excerpt(&e.to_string(), 300) })
 }
 
+/// One kind of file a model reads through a String parameter (a scene, a configuration).
+pub struct FileKind<T> {
+    /// Copies compiled into the binary, found also without a resource location: (name, text).
+    pub shipped: &'static [(&'static str, &'static str)],
+    /// Largest file read, in bytes.
+    pub limit: u64,
+    /// The text parsed; `origin` names the file for messages.
+    pub parse: fn(text: &str, origin: &str) -> Result<T, String>,
+}
+
+/// A String parameter naming a file, and the file as parsed: a model keeps one per such
+/// parameter, and the name in its saved state.
+pub struct FileParameter<T: 'static> {
+    kind: &'static FileKind<T>,
+    resources: Option<PathBuf>,
+    name: String,
+    value: T,
+}
+
+impl<T> FileParameter<T> {
+    /// The parameter at its start value `name`, with the FMU's `resources/` directory.
+    pub fn new(kind: &'static FileKind<T>, resources: Option<&Path>, name: &str) -> Result<Self, ResourceError> {
+        let value = load_parsed(name, resources, kind.shipped, kind.limit, kind.parse)?;
+        Ok(FileParameter { kind, resources: resources.map(Path::to_owned), name: name.to_owned(), value })
+    }
+
+    /// The name as set.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The file as parsed.
+    pub fn value(&self) -> &T {
+        &self.value
+    }
+
+    /// The FMU's `resources/` directory, if the importer gave one.
+    pub fn resources(&self) -> Option<&Path> {
+        self.resources.as_deref()
+    }
+
+    /// Names another file, read and parsed now (so a missing or malformed file is the setter's
+    /// error, and the parameter is unchanged then). Returns whether the name changed; the same
+    /// name is not read again.
+    pub fn set(&mut self, name: &str) -> Result<bool, ResourceError> {
+        if name == self.name {
+            return Ok(false);
+        }
+        let k = self.kind;
+        self.value = load_parsed(name, self.resources.as_deref(), k.shipped, k.limit, k.parse)?;
+        self.name = name.to_owned();
+        Ok(true)
+    }
+}
+
 /// A message about a file's contents, cut to `max` characters, every control character
 /// escaped: what a log may show of a file the FMU was pointed at.
 pub fn excerpt(message: &str, max: usize) -> String {
@@ -150,6 +205,31 @@ mod tests {
         assert!(e.to_string().contains("none.toml"), "{e}");
         std::fs::write(res.join("big.txt"), vec![b'x'; 101]).unwrap();
         assert!(matches!(read_text("big.txt", Some(&res), &[], 100), Err(ResourceError::TooLarge { .. })));
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_file_parameter_reads_its_file_when_set_and_keeps_it_on_error() {
+        static NUMBERS: FileKind<f64> = FileKind {
+            shipped: &[("one.txt", "1")],
+            limit: 100,
+            parse: |text, origin| text.trim().parse().map_err(|e| format!("{origin}: {e}")),
+        };
+        let d = dir("parameter");
+        let res = d.join("resources");
+        std::fs::write(res.join("two.txt"), "2").unwrap();
+        std::fs::write(res.join("bad.txt"), "two").unwrap();
+        let mut p = FileParameter::new(&NUMBERS, Some(&res), "one.txt").unwrap();
+        assert_eq!((p.name(), *p.value()), ("one.txt", 1.0));
+        assert!(p.set("two.txt").unwrap());
+        assert_eq!((p.name(), *p.value()), ("two.txt", 2.0));
+        assert!(!p.set("two.txt").unwrap(), "the same name is not read again");
+        let e = p.set("bad.txt").unwrap_err();
+        assert!(matches!(e, ResourceError::Invalid { .. }) && e.to_string().contains("bad.txt"), "{e}");
+        assert!(matches!(p.set("../secret.txt"), Err(ResourceError::Outside { .. })));
+        assert_eq!((p.name(), *p.value()), ("two.txt", 2.0), "unchanged by the errors");
+        assert_eq!(p.resources(), Some(res.as_path()));
+        assert!(FileParameter::new(&NUMBERS, None, "one.txt").is_ok(), "shipped: found without a location");
         std::fs::remove_dir_all(&d).unwrap();
     }
 
