@@ -19,13 +19,12 @@
 //! finding, exactly. The step map (outputs after a step with respect to the wrench held during
 //! it) is the extension `feedsimGetStepMapDerivative`, exact from the converged iteration matrix.
 
-use std::borrow::Cow;
 use std::path::Path;
 
 use feedcore::Vec3;
 use feedcore::scene::Scene;
 use fmi2::description::indexed_names;
-use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
+use fmi2::export::{Derivative, Model, ModelError, Reals, Seeds, StepOutcome};
 use fmi2::resources::{FileKind, FileParameter};
 use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::Vector6;
@@ -108,7 +107,7 @@ pub struct CableFmu {
     wrench: Vector6<f64>,
     wrench_rate: Vector6<f64>,
     tensions: [(f64, f64); CABLES],
-    /// Reused buffer for saving the dynamics state (no allocation per rollback).
+    /// Reused buffer for saving and restoring the dynamics state (no allocation per rollback).
     scratch: Vec<f64>,
 }
 
@@ -119,6 +118,7 @@ pub struct SavedCable<'a> {
     settings: Settings,
     wrench: [f64; 6],
     wrench_rate: [f64; 6],
+    #[serde(borrow)]
     motion: Option<SavedMotion<'a>>,
 }
 
@@ -126,7 +126,8 @@ pub struct SavedCable<'a> {
 #[derive(Serialize, Deserialize)]
 struct SavedMotion<'a> {
     start_wrench: [f64; 6],
-    numbers: Cow<'a, [f64]>,
+    #[serde(borrow)]
+    numbers: Reals<'a>,
 }
 
 /// The static wrench of the scene's Stewart platform at its starting pose (the input start).
@@ -576,7 +577,7 @@ impl Model for CableFmu {
             Some(dy) => {
                 self.scratch.clear();
                 dy.encode_state(&mut self.scratch);
-                Some(SavedMotion { start_wrench: self.start_wrench.into(), numbers: Cow::Borrowed(&self.scratch) })
+                Some(SavedMotion { start_wrench: self.start_wrench.into(), numbers: Reals::new(&self.scratch) })
             }
             None => None,
         };
@@ -622,7 +623,8 @@ impl Model for CableFmu {
             }
         };
         let dy = self.dynamics.insert(dy);
-        let result = dy.decode_state(&motion.numbers);
+        motion.numbers.copy_into(&mut self.scratch);
+        let result = dy.decode_state(&self.scratch);
         dy.end_tensions(&mut self.tensions);
         result.map_err(ModelError::from)
     }

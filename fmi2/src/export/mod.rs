@@ -17,6 +17,8 @@ mod state;
 
 use std::path::Path;
 
+pub use state::Reals;
+
 /// A file shipped in the FMU's `resources/` directory.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Resource {

@@ -5,8 +5,12 @@
 //! [`Model::State`]. postcard writes an f64 as its 8 little-endian bytes, so a rollback
 //! reproduces every number bit for bit; it refuses truncated input, invalid tags, booleans and
 //! UTF-8, and we refuse trailing bytes, so random or foreign bytes are rejected with a message.
+//! Long vectors of numbers go as one block of bytes ([`Reals`]).
 
-use serde::{Deserialize, Serialize};
+use std::fmt;
+
+use serde::de::{self, Visitor};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::Model;
 use super::instance::{Instance, Msg, Phase};
@@ -82,10 +86,12 @@ struct Append<'a>(&'a mut Vec<u8>);
 
 impl postcard::ser_flavors::Flavor for Append<'_> {
     type Output = ();
+    #[inline]
     fn try_extend(&mut self, data: &[u8]) -> postcard::Result<()> {
         self.0.extend_from_slice(data);
         Ok(())
     }
+    #[inline]
     fn try_push(&mut self, data: u8) -> postcard::Result<()> {
         self.0.push(data);
         Ok(())
@@ -108,6 +114,80 @@ pub(crate) fn decode_all<'b, T: Deserialize<'b>>(bytes: &'b [u8]) -> Result<T, S
         return Err(format!("not a state of this FMU: {} unexpected trailing bytes", rest.len()));
     }
     Ok(value)
+}
+
+/// A long vector of f64 in a model's saved state, written as its numbers' little-endian bytes
+/// in one piece (postcard would frame every number; for the thousands a cable net holds that
+/// costs more than the rest of a rollback). Saving borrows the model's numbers; restoring
+/// borrows the bytes of the saved state and copies them out with [`Reals::copy_into`].
+#[derive(Clone, Copy, Debug)]
+pub struct Reals<'a>(RealsInner<'a>);
+
+#[derive(Clone, Copy, Debug)]
+enum RealsInner<'a> {
+    Numbers(&'a [f64]),
+    /// Little-endian, a multiple of 8 bytes long.
+    Bytes(&'a [u8]),
+}
+
+impl<'a> Reals<'a> {
+    /// The numbers to save.
+    pub fn new(numbers: &'a [f64]) -> Reals<'a> {
+        Reals(RealsInner::Numbers(numbers))
+    }
+
+    pub fn len(&self) -> usize {
+        match self.0 {
+            RealsInner::Numbers(x) => x.len(),
+            RealsInner::Bytes(b) => b.len() / 8,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Replaces the contents of `out` with the numbers, bit for bit (its allocation is reused).
+    pub fn copy_into(&self, out: &mut Vec<f64>) {
+        out.clear();
+        match self.0 {
+            RealsInner::Numbers(x) => out.extend_from_slice(x),
+            RealsInner::Bytes(b) => {
+                out.extend(b.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or_default())))
+            }
+        }
+    }
+}
+
+impl Serialize for Reals<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self.0 {
+            #[cfg(target_endian = "little")]
+            RealsInner::Numbers(x) => s.serialize_bytes(bytemuck::cast_slice(x)),
+            #[cfg(not(target_endian = "little"))]
+            RealsInner::Numbers(x) => s.serialize_bytes(&x.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>()),
+            RealsInner::Bytes(b) => s.serialize_bytes(b),
+        }
+    }
+}
+
+impl<'de: 'a, 'a> Deserialize<'de> for Reals<'a> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Bytes<'a>(std::marker::PhantomData<&'a ()>);
+        impl<'de: 'a, 'a> Visitor<'de> for Bytes<'a> {
+            type Value = Reals<'a>;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("the little-endian bytes of f64 numbers (a multiple of 8)")
+            }
+            fn visit_borrowed_bytes<E: de::Error>(self, b: &'de [u8]) -> Result<Reals<'a>, E> {
+                if !b.len().is_multiple_of(8) {
+                    return Err(E::invalid_length(b.len(), &self));
+                }
+                Ok(Reals(RealsInner::Bytes(b)))
+            }
+        }
+        d.deserialize_bytes(Bytes(std::marker::PhantomData))
+    }
 }
 
 /// The layer's fields and the model's state, checked (a state of this FMU, every byte used).
@@ -164,5 +244,61 @@ impl<M: Model> Instance<M> {
         (self.phase, self.time, self.start_time, self.stop_time, self.terminated) =
             (h.phase, h.time, h.start_time, h.stop_time, h.terminated);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Serialize, Deserialize)]
+    struct WithReals<'a> {
+        before: u8,
+        #[serde(borrow)]
+        numbers: Reals<'a>,
+        after: f64,
+    }
+
+    #[test]
+    fn reals_round_trip_bit_for_bit_as_one_block() {
+        let numbers = [f64::from_bits(0x7ff8_0000_dead_beef), -0.0, f64::MIN_POSITIVE / 4.0, 1.0 / 3.0, -1e300];
+        let mut bytes = Vec::new();
+        append(&WithReals { before: 7, numbers: Reals::new(&numbers), after: 2.5 }, &mut bytes).unwrap();
+        // One byte, the length (40) as one varint byte, 40 bytes of numbers, 8 bytes for `after`.
+        assert_eq!(bytes.len(), 1 + 1 + 40 + 8);
+        let back: WithReals = decode_all(&bytes).unwrap();
+        assert_eq!((back.before, back.after, back.numbers.len()), (7, 2.5, 5));
+        let mut out = vec![9.0; 2];
+        back.numbers.copy_into(&mut out);
+        assert_eq!(out.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), numbers.map(f64::to_bits));
+        // Saved again from the restored form: the same bytes.
+        let mut again = Vec::new();
+        append(&back, &mut again).unwrap();
+        assert_eq!(again, bytes);
+    }
+
+    #[test]
+    fn reals_refuse_a_partial_number() {
+        // `before`, then a block of 7 bytes, then 8 bytes.
+        let bytes = [[7u8, 7].as_slice(), &[0; 7], &[0; 8]].concat();
+        let e = decode_all::<WithReals>(&bytes).err().unwrap();
+        assert!(e.contains("not a state of this FMU"), "{e}");
+    }
+
+    #[test]
+    fn only_snapshots_with_the_tag_are_taken() {
+        let foreign = Box::into_raw(Box::new(Snapshot { tag: 1, bytes: vec![] }));
+        // SAFETY: a live Snapshot (with the wrong tag), used by nothing else.
+        let e = unsafe { snapshot_mut(foreign.cast()) }.err().unwrap();
+        assert!(e.contains("not a state of this FMU"), "{e}");
+        // SAFETY: made by Box::into_raw above, freed once.
+        drop(unsafe { Box::from_raw(foreign) });
+        let ours = Snapshot::into_raw(vec![1, 2]);
+        // SAFETY: made by Snapshot::into_raw, not freed yet.
+        assert_eq!(unsafe { snapshot_mut(ours) }.unwrap().bytes, [1, 2]);
+        // SAFETY: as above; not used afterwards.
+        unsafe { free_snapshot(ours) }.unwrap();
+        // SAFETY: null is allowed.
+        assert!(unsafe { snapshot_mut(std::ptr::null_mut()) }.is_err());
     }
 }
