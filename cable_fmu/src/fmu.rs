@@ -22,7 +22,7 @@
 use std::path::Path;
 
 use feedcore::Vec3;
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, SceneError};
 use fmi2::description::indexed_names;
 use fmi2::export::{Derivative, Model, ModelError, Reals, Seeds, StepOutcome};
 use fmi2::resources::{FileKind, FileParameter};
@@ -37,30 +37,28 @@ use crate::model::{CableCabin, Payload};
 pub const CABLES: usize = 6;
 /// The scene used unless the `scene` parameter names another one.
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
+/// Identifies the variable table: change it whenever the table changes.
+pub const GUID: &str = "{3c0b5e9a-7d41-4f8e-b2a6-1e9d4c7f6a03}";
 /// Outputs: r 3, q 4, v 3, ω 3, a 3, α 3, tensions 2 × 6.
 const OUTPUTS: usize = 31;
 
 /// Value references (separate spaces per type).
 pub mod vr {
-    /// Wrench on the cabin: force x, y, z, then moment x, y, z (Real inputs).
-    pub const WRENCH: u32 = 0;
-    /// Outputs: the cabin's position, orientation (w, x, y, z), velocity, angular velocity,
-    /// acceleration and angular acceleration, then the tensions next to the anchors and next
-    /// to the cabin.
-    pub const POSITION: u32 = WRENCH + 6;
-    pub const ORIENTATION: u32 = POSITION + 3;
-    pub const VELOCITY: u32 = ORIENTATION + 4;
-    pub const ANGULAR_VELOCITY: u32 = VELOCITY + 3;
-    pub const ACCELERATION: u32 = ANGULAR_VELOCITY + 3;
-    pub const ANGULAR_ACCELERATION: u32 = ACCELERATION + 3;
-    pub const TENSION_ANCHOR: u32 = ANGULAR_ACCELERATION + 3;
-    pub const TENSION_CABIN: u32 = TENSION_ANCHOR + super::CABLES as u32;
-    /// Parameters.
-    pub const DAMPING_RATIO: u32 = TENSION_CABIN + super::CABLES as u32;
-    pub const RHO_INF: u32 = DAMPING_RATIO + 1;
-    pub const NEWTON_TOL: u32 = RHO_INF + 1;
-    /// Number of Real value references.
-    pub const REALS: u32 = NEWTON_TOL + 1;
+    use super::CABLES;
+
+    fmi2::value_references! {
+        /// Real inputs: the wrench on the cabin, force x, y, z, then moment x, y, z.
+        WRENCH: 6,
+        /// Real outputs: the cabin's position, orientation (w, x, y, z), velocity, angular
+        /// velocity, acceleration and angular acceleration; the tensions next to the anchors
+        /// and next to the cabin.
+        POSITION: 3, ORIENTATION: 4, VELOCITY: 3, ANGULAR_VELOCITY: 3, ACCELERATION: 3, ANGULAR_ACCELERATION: 3,
+        TENSION_ANCHOR: CABLES, TENSION_CABIN: CABLES,
+        /// Real parameters.
+        DAMPING_RATIO: 1, RHO_INF: 1, NEWTON_TOL: 1,
+        /// Number of Real value references.
+        REALS: 0,
+    }
     /// Integer `elements_per_cable`.
     pub const ELEMENTS: u32 = 0;
     /// String `scene`.
@@ -68,11 +66,7 @@ pub mod vr {
 }
 
 /// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
-static SCENES: FileKind<Scene> = FileKind {
-    shipped: &feedcore::shipped::SCENES,
-    limit: 1 << 20,
-    parse: |text, origin| Scene::from_toml(text, origin).map_err(|e| e.to_string()),
-};
+static SCENES: FileKind<Scene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
 
 /// The scalar parameters that modify the scene; each is the scene's value when not positive
 /// (`damping_ratio`, `rho_inf`: when negative).
@@ -94,7 +88,7 @@ struct Balanced {
 
 pub struct CableFmu {
     /// The scene file as loaded (before the scalar overrides).
-    scene: FileParameter<Scene>,
+    scene: FileParameter<Scene, SceneError>,
     settings: Settings,
     /// The model for the current scene and settings, in equilibrium under the platform's own
     /// weight (built when first needed, dropped when they change).
@@ -169,8 +163,14 @@ fn outputs() -> Vec<(String, &'static str, String)> {
     v
 }
 
-fn input_names() -> Vec<String> {
+/// The names of the inputs, in value-reference order from 0.
+pub fn input_names() -> Vec<String> {
     indexed_names("wrench.f", 3).chain(indexed_names("wrench.m", 3)).collect()
+}
+
+/// The names of the outputs, in value-reference order from [`vr::POSITION`].
+pub fn output_names() -> Vec<String> {
+    outputs().into_iter().map(|(name, _, _)| name).collect()
 }
 
 fn is_tension(vr: u32) -> bool {
@@ -186,16 +186,15 @@ fn available_memory() -> Option<f64> {
 }
 
 /// The scene with the scalar overrides `st` applied and validated.
-fn effective_scene(scene: &FileParameter<Scene>, st: &Settings) -> Result<Scene, ModelError> {
+fn effective_scene(scene: &FileParameter<Scene, SceneError>, st: &Settings) -> Result<Scene, ModelError> {
     let mut s = scene.value().clone();
     if st.elements > 0 {
         s.cables.elements = st.elements as usize;
     }
-    if st.damping_ratio >= 0.0 {
-        s.damping.ratio = st.damping_ratio;
-    }
-    if st.rho_inf >= 0.0 {
-        s.solver.rho_inf = st.rho_inf;
+    for (value, target) in [(st.damping_ratio, &mut s.damping.ratio), (st.rho_inf, &mut s.solver.rho_inf)] {
+        if value >= 0.0 {
+            *target = value;
+        }
     }
     if st.newton_tol > 0.0 {
         s.solver.newton_tol = st.newton_tol;
@@ -225,7 +224,7 @@ fn effective_scene(scene: &FileParameter<Scene>, st: &Settings) -> Result<Scene,
 /// The nominal model in `slot`, built for the scene and settings if it is not there.
 fn nominal<'a>(
     slot: &'a mut Option<CableCabin>,
-    scene: &FileParameter<Scene>,
+    scene: &FileParameter<Scene, SceneError>,
     settings: &Settings,
 ) -> Result<&'a CableCabin, ModelError> {
     let model = match slot.take() {
@@ -352,6 +351,61 @@ impl CableFmu {
     }
 }
 
+/// The variable table, inputs starting at the wrench `w0`.
+fn variables(w0: &Vector6<f64>) -> Vec<Variable> {
+    let inputs = input_names();
+    let mut variables: Vec<Variable> = inputs
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let unit = if k < 3 { "N" } else { "N.m" };
+            let what = if k < 3 { "force" } else { "moment about the cabin centre point" };
+            Variable::real_input(name.clone(), vr::WRENCH + k as u32, w0[k], unit).describe(format!(
+                "{what} the Stewart platform exerts on the cabin, world frame (start: scene C's static value)"
+            ))
+        })
+        .collect();
+    // The start pose depends on the scene only; the equilibrium's tensions also on the
+    // wrench and the discretisation.
+    let pose_knowns = ["scene"];
+    let tension_knowns: Vec<String> =
+        inputs.iter().cloned().chain(["scene", "elements_per_cable"].map(String::from)).collect();
+    for (k, (name, unit, what)) in outputs().into_iter().enumerate() {
+        let vr = vr::POSITION + k as u32;
+        let initially: Vec<String> = if is_tension(vr) {
+            tension_knowns.clone()
+        } else if vr < vr::VELOCITY {
+            pose_knowns.map(String::from).to_vec()
+        } else {
+            vec![]
+        };
+        variables.push(
+            Variable::real_output(name, vr, unit)
+                .describe(what)
+                .depends_on::<&str>(&[])
+                .initially_depends_on(&initially),
+        );
+    }
+    variables.push(
+        Variable::parameter("damping_ratio", vr::DAMPING_RATIO, -1.0, false)
+            .describe("Rayleigh damping ratio of the cable structure; negative: the scene's value"),
+    );
+    variables.push(Variable::parameter("rho_inf", vr::RHO_INF, -1.0, false).describe(
+        "spectral radius at infinity of the generalized-alpha integrator, in [0, 1]; negative: the scene's value",
+    ));
+    variables.push(Variable::parameter("newton_tol", vr::NEWTON_TOL, -1.0, false).unit("m").describe(
+        "Newton tolerance on the largest position correction (rad for rotations); non-positive: the scene's value",
+    ));
+    variables.push(
+        Variable::parameter("elements_per_cable", vr::ELEMENTS, 0, false)
+            .describe("finite elements per cable; 0: the scene's value"),
+    );
+    variables.push(Variable::parameter("scene", vr::SCENE, DEFAULT_SCENE, false).describe(
+        "scene file (TOML); relative paths resolve inside resources/, which holds lt50m_B.toml and lt50m_C.toml",
+    ));
+    variables
+}
+
 /// The output `vr` of a motion delta (for directional derivatives), with `q` the orientation.
 fn delta_output(d: &CabinDelta, q: &nalgebra::Quaternion<f64>, vr: u32) -> Option<f64> {
     let v3 = |v: &Vec3, base: u32| v[(vr - base) as usize];
@@ -375,74 +429,23 @@ impl Model for CableFmu {
     type State<'a> = SavedCable<'a>;
 
     fn description() -> Result<ModelDescription, ModelError> {
-        let default = FileParameter::new(&SCENES, None, DEFAULT_SCENE)?;
-        let w0 = static_wrench(default.value());
-        let inputs = input_names();
-        let mut variables: Vec<Variable> = inputs
-            .iter()
-            .enumerate()
-            .map(|(k, name)| {
-                let unit = if k < 3 { "N" } else { "N.m" };
-                let what = if k < 3 { "force" } else { "moment about the cabin centre point" };
-                Variable::real_input(name.clone(), vr::WRENCH + k as u32, w0[k], unit).describe(format!(
-                    "{what} the Stewart platform exerts on the cabin, world frame (start: scene C's static value)"
-                ))
-            })
-            .collect();
-        // The start pose depends on the scene only; the equilibrium's tensions also on the
-        // wrench and the discretisation.
-        let pose_knowns = ["scene"];
-        let tension_knowns: Vec<String> =
-            inputs.iter().cloned().chain(["scene", "elements_per_cable"].map(String::from)).collect();
-        for (k, (name, unit, what)) in outputs().into_iter().enumerate() {
-            let vr = vr::POSITION + k as u32;
-            let initially: Vec<String> = if is_tension(vr) {
-                tension_knowns.clone()
-            } else if vr < vr::VELOCITY {
-                pose_knowns.map(String::from).to_vec()
-            } else {
-                vec![]
-            };
-            variables.push(
-                Variable::real_output(name, vr, unit)
-                    .describe(what)
-                    .depends_on::<&str>(&[])
-                    .initially_depends_on(&initially),
-            );
-        }
-        variables.push(
-            Variable::parameter("damping_ratio", vr::DAMPING_RATIO, -1.0, false)
-                .describe("Rayleigh damping ratio of the cable structure; negative: the scene's value"),
-        );
-        variables.push(Variable::parameter("rho_inf", vr::RHO_INF, -1.0, false).describe(
-            "spectral radius at infinity of the generalized-alpha integrator, in [0, 1]; negative: the scene's value",
-        ));
-        variables.push(Variable::parameter("newton_tol", vr::NEWTON_TOL, -1.0, false).unit("m").describe(
-            "Newton tolerance on the largest position correction (rad for rotations); non-positive: the scene's value",
-        ));
-        variables.push(
-            Variable::parameter("elements_per_cable", vr::ELEMENTS, 0, false)
-                .describe("finite elements per cable; 0: the scene's value"),
-        );
-        variables.push(Variable::parameter("scene", vr::SCENE, DEFAULT_SCENE, false).describe(
-            "scene file (TOML); relative paths resolve inside resources/, which holds lt50m_B.toml and lt50m_C.toml",
-        ));
+        let w0 = static_wrench(SCENES.open(None, DEFAULT_SCENE)?.value());
         Ok(ModelDescription::co_simulation(
             "cable_fmu",
-            "{3c0b5e9a-7d41-4f8e-b2a6-1e9d4c7f6a03}",
+            GUID,
             "Six-cable finite-element net carrying the feed cabin (LT50m); input: the Stewart platform's wrench",
             env!("CARGO_PKG_VERSION"),
             CoSimulationFlags::EXPORTED_WITH_DERIVATIVES,
-            variables,
+            variables(&w0),
         ))
     }
 
     fn resources() -> Vec<Resource> {
-        Resource::texts(SCENES.shipped)
+        SCENES.resources()
     }
 
     fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
-        let scene = FileParameter::new(&SCENES, resources, DEFAULT_SCENE)?;
+        let scene = SCENES.open(resources, DEFAULT_SCENE)?;
         Ok(CableFmu {
             // Inputs start at their declared start values (FMI 2.0): scene C's static wrench.
             wrench: static_wrench(scene.value()),

@@ -9,6 +9,8 @@
 use std::io::Read;
 use std::path::{Component, Path, PathBuf};
 
+use crate::export::Resource;
+
 /// Why a resource could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum ResourceError {
@@ -90,31 +92,51 @@ pub fn load_parsed<T, E: std::fmt::Display>(
 }
 
 /// One kind of file a model reads through a String parameter (a scene, a configuration).
-pub struct FileKind<T> {
-    /// Copies compiled into the binary, found also without a resource location: (name, text).
-    pub shipped: &'static [(&'static str, &'static str)],
-    /// Largest file read, in bytes.
-    pub limit: u64,
-    /// The text parsed; `origin` names the file for messages.
-    pub parse: fn(text: &str, origin: &str) -> Result<T, String>,
+pub struct FileKind<T, E> {
+    shipped: &'static [(&'static str, &'static str)],
+    limit: u64,
+    parse: fn(&str, &str) -> Result<T, E>,
+}
+
+impl<T, E: std::fmt::Display> FileKind<T, E> {
+    /// Files of this kind: `shipped` are copies compiled into the binary as (name, text) (also
+    /// found without a resource location, and written to `resources/` by [`FileKind::resources`]);
+    /// at most `limit` bytes are read; `parse(text, origin)` reads one (`origin` names the file).
+    pub const fn new(
+        shipped: &'static [(&'static str, &'static str)],
+        limit: u64,
+        parse: fn(&str, &str) -> Result<T, E>,
+    ) -> Self {
+        FileKind { shipped, limit, parse }
+    }
+
+    /// The shipped copies, for the FMU's `resources/` directory.
+    pub fn resources(&self) -> Vec<Resource> {
+        Resource::texts(self.shipped)
+    }
+
+    /// The file `name`, read and parsed, as the value of a parameter; `resources`: the FMU's
+    /// `resources/` directory, if the importer gave one.
+    pub fn open(&'static self, resources: Option<&Path>, name: &str) -> Result<FileParameter<T, E>, ResourceError> {
+        let value = self.load(name, resources)?;
+        Ok(FileParameter { kind: self, resources: resources.map(Path::to_owned), name: name.to_owned(), value })
+    }
+
+    fn load(&self, name: &str, resources: Option<&Path>) -> Result<T, ResourceError> {
+        load_parsed(name, resources, self.shipped, self.limit, self.parse)
+    }
 }
 
 /// A String parameter naming a file, and the file as parsed: a model keeps one per such
 /// parameter, and the name in its saved state.
-pub struct FileParameter<T: 'static> {
-    kind: &'static FileKind<T>,
+pub struct FileParameter<T: 'static, E: 'static> {
+    kind: &'static FileKind<T, E>,
     resources: Option<PathBuf>,
     name: String,
     value: T,
 }
 
-impl<T> FileParameter<T> {
-    /// The parameter at its start value `name`, with the FMU's `resources/` directory.
-    pub fn new(kind: &'static FileKind<T>, resources: Option<&Path>, name: &str) -> Result<Self, ResourceError> {
-        let value = load_parsed(name, resources, kind.shipped, kind.limit, kind.parse)?;
-        Ok(FileParameter { kind, resources: resources.map(Path::to_owned), name: name.to_owned(), value })
-    }
-
+impl<T, E: std::fmt::Display> FileParameter<T, E> {
     /// The name as set.
     pub fn name(&self) -> &str {
         &self.name
@@ -125,11 +147,6 @@ impl<T> FileParameter<T> {
         &self.value
     }
 
-    /// The FMU's `resources/` directory, if the importer gave one.
-    pub fn resources(&self) -> Option<&Path> {
-        self.resources.as_deref()
-    }
-
     /// Names another file, read and parsed now (so a missing or malformed file is the setter's
     /// error, and the parameter is unchanged then). Returns whether the name changed; the same
     /// name is not read again.
@@ -137,8 +154,7 @@ impl<T> FileParameter<T> {
         if name == self.name {
             return Ok(false);
         }
-        let k = self.kind;
-        self.value = load_parsed(name, self.resources.as_deref(), k.shipped, k.limit, k.parse)?;
+        self.value = self.kind.load(name, self.resources.as_deref())?;
         self.name = name.to_owned();
         Ok(true)
     }
@@ -210,16 +226,14 @@ mod tests {
 
     #[test]
     fn a_file_parameter_reads_its_file_when_set_and_keeps_it_on_error() {
-        static NUMBERS: FileKind<f64> = FileKind {
-            shipped: &[("one.txt", "1")],
-            limit: 100,
-            parse: |text, origin| text.trim().parse().map_err(|e| format!("{origin}: {e}")),
-        };
+        static NUMBERS: FileKind<f64, String> = FileKind::new(&[("one.txt", "1")], 100, |text, origin| {
+            text.trim().parse().map_err(|e| format!("{origin}: {e}"))
+        });
         let d = dir("parameter");
         let res = d.join("resources");
         std::fs::write(res.join("two.txt"), "2").unwrap();
         std::fs::write(res.join("bad.txt"), "two").unwrap();
-        let mut p = FileParameter::new(&NUMBERS, Some(&res), "one.txt").unwrap();
+        let mut p = NUMBERS.open(Some(&res), "one.txt").unwrap();
         assert_eq!((p.name(), *p.value()), ("one.txt", 1.0));
         assert!(p.set("two.txt").unwrap());
         assert_eq!((p.name(), *p.value()), ("two.txt", 2.0));
@@ -228,8 +242,8 @@ mod tests {
         assert!(matches!(e, ResourceError::Invalid { .. }) && e.to_string().contains("bad.txt"), "{e}");
         assert!(matches!(p.set("../secret.txt"), Err(ResourceError::Outside { .. })));
         assert_eq!((p.name(), *p.value()), ("two.txt", 2.0), "unchanged by the errors");
-        assert_eq!(p.resources(), Some(res.as_path()));
-        assert!(FileParameter::new(&NUMBERS, None, "one.txt").is_ok(), "shipped: found without a location");
+        assert!(NUMBERS.open(None, "one.txt").is_ok(), "shipped: found without a location");
+        assert_eq!(NUMBERS.resources(), [Resource { name: "one.txt".into(), bytes: b"1".to_vec() }]);
         std::fs::remove_dir_all(&d).unwrap();
     }
 

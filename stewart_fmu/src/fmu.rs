@@ -27,7 +27,7 @@
 use std::path::Path;
 
 use feedcore::rigid::skew;
-use feedcore::scene::{LEGS, Scene, Start};
+use feedcore::scene::{LEGS, Scene, SceneError, Start};
 use feedcore::{Quat, Vec3};
 use fmi2::description::indexed_names;
 use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
@@ -40,35 +40,31 @@ use crate::{CabinMotion, Evaluation, Stewart, Wrench, WrenchJacobians};
 
 /// The scene used unless the `scene` parameter names another one.
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
+/// Identifies the variable table: change it whenever the table changes.
+pub const GUID: &str = "{9a47c3e1-52b8-4d0f-a6e3-7c1b2d8f4e96}";
 /// Number of Real inputs: r 3, q 4, v 3, ω 3, a 3, α 3.
 pub const INPUTS: usize = 19;
 
 /// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
-static SCENES: FileKind<Scene> = FileKind {
-    shipped: &feedcore::shipped::SCENES,
-    limit: 1 << 20,
-    parse: |text, origin| Scene::from_toml(text, origin).map_err(|e| e.to_string()),
-};
+static SCENES: FileKind<Scene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
 
 /// Value references (separate spaces per type).
 pub mod vr {
-    pub const R: u32 = 0;
-    pub const Q: u32 = 3;
-    pub const V: u32 = 7;
-    pub const W: u32 = 10;
-    pub const A: u32 = 13;
-    pub const ALPHA: u32 = 16;
-    pub const FORCE: u32 = 19;
-    pub const MOMENT: u32 = 22;
-    pub const ACTUATOR: u32 = 25;
-    pub const PLATFORM_R: u32 = 31;
-    pub const PLATFORM_Q: u32 = 34;
-    pub const RADIUS: u32 = 38;
-    pub const SPEED: u32 = 39;
-    pub const RAMP_TIME: u32 = 40;
-    /// Integer.
+    use feedcore::scene::LEGS;
+
+    fmi2::value_references! {
+        /// Real inputs, the cabin's motion: position, orientation (w, x, y, z), velocity,
+        /// angular velocity, acceleration, angular acceleration.
+        R: 3, Q: 4, V: 3, W: 3, A: 3, ALPHA: 3,
+        /// Real outputs: the wrench on the cabin (force, moment), the actuator forces, the
+        /// moving platform's position and orientation.
+        FORCE: 3, MOMENT: 3, ACTUATOR: LEGS, PLATFORM_R: 3, PLATFORM_Q: 4,
+        /// Real parameters.
+        RADIUS: 1, SPEED: 1, RAMP_TIME: 1,
+    }
+    /// Integer `start`.
     pub const START: u32 = 0;
-    /// String.
+    /// String `scene`.
     pub const SCENE: u32 = 0;
 }
 
@@ -100,7 +96,7 @@ struct Cache {
 }
 
 pub struct StewartFmu {
-    scene: FileParameter<Scene>,
+    scene: FileParameter<Scene, SceneError>,
     /// The settings, inputs and time, saved as they are.
     data: Data,
     model: Option<Stewart>,
@@ -136,9 +132,49 @@ fn rest_inputs(scene: &Scene) -> [f64; INPUTS] {
     u
 }
 
-fn input_names() -> Vec<String> {
+/// The output variables in value-reference order from [`vr::FORCE`]: (name, unit, description).
+fn outputs() -> Vec<(String, &'static str, String)> {
+    let mut v = Vec::new();
+    let mut block = |prefix: &str, unit: &'static str, texts: Vec<String>| {
+        v.extend(indexed_names(prefix, texts.len()).zip(texts).map(|(name, text)| (name, unit, text)));
+    };
+    block("wrench.f", "N", vec!["force the platform exerts on the cabin, world frame".into(); 3]);
+    block("wrench.m", "N.m", vec!["moment on the cabin about its centre point, world frame".into(); 3]);
+    let tension = |k| format!("tension of actuator {k} (positive: pulls the platform up)");
+    block("actuator.force", "N", (1..=LEGS).map(tension).collect());
+    block("platform.r", "m", vec!["position of the moving platform's centre, world frame".into(); 3]);
+    let component = |c| format!("orientation of the moving platform ({c}), body to world");
+    block("platform.q", "", ["w", "x", "y", "z"].map(component).to_vec());
+    v
+}
+
+/// The names of the outputs, in value-reference order.
+pub fn output_names() -> Vec<String> {
+    outputs().into_iter().map(|(name, _, _)| name).collect()
+}
+
+/// The names of the inputs, in value-reference order from 0.
+pub fn input_names() -> Vec<String> {
     let parts = [("cabin.r", 3), ("cabin.q", 4), ("cabin.v", 3), ("cabin.w", 3), ("cabin.a", 3), ("cabin.alpha", 3)];
     parts.into_iter().flat_map(|(p, n)| indexed_names(p, n)).collect()
+}
+
+/// The cabin's motion the input values `u` give (the orientation normalized); refused when
+/// `cabin.q` is far from a rotation.
+pub fn cabin_motion(u: &[f64; INPUTS]) -> Result<CabinMotion, ModelError> {
+    let q = nalgebra::Quaternion::new(u[3], u[4], u[5], u[6]);
+    if q.norm() < 0.5 {
+        return Err(format!("cabin.q = {:?} is not a rotation (norm {:.3}, expected 1)", &u[3..7], q.norm()).into());
+    }
+    let v3 = |i: usize| Vec3::new(u[i], u[i + 1], u[i + 2]);
+    Ok(CabinMotion {
+        position: v3(vr::R as usize),
+        orientation: Quat::from_quaternion(q),
+        velocity: v3(vr::V as usize),
+        angular_velocity: v3(vr::W as usize),
+        acceleration: v3(vr::A as usize),
+        angular_acceleration: v3(vr::ALPHA as usize),
+    })
 }
 
 /// The unit quaternion of the input components and the world rotation `δθ` a change `dq` of
@@ -160,11 +196,10 @@ impl StewartFmu {
             _ => {
                 let mut s = self.scene.value().clone();
                 let st = &self.data.settings;
-                if st.radius >= 0.0 {
-                    s.motion.radius_m = st.radius;
-                }
-                if st.speed >= 0.0 {
-                    s.motion.speed_m_s = st.speed;
+                for (value, target) in [(st.radius, &mut s.motion.radius_m), (st.speed, &mut s.motion.speed_m_s)] {
+                    if value >= 0.0 {
+                        *target = value;
+                    }
                 }
                 if st.ramp_time > 0.0 {
                     s.motion.ramp_time_s = st.ramp_time;
@@ -191,20 +226,7 @@ impl StewartFmu {
     }
 
     fn cabin(&self) -> Result<CabinMotion, ModelError> {
-        let u = &self.data.inputs;
-        let q = nalgebra::Quaternion::new(u[3], u[4], u[5], u[6]);
-        if q.norm() < 0.5 {
-            return Err(format!("cabin.q = {:?} is not a rotation (norm {:.3}, expected 1)", &u[3..7], q.norm()).into());
-        }
-        let v3 = |i: usize| Vec3::new(u[i], u[i + 1], u[i + 2]);
-        Ok(CabinMotion {
-            position: v3(0),
-            orientation: Quat::from_quaternion(q),
-            velocity: v3(7),
-            angular_velocity: v3(10),
-            acceleration: v3(13),
-            angular_acceleration: v3(16),
-        })
+        cabin_motion(&self.data.inputs)
     }
 
     fn wrench(&mut self) -> Result<(Wrench, WrenchJacobians), ModelError> {
@@ -275,9 +297,8 @@ impl Model for StewartFmu {
     type State<'a> = SavedStewart<'a>;
 
     fn description() -> Result<ModelDescription, ModelError> {
-        let default = FileParameter::new(&SCENES, None, DEFAULT_SCENE)?;
-        let rest = rest_inputs(default.value());
         let inputs = input_names();
+        let rest = rest_inputs(SCENES.open(None, DEFAULT_SCENE)?.value());
         let units = |i: usize| match i {
             0..3 => "m",
             3..7 => "",
@@ -342,45 +363,8 @@ impl Model for StewartFmu {
                 Variable::real_output(name, vr, unit).describe(text).depends_on(&d).initially_depends_on(&initially),
             );
         };
-        for k in 0..3 {
-            out(
-                format!("wrench.f[{}]", k + 1),
-                vr::FORCE + k,
-                "N",
-                "force the platform exerts on the cabin, world frame".into(),
-            );
-        }
-        for k in 0..3 {
-            out(
-                format!("wrench.m[{}]", k + 1),
-                vr::MOMENT + k,
-                "N.m",
-                "moment on the cabin about its centre point, world frame".into(),
-            );
-        }
-        for k in 0..LEGS as u32 {
-            out(
-                format!("actuator.force[{}]", k + 1),
-                vr::ACTUATOR + k,
-                "N",
-                format!("tension of actuator {} (positive: pulls the platform up)", k + 1),
-            );
-        }
-        for k in 0..3 {
-            out(
-                format!("platform.r[{}]", k + 1),
-                vr::PLATFORM_R + k,
-                "m",
-                "position of the moving platform's centre, world frame".into(),
-            );
-        }
-        for (k, c) in ["w", "x", "y", "z"].iter().enumerate() {
-            out(
-                format!("platform.q[{}]", k + 1),
-                vr::PLATFORM_Q + k as u32,
-                "",
-                format!("orientation of the moving platform ({c}), body to world"),
-            );
+        for (k, (name, unit, text)) in outputs().into_iter().enumerate() {
+            out(name, vr::FORCE + k as u32, unit, text);
         }
         variables.push(
             Variable::parameter("radius", vr::RADIUS, -1.0, false)
@@ -406,7 +390,7 @@ impl Model for StewartFmu {
         ));
         Ok(ModelDescription::co_simulation(
             "stewart_fmu",
-            "{9a47c3e1-52b8-4d0f-a6e3-7c1b2d8f4e96}",
+            GUID,
             "Stewart platform (13 rigid bodies) hanging in the feed cabin, platform on a circle; output: its wrench on the cabin",
             env!("CARGO_PKG_VERSION"),
             CoSimulationFlags::EXPORTED_WITH_DERIVATIVES,
@@ -415,20 +399,16 @@ impl Model for StewartFmu {
     }
 
     fn resources() -> Vec<Resource> {
-        Resource::texts(SCENES.shipped)
+        SCENES.resources()
     }
 
     fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
-        let scene = FileParameter::new(&SCENES, resources, DEFAULT_SCENE)?;
+        let scene = SCENES.open(resources, DEFAULT_SCENE)?;
+        // Inputs start at their declared start values (FMI 2.0): scene C's pose at rest.
+        let inputs = rest_inputs(scene.value());
+        let settings = Settings { radius: -1.0, speed: -1.0, ramp_time: -1.0, start: 0 };
         Ok(StewartFmu {
-            data: Data {
-                settings: Settings { radius: -1.0, speed: -1.0, ramp_time: -1.0, start: 0 },
-                initialized: false,
-                time: 0.0,
-                // Inputs start at their declared start values (FMI 2.0): scene C's pose at rest.
-                inputs: rest_inputs(scene.value()),
-                rates: [0.0; INPUTS],
-            },
+            data: Data { settings, initialized: false, time: 0.0, inputs, rates: [0.0; INPUTS] },
             scene,
             model: None,
             built_for: None,
@@ -488,9 +468,8 @@ impl Model for StewartFmu {
 
     /// `scene`, the only String.
     fn set_string(&mut self, _vr: u32, value: &str) -> Result<(), ModelError> {
-        if self.scene.set(value)? {
-            self.settings_changed();
-        }
+        self.scene.set(value)?;
+        self.settings_changed();
         Ok(())
     }
 

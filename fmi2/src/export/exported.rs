@@ -602,47 +602,14 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
     }
 }
 
+/// `fmi2GetDirectionalDerivative` ([`Derivative::Instant`]) and the extension
+/// `feedsimGetStepMapDerivative` ([`Derivative::StepMap`], the same signature): checks,
+/// parameter seeds dropped, result checked.
+///
 /// # Safety
 /// As the module's contract; the arrays hold the numbers of elements passed with them.
 #[allow(clippy::too_many_arguments)]
-pub unsafe fn get_directional_derivative<M: Model>(
-    c: fmi2Component,
-    v_unknown: *const u32,
-    n_unknown: usize,
-    v_known: *const u32,
-    n_known: usize,
-    dv_known: *const f64,
-    dv_unknown: *mut f64,
-) -> fmi2Status {
-    // SAFETY: the contract is derivative's.
-    unsafe { derivative::<M>(c, Derivative::Instant, v_unknown, n_unknown, v_known, n_known, dv_known, dv_unknown) }
-}
-
-/// `feedsimGetStepMapDerivative`: the signature of `fmi2GetDirectionalDerivative`, the
-/// derivatives of the last step's map (see [`Derivative::StepMap`]).
-///
-/// # Safety
-/// As [`get_directional_derivative`].
-#[allow(clippy::too_many_arguments)]
-pub unsafe fn get_step_map_derivative<M: Model>(
-    c: fmi2Component,
-    v_unknown: *const u32,
-    n_unknown: usize,
-    v_known: *const u32,
-    n_known: usize,
-    dv_known: *const f64,
-    dv_unknown: *mut f64,
-) -> fmi2Status {
-    // SAFETY: the contract is derivative's.
-    unsafe { derivative::<M>(c, Derivative::StepMap, v_unknown, n_unknown, v_known, n_known, dv_known, dv_unknown) }
-}
-
-/// Shared body of both derivative functions: checks, parameter seeds dropped, result checked.
-///
-/// # Safety
-/// As [`get_directional_derivative`].
-#[allow(clippy::too_many_arguments)]
-unsafe fn derivative<M: Model>(
+pub unsafe fn derivative<M: Model>(
     c: fmi2Component,
     kind: Derivative,
     v_unknown: *const u32,

@@ -417,7 +417,7 @@ macro_rules! export_fmu {
                 dvu: *mut f64,
             ) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_directional_derivative::<M>(c, vu, nu, vk, nk, dvk, dvu) }
+                unsafe { e::derivative::<M>(c, $crate::export::Derivative::Instant, vu, nu, vk, nk, dvk, dvu) }
             }
             /// The opt-in extension of this workspace (see `fmi2::export::Derivative::StepMap`);
             /// exported always, announced in modelDescription.xml only when the model provides it.
@@ -433,7 +433,7 @@ macro_rules! export_fmu {
             ) -> fmi2Status {
                 // SAFETY: the importer's obligations are those of fmi2GetDirectionalDerivative,
                 // the callee's contract.
-                unsafe { e::get_step_map_derivative::<M>(c, vu, nu, vk, nk, dvk, dvu) }
+                unsafe { e::derivative::<M>(c, $crate::export::Derivative::StepMap, vu, nu, vk, nk, dvk, dvu) }
             }
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetRealInputDerivatives(

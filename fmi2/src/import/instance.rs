@@ -86,7 +86,8 @@ impl Instance {
             .map(|c| CString::new(*c).map_err(|_| Error::Usage(format!("category `{c}` contains NUL"))))
             .collect::<Result<_, _>>()?;
         let ptrs: Vec<fmi2String> = owned.iter().map(|c| c.as_ptr()).collect();
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
+        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().set_debug_logging)(self.component, c_int::from(on), ptrs.len(), ptrs.as_ptr()) };
         self.check("fmi2SetDebugLogging", s)
     }
@@ -107,39 +108,33 @@ impl Instance {
     }
 
     pub fn enter_initialization_mode(&mut self) -> Result<(), Error> {
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`).
-        let s = unsafe { (self.api().enter_initialization_mode)(self.component) };
-        self.check("fmi2EnterInitializationMode", s)
+        self.call_plain(self.api().enter_initialization_mode, "fmi2EnterInitializationMode")
     }
 
     pub fn exit_initialization_mode(&mut self) -> Result<(), Error> {
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`).
-        let s = unsafe { (self.api().exit_initialization_mode)(self.component) };
-        self.check("fmi2ExitInitializationMode", s)
+        self.call_plain(self.api().exit_initialization_mode, "fmi2ExitInitializationMode")
     }
 
     pub fn terminate(&mut self) -> Result<(), Error> {
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`).
-        let s = unsafe { (self.api().terminate)(self.component) };
-        self.check("fmi2Terminate", s)
+        self.call_plain(self.api().terminate, "fmi2Terminate")
     }
 
     pub fn reset(&mut self) -> Result<(), Error> {
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`).
-        let s = unsafe { (self.api().reset)(self.component) };
-        self.check("fmi2Reset", s)
+        self.call_plain(self.api().reset, "fmi2Reset")
     }
 
     pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), Error> {
         same_len("get_real", vrs.len(), out.len())?;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
+        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().get_real)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
         self.check("fmi2GetReal", s)
     }
 
     pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Result<(), Error> {
         same_len("get_integer", vrs.len(), out.len())?;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
+        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().get_integer)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
         self.check("fmi2GetInteger", s)
     }
@@ -147,7 +142,8 @@ impl Instance {
     pub fn get_boolean(&mut self, vrs: &[u32], out: &mut [bool]) -> Result<(), Error> {
         same_len("get_boolean", vrs.len(), out.len())?;
         let mut raw = vec![0 as fmi2Boolean; vrs.len()];
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
+        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().get_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) };
         self.check("fmi2GetBoolean", s)?;
         for (o, r) in out.iter_mut().zip(raw) {
@@ -158,7 +154,8 @@ impl Instance {
 
     pub fn get_string(&mut self, vrs: &[u32]) -> Result<Vec<String>, Error> {
         let mut raw = vec![std::ptr::null::<c_char>(); vrs.len()];
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
+        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().get_string)(self.component, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) };
         self.check("fmi2GetString", s)?;
         // Copy at once: the FMU's strings are valid only until its next call.
@@ -172,14 +169,16 @@ impl Instance {
 
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), Error> {
         same_len("set_real", vrs.len(), values.len())?;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
+        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
         self.check("fmi2SetReal", s)
     }
 
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<(), Error> {
         same_len("set_integer", vrs.len(), values.len())?;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
+        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().set_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
         self.check("fmi2SetInteger", s)
     }
@@ -187,7 +186,8 @@ impl Instance {
     pub fn set_boolean(&mut self, vrs: &[u32], values: &[bool]) -> Result<(), Error> {
         same_len("set_boolean", vrs.len(), values.len())?;
         let raw: Vec<fmi2Boolean> = values.iter().map(|&b| c_int::from(b)).collect();
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
+        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().set_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw.as_ptr()) };
         self.check("fmi2SetBoolean", s)
     }
@@ -199,7 +199,8 @@ impl Instance {
             .map(|v| CString::new(*v).map_err(|_| Error::Usage(format!("string `{v}` contains a NUL byte"))))
             .collect::<Result<_, _>>()?;
         let ptrs: Vec<fmi2String> = owned.iter().map(|c| c.as_ptr()).collect();
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
+        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().set_string)(self.component, vrs.as_ptr(), vrs.len(), ptrs.as_ptr()) };
         self.check("fmi2SetString", s)
     }
@@ -213,15 +214,21 @@ impl Instance {
 
     /// `fmi2CancelStep` (only meaningful for asynchronous FMUs).
     pub fn cancel_step(&mut self) -> Result<(), Error> {
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`).
-        let s = unsafe { (self.api().cancel_step)(self.component) };
-        self.check("fmi2CancelStep", s)
+        self.call_plain(self.api().cancel_step, "fmi2CancelStep")
+    }
+
+    /// A function of this FMU that takes only the component.
+    fn call_plain(&mut self, f: fmi2ComponentOnlyTYPE, function: &'static str) -> Result<(), Error> {
+        // SAFETY: a live component, and `f` one of its loaded functions (the invariants of `Instance`).
+        let s = unsafe { f(self.component) };
+        self.check(function, s)
     }
 
     /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)`.
     pub fn last_successful_time(&mut self) -> Result<f64, Error> {
         let mut t = f64::NAN;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the answer goes to a local.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the answer goes to a
+        // local.
         let s = unsafe { (self.api().get_real_status)(self.component, fmi2LastSuccessfulTime, &mut t) };
         self.check("fmi2GetRealStatus", s)?;
         Ok(t)
@@ -230,7 +237,8 @@ impl Instance {
     /// `fmi2GetBooleanStatus(fmi2Terminated)`.
     pub fn terminated(&mut self) -> Result<bool, Error> {
         let mut b = fmi2False;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the answer goes to a local.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the answer goes to a
+        // local.
         let s = unsafe { (self.api().get_boolean_status)(self.component, fmi2Terminated, &mut b) };
         self.check("fmi2GetBooleanStatus", s)?;
         Ok(b != fmi2False)
@@ -255,7 +263,8 @@ impl Instance {
     pub fn get_state(&mut self) -> Result<FmuState, Error> {
         self.fmu.require(Capability::GetSetState)?;
         let mut raw: fmi2FMUstate = std::ptr::null_mut();
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is null or a state this component made and has not freed (`states`).
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is null or a state
+        // this component made and has not freed (`states`).
         let s = unsafe { (self.api().get_fmu_state)(self.component, &mut raw) };
         self.check("fmi2GetFMUstate", s)?;
         Ok(self.adopt(raw))
@@ -280,7 +289,8 @@ impl Instance {
     /// Overwrite an existing saved state with the current one (no allocation in the FMU).
     pub fn update_state(&mut self, state: &FmuState) -> Result<(), Error> {
         let (i, mut raw) = self.raw_state(state)?;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is null or a state this component made and has not freed (`states`).
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is null or a state
+        // this component made and has not freed (`states`).
         let s = unsafe { (self.api().get_fmu_state)(self.component, &mut raw) };
         self.states[i].1 = raw;
         self.check("fmi2GetFMUstate", s)
@@ -289,7 +299,8 @@ impl Instance {
     /// Restore a saved state (`fmi2SetFMUstate`).
     pub fn set_state(&mut self, state: &FmuState) -> Result<(), Error> {
         let (_, raw) = self.raw_state(state)?;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a state this component made and has not freed (`states`).
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a state this
+        // component made and has not freed (`states`).
         let s = unsafe { (self.api().set_fmu_state)(self.component, raw) };
         self.check("fmi2SetFMUstate", s)
     }
@@ -298,7 +309,8 @@ impl Instance {
     pub fn free_state(&mut self, state: FmuState) -> Result<(), Error> {
         let (i, mut raw) = self.raw_state(&state)?;
         self.states.swap_remove(i);
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a state this component made and has not freed (`states`).
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a state this
+        // component made and has not freed (`states`).
         let s = unsafe { (self.api().free_fmu_state)(self.component, &mut raw) };
         self.check("fmi2FreeFMUstate", s)
     }
@@ -308,11 +320,13 @@ impl Instance {
         self.fmu.require(Capability::SerializeState)?;
         let (_, raw) = self.raw_state(state)?;
         let mut size = 0usize;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a state this component made and has not freed (`states`).
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a state this
+        // component made and has not freed (`states`).
         let s = unsafe { (self.api().serialized_fmu_state_size)(self.component, raw, &mut size) };
         self.check("fmi2SerializedFMUstateSize", s)?;
         let mut bytes = vec![0u8; size];
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a live state of this component; `bytes` holds `size` bytes.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a live state of
+        // this component; `bytes` holds `size` bytes.
         let s = unsafe { (self.api().serialize_fmu_state)(self.component, raw, bytes.as_mut_ptr().cast(), size) };
         self.check("fmi2SerializeFMUstate", s)?;
         Ok(bytes)
@@ -322,7 +336,8 @@ impl Instance {
     pub fn deserialize_state(&mut self, bytes: &[u8]) -> Result<FmuState, Error> {
         self.fmu.require(Capability::SerializeState)?;
         let mut raw: fmi2FMUstate = std::ptr::null_mut();
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `bytes` holds `bytes.len()` bytes; the new state goes to a local.
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); `bytes` holds
+        // `bytes.len()` bytes; the new state goes to a local.
         let s =
             unsafe { (self.api().deserialize_fmu_state)(self.component, bytes.as_ptr().cast(), bytes.len(), &mut raw) };
         self.check("fmi2DeSerializeFMUstate", s)?;
@@ -340,7 +355,8 @@ impl Instance {
         self.fmu.require(Capability::DirectionalDerivative)?;
         same_len("directional_derivative (knowns)", knowns.len(), seed.len())?;
         same_len("directional_derivative (unknowns)", unknowns.len(), out.len())?;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); every array holds the length passed with it (checked above).
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); every array holds the
+        // length passed with it (checked above).
         let s = unsafe {
             (self.api().get_directional_derivative)(
                 self.component,
@@ -393,7 +409,8 @@ impl Instance {
         self.fmu.require(Capability::InterpolateInputs)?;
         same_len("set_real_input_derivatives", vrs.len(), values.len())?;
         same_len("set_real_input_derivatives (orders)", vrs.len(), orders.len())?;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); every array holds the length passed with it (checked above).
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); every array holds the
+        // length passed with it (checked above).
         let s = unsafe {
             (self.api().set_real_input_derivatives)(
                 self.component,
@@ -411,7 +428,8 @@ impl Instance {
         self.fmu.require(Capability::OutputDerivatives)?;
         same_len("get_real_output_derivatives", vrs.len(), out.len())?;
         same_len("get_real_output_derivatives (orders)", vrs.len(), orders.len())?;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); every array holds the length passed with it (checked above).
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); every array holds the
+        // length passed with it (checked above).
         let s = unsafe {
             (self.api().get_real_output_derivatives)(
                 self.component,

@@ -24,10 +24,13 @@ pub const G: f64 = 9.80665;
 
 /// Value references (per type).
 pub mod vr {
+    /// Real input: the force on the mass.
     pub const F: u32 = 0;
+    /// Real outputs: position, velocity, acceleration.
     pub const X: u32 = 1;
     pub const V: u32 = 2;
     pub const A: u32 = 3;
+    /// Real parameters: stiffness, damping, initial position and velocity.
     pub const K: u32 = 4;
     pub const C: u32 = 5;
     pub const X0: u32 = 6;
@@ -47,12 +50,9 @@ pub mod vr {
 /// The default configuration file, shipped in `resources/` and compiled in.
 pub const DEFAULT_CONFIG: &str = "oscillator.txt";
 
-/// Configuration files: `mass_kg = <value>`.
-static CONFIG: FileKind<f64> = FileKind {
-    shipped: &[(DEFAULT_CONFIG, include_str!("../resources/oscillator.txt"))],
-    limit: 4096,
-    parse: parse_config,
-};
+/// Configuration files: `mass_kg = <value>`, at most 4 KiB.
+static CONFIG: FileKind<f64, String> =
+    FileKind::new(&[(DEFAULT_CONFIG, include_str!("../resources/oscillator.txt"))], 4096, parse_config);
 
 /// Everything but the configuration file: parameters, inputs and the state, saved as it is.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize)]
@@ -76,7 +76,7 @@ struct Data {
 
 pub struct Oscillator {
     /// The mass, from the configuration file.
-    config: FileParameter<f64>,
+    config: FileParameter<f64, String>,
     data: Data,
 }
 
@@ -182,12 +182,12 @@ impl Model for Oscillator {
     }
 
     fn resources() -> Vec<Resource> {
-        Resource::texts(CONFIG.shipped)
+        CONFIG.resources()
     }
 
     fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
         Ok(Oscillator {
-            config: FileParameter::new(&CONFIG, resources, DEFAULT_CONFIG)?,
+            config: CONFIG.open(resources, DEFAULT_CONFIG)?,
             data: Data {
                 k: 40.0,
                 c: 0.8,
