@@ -12,7 +12,7 @@ use crate::export::{Model, Resource};
 use crate::xml::{model_description_xml, parse_model_description};
 
 /// The platform folder of the binaries this build produces.
-pub const PLATFORM: &str = "linux64";
+pub(crate) const PLATFORM: &str = "linux64";
 
 /// Why an archive was not written.
 #[derive(Debug, thiserror::Error)]

@@ -31,7 +31,7 @@ pub enum ResourceError {
 /// Text of the resource `name`: relative names inside `resources` (or one of `shipped`, the
 /// copies compiled into the binary, when there is no such file or no location), absolute names
 /// as given. Returns the text and where it came from (for messages).
-pub fn read_text(
+pub(crate) fn read_text(
     name: &str,
     resources: Option<&Path>,
     shipped: &[(&str, &str)],
@@ -80,7 +80,7 @@ pub fn read_text(
 
 /// The resource `name` (see [`read_text`]) parsed by `parse(text, origin)`; a parse error is
 /// reported as a short escaped excerpt, so a log never shows more of a file than that.
-pub fn load_parsed<T, E: std::fmt::Display>(
+pub(crate) fn load_parsed<T, E: std::fmt::Display>(
     name: &str,
     resources: Option<&Path>,
     shipped: &[(&str, &str)],
@@ -162,7 +162,7 @@ impl<T, E: std::fmt::Display> FileParameter<T, E> {
 
 /// A message about a file's contents, cut to `max` characters, every control character
 /// escaped: what a log may show of a file the FMU was pointed at.
-pub fn excerpt(message: &str, max: usize) -> String {
+pub(crate) fn excerpt(message: &str, max: usize) -> String {
     let mut out = String::new();
     for (i, c) in message.chars().enumerate() {
         if i == max {

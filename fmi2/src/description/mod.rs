@@ -10,7 +10,8 @@
 
 mod validate;
 
-pub use validate::{DescriptionError, ModelInfo, SetPhase, VarInfo};
+pub(crate) use validate::SetPhase;
+pub use validate::{DescriptionError, ModelInfo, VarInfo};
 
 /// `causality` of a variable (FMI 2.0, 2.2.7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -272,14 +273,14 @@ pub struct Unit {
 /// `<BaseUnit>`: value in SI = factor · value + offset, with these SI base-unit exponents.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BaseUnit {
-    /// Exponents of kg, m, s, A, K, mol, cd, rad (the order of [`BASE_UNIT_NAMES`]).
+    /// Exponents of kg, m, s, A, K, mol, cd, rad.
     pub exponents: [i32; 8],
     pub factor: f64,
     pub offset: f64,
 }
 
 /// Names of the base units in the order of [`BaseUnit::exponents`], as the XML attributes spell them.
-pub const BASE_UNIT_NAMES: [&str; 8] = ["kg", "m", "s", "A", "K", "mol", "cd", "rad"];
+pub(crate) const BASE_UNIT_NAMES: [&str; 8] = ["kg", "m", "s", "A", "K", "mol", "cd", "rad"];
 
 /// Units [`ModelDescription::co_simulation`] defines for the variables that use them:
 /// (name, [kg, m, s, A, K, mol, cd, rad]).
@@ -307,7 +308,7 @@ const SI_UNITS: &[(&str, [i32; 8])] = &[
 
 impl Unit {
     /// The SI unit of this name (factor 1, offset 0), if it is one [`ModelDescription::co_simulation`] knows.
-    pub fn si(name: &str) -> Option<Unit> {
+    pub(crate) fn si(name: &str) -> Option<Unit> {
         SI_UNITS.iter().find(|(n, _)| *n == name).map(|(n, exponents)| Unit {
             name: (*n).to_owned(),
             base_unit: Some(BaseUnit { exponents: *exponents, factor: 1.0, offset: 0.0 }),

@@ -23,7 +23,7 @@ pub struct VarInfo {
 
 impl VarInfo {
     /// May `fmi2Set*` change this variable in the given phase? (FMI 2.0 CS state table.)
-    pub fn settable_in(&self, phase: SetPhase) -> bool {
+    pub(crate) fn settable_in(&self, phase: SetPhase) -> bool {
         let v = &self.var;
         if v.variability == Variability::Constant {
             return false;
@@ -41,7 +41,7 @@ impl VarInfo {
 
 /// The phases in which `fmi2Set*` is allowed at all.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SetPhase {
+pub(crate) enum SetPhase {
     Instantiated,
     InitializationMode,
     StepMode,

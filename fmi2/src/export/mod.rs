@@ -222,6 +222,8 @@ macro_rules! export_fmu {
             pub extern "C" fn fmi2GetVersion() -> *const ::std::ffi::c_char {
                 e::version()
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetDebugLogging(
                 c: fmi2Component,
@@ -232,6 +234,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::set_debug_logging::<M>(c, on, n, cats) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2Instantiate(
                 name: fmi2String,
@@ -245,11 +249,15 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::instantiate::<M>(&INFO, name, kind, guid, resources, functions, visible, logging_on) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::free_instance::<M>(c) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetupExperiment(
                 c: fmi2Component,
@@ -262,26 +270,36 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::setup_experiment::<M>(c, tol_defined, tol, start, stop_defined, stop) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::enter_initialization_mode::<M>(c) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::exit_initialization_mode::<M>(c) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::terminate::<M>(c) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::reset::<M>(c) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetReal(
                 c: fmi2Component,
@@ -292,6 +310,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_real::<M>(c, vr, n, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetInteger(
                 c: fmi2Component,
@@ -302,6 +322,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_integer::<M>(c, vr, n, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetBoolean(
                 c: fmi2Component,
@@ -312,6 +334,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_boolean::<M>(c, vr, n, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetString(
                 c: fmi2Component,
@@ -322,6 +346,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_string::<M>(c, vr, n, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetReal(
                 c: fmi2Component,
@@ -332,6 +358,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::set_real::<M>(c, vr, n, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetInteger(
                 c: fmi2Component,
@@ -342,6 +370,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::set_integer::<M>(c, vr, n, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetBoolean(
                 c: fmi2Component,
@@ -352,6 +382,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::set_boolean::<M>(c, vr, n, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetString(
                 c: fmi2Component,
@@ -362,21 +394,29 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::set_string::<M>(c, vr, n, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_fmu_state::<M>(c, s) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, s: fmi2FMUstate) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::set_fmu_state::<M>(c, s) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::free_fmu_state::<M>(c, s) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
                 c: fmi2Component,
@@ -386,6 +426,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::serialized_fmu_state_size::<M>(c, s, size) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SerializeFMUstate(
                 c: fmi2Component,
@@ -396,6 +438,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::serialize_fmu_state::<M>(c, s, bytes, size) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
                 c: fmi2Component,
@@ -406,6 +450,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::deserialize_fmu_state::<M>(c, bytes, size, s) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
                 c: fmi2Component,
@@ -421,6 +467,9 @@ macro_rules! export_fmu {
             }
             /// The opt-in extension of this workspace (see `fmi2::export::Derivative::StepMap`);
             /// exported always, announced in modelDescription.xml only when the model provides it.
+            ///
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn feedsimGetStepMapDerivative(
                 c: fmi2Component,
@@ -435,6 +484,8 @@ macro_rules! export_fmu {
                 // the callee's contract.
                 unsafe { e::derivative::<M>(c, $crate::export::Derivative::StepMap, vu, nu, vk, nk, dvk, dvu) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
                 c: fmi2Component,
@@ -446,6 +497,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::set_real_input_derivatives::<M>(c, vr, n, order, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
                 c: fmi2Component,
@@ -457,16 +510,22 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_real_output_derivatives::<M>(c, vr, n, order, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2DoStep(c: fmi2Component, t: f64, h: f64, no_prior: fmi2Boolean) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::do_step::<M>(c, t, h, no_prior) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::cancel_step::<M>(c) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetStatus(
                 c: fmi2Component,
@@ -476,11 +535,15 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_status::<M>(c, s, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, s: fmi2StatusKind, v: *mut f64) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_real_status::<M>(c, s, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetIntegerStatus(
                 c: fmi2Component,
@@ -490,6 +553,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_integer_status::<M>(c, s, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetBooleanStatus(
                 c: fmi2Component,
@@ -499,6 +564,8 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_boolean_status::<M>(c, s, v) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetStringStatus(
                 c: fmi2Component,

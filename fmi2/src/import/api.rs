@@ -72,9 +72,11 @@ api_table! {
     get_real_output_derivatives: fmi2GetRealOutputDerivativesTYPE = "fmi2GetRealOutputDerivatives",
     do_step: fmi2DoStepTYPE = "fmi2DoStep",
     cancel_step: fmi2ComponentOnlyTYPE = "fmi2CancelStep",
-    get_status: fmi2GetStatusTYPE = "fmi2GetStatus",
+    // Not called (no asynchronous steps), resolved so that a binary without them is refused at
+    // load, as fmpy and OMSimulator refuse it.
+    _get_status: fmi2GetStatusTYPE = "fmi2GetStatus",
     get_real_status: fmi2GetRealStatusTYPE = "fmi2GetRealStatus",
-    get_integer_status: fmi2GetIntegerStatusTYPE = "fmi2GetIntegerStatus",
+    _get_integer_status: fmi2GetIntegerStatusTYPE = "fmi2GetIntegerStatus",
     get_boolean_status: fmi2GetBooleanStatusTYPE = "fmi2GetBooleanStatus",
-    get_string_status: fmi2GetStringStatusTYPE = "fmi2GetStringStatus",
+    _get_string_status: fmi2GetStringStatusTYPE = "fmi2GetStringStatus",
 }

@@ -244,21 +244,6 @@ impl Instance {
         Ok(b != fmi2False)
     }
 
-    /// `fmi2GetStatus`, `fmi2GetIntegerStatus`, `fmi2GetStringStatus` for a status kind (raw
-    /// status values; mostly for asynchronous FMUs).
-    pub fn status_kinds(&mut self, kind: fmi2StatusKind) -> (fmi2Status, fmi2Status, fmi2Status) {
-        let (mut a, mut b, mut c) = (0, 0, std::ptr::null());
-        // SAFETY: a live component and its loaded functions (the invariants of `Instance`); each
-        // answer goes to a local.
-        unsafe {
-            (
-                (self.api().get_status)(self.component, kind, &mut a),
-                (self.api().get_integer_status)(self.component, kind, &mut b),
-                (self.api().get_string_status)(self.component, kind, &mut c),
-            )
-        }
-    }
-
     /// Save the current state (`fmi2GetFMUstate`). Requires [`Capability::GetSetState`].
     pub fn get_state(&mut self) -> Result<FmuState, Error> {
         self.fmu.require(Capability::GetSetState)?;
