@@ -34,11 +34,11 @@ impl Snapshot {
     }
 }
 
-/// The snapshot an `fmi2FMUstate` points to. The tag check catches a state that this layer
-/// made and an importer passes by mistake after freeing it (while the memory still holds the
-/// tag, the best a C API allows) or that another FMU of this layer made; it cannot catch a
-/// pointer to something else entirely, since reading its first eight bytes is already
-/// undefined behaviour: no check inside the FMU can make a foreign pointer safe.
+/// The snapshot an `fmi2FMUstate` points to. The tag check is a best effort against an
+/// importer's mistakes, not a proof: it refuses a state freed by `fmi2FreeFMUstate` (its tag is
+/// cleared) while that memory is still intact. A state of another
+/// FMU built with this layer passes it and is refused later by its GUID. A pointer to anything
+/// else cannot be detected at all: reading its first eight bytes is already undefined behaviour.
 ///
 /// # Safety
 /// `state` is null or was returned by [`Snapshot::into_raw`] and not freed since; nothing else
@@ -52,7 +52,7 @@ pub(crate) unsafe fn snapshot_mut<'a>(state: fmi2FMUstate) -> Result<&'a mut Sna
     // else accesses now.
     let snap = unsafe { &mut *state.cast::<Snapshot>() };
     if snap.tag != SNAPSHOT_TAG {
-        return Err("`FMUstate` is not a state of this FMU (already freed, or made by another FMU)".into());
+        return Err("`FMUstate` does not point to a live FMU state of this layer (freed already?)".into());
     }
     Ok(snap)
 }
@@ -290,7 +290,7 @@ mod tests {
         let foreign = Box::into_raw(Box::new(Snapshot { tag: 1, bytes: vec![] }));
         // SAFETY: a live Snapshot (with the wrong tag), used by nothing else.
         let e = unsafe { snapshot_mut(foreign.cast()) }.err().unwrap();
-        assert!(e.contains("not a state of this FMU"), "{e}");
+        assert!(e.contains("does not point to a live FMU state"), "{e}");
         // SAFETY: made by Box::into_raw above, freed once.
         drop(unsafe { Box::from_raw(foreign) });
         let ours = Snapshot::into_raw(vec![1, 2]);
