@@ -19,14 +19,16 @@
 //! finding, exactly. The step map (outputs after a step with respect to the wrench held during
 //! it) is the extension `feedsimGetStepMapDerivative`, exact from the converged iteration matrix.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use feedcore::Vec3;
-use feedcore::scene::Scene;
-use fmi2::export::{Model, ModelError, StepOutcome};
-use fmi2::state_bytes::{StateReader, StateWriter};
-use fmi2::{Capabilities, ModelDescription, Resource, Variable};
+use feedcore::scene::{Scene, SceneError};
+use fmi2::description::indexed_names;
+use fmi2::export::{Derivative, Model, ModelError, Reals, Seeds, StepOutcome};
+use fmi2::resources::{FileKind, FileParameter};
+use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::Vector6;
+use serde::{Deserialize, Serialize};
 
 use crate::dynamics::{CabinDelta, Dynamics};
 use crate::model::{CableCabin, Payload};
@@ -35,49 +37,45 @@ use crate::model::{CableCabin, Payload};
 pub const CABLES: usize = 6;
 /// The scene used unless the `scene` parameter names another one.
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
-/// Largest scene file the FMU reads.
-pub const SCENE_LIMIT_BYTES: u64 = 1 << 20;
+/// Identifies the variable table: change it whenever the table changes.
+pub const GUID: &str = "{3c0b5e9a-7d41-4f8e-b2a6-1e9d4c7f6a03}";
 /// Outputs: r 3, q 4, v 3, ω 3, a 3, α 3, tensions 2 × 6.
 const OUTPUTS: usize = 31;
 
 /// Value references (separate spaces per type).
 pub mod vr {
-    /// Wrench on the cabin: force x, y, z, then moment x, y, z (Real inputs).
-    pub const WRENCH: u32 = 0;
-    pub const POSITION: u32 = 6;
-    pub const ORIENTATION: u32 = 9;
-    pub const VELOCITY: u32 = 13;
-    pub const ANGULAR_VELOCITY: u32 = 16;
-    pub const ACCELERATION: u32 = 19;
-    pub const ANGULAR_ACCELERATION: u32 = 22;
-    pub const TENSION_ANCHOR: u32 = 25;
-    pub const TENSION_CABIN: u32 = 31;
-    pub const DAMPING_RATIO: u32 = 37;
-    pub const RHO_INF: u32 = 38;
-    pub const NEWTON_TOL: u32 = 39;
-    /// Number of Real value references.
-    pub const REALS: u32 = 40;
-    /// Integer.
+    use super::CABLES;
+
+    fmi2::value_references! {
+        /// Real inputs: the wrench on the cabin, force x, y, z, then moment x, y, z.
+        WRENCH: 6,
+        /// Real outputs: the cabin's position, orientation (w, x, y, z), velocity, angular
+        /// velocity, acceleration and angular acceleration; the tensions next to the anchors
+        /// and next to the cabin.
+        POSITION: 3, ORIENTATION: 4, VELOCITY: 3, ANGULAR_VELOCITY: 3, ACCELERATION: 3, ANGULAR_ACCELERATION: 3,
+        TENSION_ANCHOR: CABLES, TENSION_CABIN: CABLES,
+        /// Real parameters.
+        DAMPING_RATIO: 1, RHO_INF: 1, NEWTON_TOL: 1,
+        /// Number of Real value references.
+        REALS: 0,
+    }
+    /// Integer `elements_per_cable`.
     pub const ELEMENTS: u32 = 0;
-    /// String.
+    /// String `scene`.
     pub const SCENE: u32 = 0;
 }
 
-/// Parameters that select and modify the scene.
-#[derive(Clone, Debug, PartialEq)]
+/// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
+static SCENES: FileKind<Scene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
+
+/// The scalar parameters that modify the scene; each is the scene's value when not positive
+/// (`damping_ratio`, `rho_inf`: when negative).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 struct Settings {
-    scene_name: String,
-    /// ≤ 0: the scene's value.
     elements: i32,
     damping_ratio: f64,
     rho_inf: f64,
     newton_tol: f64,
-}
-
-/// The scene file named by a `scene` parameter: inside `resources/` when relative, size-capped,
-/// errors quoting at most an excerpt of the file.
-pub fn load_scene(name: &str, resources: Option<&Path>) -> Result<Scene, fmi2::resources::ResourceError> {
-    fmi2::resources::load_parsed(name, resources, &feedcore::shipped::SCENES, SCENE_LIMIT_BYTES, Scene::from_toml)
 }
 
 /// The model at rest under one wrench.
@@ -89,13 +87,12 @@ struct Balanced {
 }
 
 pub struct CableFmu {
-    resources: Option<PathBuf>,
-    settings: Settings,
     /// The scene file as loaded (before the scalar overrides).
-    scene: Scene,
-    /// The model built for `built_for`, in equilibrium under the platform's own weight.
+    scene: FileParameter<Scene, SceneError>,
+    settings: Settings,
+    /// The model for the current scene and settings, in equilibrium under the platform's own
+    /// weight (built when first needed, dropped when they change).
     nominal: Option<CableCabin>,
-    built_for: Option<Settings>,
     /// Initialization mode: the equilibrium under the wrench last asked about.
     balanced: Option<Balanced>,
     /// Step mode, and the wrench the model was form-found for (it fixes the cable lengths).
@@ -105,7 +102,26 @@ pub struct CableFmu {
     wrench_rate: Vector6<f64>,
     tensions: [(f64, f64); CABLES],
     /// Reused buffer for saving and restoring the dynamics state (no allocation per rollback).
-    scratch: std::cell::RefCell<Vec<f64>>,
+    scratch: Vec<f64>,
+}
+
+/// A saved state: the parameters, the inputs and, in step mode, the motion.
+#[derive(Serialize, Deserialize)]
+pub struct SavedCable<'a> {
+    scene: &'a str,
+    settings: Settings,
+    wrench: [f64; 6],
+    wrench_rate: [f64; 6],
+    #[serde(borrow)]
+    motion: Option<SavedMotion<'a>>,
+}
+
+/// The wrench the cable lengths were form-found for, and [`Dynamics::encode_state`].
+#[derive(Serialize, Deserialize)]
+struct SavedMotion<'a> {
+    start_wrench: [f64; 6],
+    #[serde(borrow)]
+    numbers: Reals<'a>,
 }
 
 /// The static wrench of the scene's Stewart platform at its starting pose (the input start).
@@ -114,10 +130,6 @@ fn static_wrench(scene: &Scene) -> Vector6<f64> {
     let f = net.spec.gravity * net.payload.mass;
     let m = (scene.target_orientation() * net.payload.com).cross(&f);
     Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z)
-}
-
-fn names3(prefix: &str) -> [String; 3] {
-    std::array::from_fn(|k| format!("{prefix}[{}]", k + 1))
 }
 
 /// Output variables in value-reference order: (name, unit, description).
@@ -133,26 +145,32 @@ fn outputs() -> Vec<(String, &'static str, String)> {
         ("cabin.alpha", "rad/s2", "angular acceleration of the cabin"),
     ] {
         if prefix == "cabin.q" {
-            for (k, c) in ["w", "x", "y", "z"].iter().enumerate() {
-                v.push((format!("{prefix}[{}]", k + 1), unit, format!("{what} ({c}), world frame")));
+            for (n, c) in indexed_names(prefix, 4).zip(["w", "x", "y", "z"]) {
+                v.push((n, unit, format!("{what} ({c}), world frame")));
             }
         } else {
-            for (k, n) in names3(prefix).into_iter().enumerate() {
-                v.push((n, unit, format!("{what}, world {}", axes[k])));
+            for (n, axis) in indexed_names(prefix, 3).zip(axes) {
+                v.push((n, unit, format!("{what}, world {axis}")));
             }
         }
     }
     for (prefix, what) in [("cable.tension_anchor", "next to the tower"), ("cable.tension_cabin", "next to the cabin")]
     {
-        for i in 0..CABLES {
-            v.push((format!("{prefix}[{}]", i + 1), "N", format!("axial force of the element {what}, cable {i}")));
+        for (i, n) in indexed_names(prefix, CABLES).enumerate() {
+            v.push((n, "N", format!("axial force of the element {what}, cable {i}")));
         }
     }
     v
 }
 
-fn input_names() -> Vec<String> {
-    names3("wrench.f").into_iter().chain(names3("wrench.m")).collect()
+/// The names of the inputs, in value-reference order from 0.
+pub fn input_names() -> Vec<String> {
+    indexed_names("wrench.f", 3).chain(indexed_names("wrench.m", 3)).collect()
+}
+
+/// The names of the outputs, in value-reference order from [`vr::POSITION`].
+pub fn output_names() -> Vec<String> {
+    outputs().into_iter().map(|(name, _, _)| name).collect()
 }
 
 fn is_tension(vr: u32) -> bool {
@@ -167,77 +185,81 @@ fn available_memory() -> Option<f64> {
     Some(kb * 1024.0)
 }
 
+/// The scene with the scalar overrides `st` applied and validated.
+fn effective_scene(scene: &FileParameter<Scene, SceneError>, st: &Settings) -> Result<Scene, ModelError> {
+    let mut s = scene.value().clone();
+    if st.elements > 0 {
+        s.cables.elements = st.elements as usize;
+    }
+    for (value, target) in [(st.damping_ratio, &mut s.damping.ratio), (st.rho_inf, &mut s.solver.rho_inf)] {
+        if value >= 0.0 {
+            *target = value;
+        }
+    }
+    if st.newton_tol > 0.0 {
+        s.solver.newton_tol = st.newton_tol;
+    }
+    let name = scene.name();
+    s.validate(name)?;
+    if s.cable_count() != CABLES {
+        return Err(format!("scene `{name}` has {} cables; this FMU exposes {CABLES}", s.cable_count()).into());
+    }
+    // Refuse a model that would not fit before allocating it: an allocation failure aborts
+    // the importing process, which no error handling can catch.
+    let need = CableCabin::memory_estimate(&s, 0);
+    let avail = available_memory().unwrap_or(8.0 * 1024.0 * 1024.0 * 1024.0);
+    if !(need <= 0.5 * avail) {
+        return Err(format!(
+            "{} elements per cable would need about {:.1} GB (this machine has {:.1} GB available); \
+             use fewer elements_per_cable",
+            s.cables.elements,
+            need / 1e9,
+            avail / 1e9
+        )
+        .into());
+    }
+    Ok(s)
+}
+
+/// The nominal model in `slot`, built for the scene and settings if it is not there.
+fn nominal<'a>(
+    slot: &'a mut Option<CableCabin>,
+    scene: &FileParameter<Scene, SceneError>,
+    settings: &Settings,
+) -> Result<&'a CableCabin, ModelError> {
+    let model = match slot.take() {
+        Some(m) => m,
+        None => CableCabin::build(&effective_scene(scene, settings)?, 0)?,
+    };
+    Ok(slot.insert(model))
+}
+
 impl CableFmu {
-    /// The scene with the scalar overrides `st` applied and validated.
-    fn effective_scene(&self, st: &Settings) -> Result<Scene, ModelError> {
-        let mut s = self.scene.clone();
-        if st.elements > 0 {
-            s.cables.elements = st.elements as usize;
-        }
-        if st.damping_ratio >= 0.0 {
-            s.damping.ratio = st.damping_ratio;
-        }
-        if st.rho_inf >= 0.0 {
-            s.solver.rho_inf = st.rho_inf;
-        }
-        if st.newton_tol > 0.0 {
-            s.solver.newton_tol = st.newton_tol;
-        }
-        s.validate(&st.scene_name)?;
-        if s.cable_count() != CABLES {
-            return Err(
-                format!("scene `{}` has {} cables; this FMU exposes {CABLES}", st.scene_name, s.cable_count()).into()
-            );
-        }
-        // Refuse a model that would not fit before allocating it: an allocation failure aborts
-        // the importing process, which no error handling can catch.
-        let need = CableCabin::memory_estimate(&s, 0);
-        let avail = available_memory().unwrap_or(8.0 * 1024.0 * 1024.0 * 1024.0);
-        if !(need <= 0.5 * avail) {
-            return Err(format!(
-                "{} elements per cable would need about {:.1} GB (this machine has {:.1} GB available); \
-                 use fewer elements_per_cable",
-                s.cables.elements,
-                need / 1e9,
-                avail / 1e9
-            )
-            .into());
-        }
-        Ok(s)
-    }
-
-    /// The nominal model for the current settings.
-    fn nominal(&mut self) -> Result<&CableCabin, ModelError> {
-        if self.built_for.as_ref() != Some(&self.settings) || self.nominal.is_none() {
-            let scene = self.effective_scene(&self.settings)?;
-            self.nominal = Some(CableCabin::build(&scene, 0)?);
-            self.built_for = Some(self.settings.clone());
-            self.balanced = None;
-        }
-        Ok(self.nominal.as_ref().expect("built above"))
-    }
-
-    /// The equilibrium at the target pose under the current wrench (initialization mode).
-    fn balanced(&mut self) -> Result<&Balanced, ModelError> {
+    /// The equilibrium at the target pose under the current wrench (initialization mode): the
+    /// model form-found for it, its end tensions, and the nominal model.
+    fn balanced(&mut self) -> Result<(&CableCabin, &Balanced, &CableCabin), ModelError> {
         let w = self.wrench;
-        let fresh = self.built_for.as_ref() == Some(&self.settings) && self.nominal.is_some();
-        if !(fresh && self.balanced.as_ref().is_some_and(|b| b.wrench == w)) {
-            let nominal = self.nominal()?;
-            // Bit for bit the platform's own weight: the nominal equilibrium is the one.
-            let model =
-                if w == nominal.static_payload_wrench() { None } else { Some(Box::new(nominal.under_wrench(&w)?)) };
-            let m = model.as_deref().unwrap_or(nominal);
-            let mut tensions = [(0.0, 0.0); CABLES];
-            m.system(Payload::External).end_tensions(&m.equilibrium_config(), &mut tensions);
-            self.balanced = Some(Balanced { wrench: w, model, tensions });
-        }
-        Ok(self.balanced.as_ref().expect("set above"))
+        let had_nominal = self.nominal.is_some();
+        let nominal = nominal(&mut self.nominal, &self.scene, &self.settings)?;
+        let balanced = match self.balanced.take() {
+            Some(b) if had_nominal && b.wrench == w => b,
+            _ => {
+                // Bit for bit the platform's own weight: the nominal equilibrium is the one.
+                let model =
+                    if w == nominal.static_payload_wrench() { None } else { Some(Box::new(nominal.under_wrench(&w)?)) };
+                let m = model.as_deref().unwrap_or(nominal);
+                let mut tensions = [(0.0, 0.0); CABLES];
+                m.system(Payload::External).end_tensions(&m.equilibrium_config(), &mut tensions);
+                Balanced { wrench: w, model, tensions }
+            }
+        };
+        let b = self.balanced.insert(balanced);
+        Ok((b.model.as_deref().unwrap_or(nominal), b, nominal))
     }
 
-    /// A change of the settings discards the models (rebuilt when next needed).
+    /// A change of the scene or the settings discards the models (rebuilt when next needed).
     fn settings_changed(&mut self) {
         self.nominal = None;
-        self.built_for = None;
         self.balanced = None;
     }
 
@@ -247,8 +269,7 @@ impl CableFmu {
         let (motion, tensions) = match &self.dynamics {
             Some(dy) => (dy.cabin(), self.tensions),
             None => {
-                let tensions = self.balanced()?.tensions;
-                let nominal = self.nominal.as_ref().expect("built with the equilibrium");
+                let (_, balanced, nominal) = self.balanced()?;
                 let eq = &nominal.equilibrium;
                 let rest = feedcore::rigid::RigidMotion {
                     position: eq.position,
@@ -258,7 +279,7 @@ impl CableFmu {
                     acceleration: Vec3::zeros(),
                     angular_acceleration: Vec3::zeros(),
                 };
-                (rest, tensions)
+                (rest, balanced.tensions)
             }
         };
         let q = motion.orientation.quaternion();
@@ -290,6 +311,99 @@ impl CableFmu {
         }
         Ok(dw)
     }
+
+    /// At an instant: in step mode nothing responds to the wrench; in initialization mode the
+    /// tensions do, through the form finding.
+    fn instant_derivative(&mut self, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
+        let dw = Self::wrench_seed(at.knowns, at.seed)?;
+        out.fill(0.0);
+        if self.dynamics.is_some() || !at.unknowns.iter().any(|u| is_tension(*u)) {
+            return Ok(());
+        }
+        let (m, _, _) = self.balanced()?;
+        let s = crate::statics::tension_wrench_sensitivity(&m.net, &m.equilibrium)?;
+        for (o, u) in out.iter_mut().zip(at.unknowns) {
+            if is_tension(*u) {
+                let (cable, end) = if *u < vr::TENSION_CABIN {
+                    ((u - vr::TENSION_ANCHOR) as usize, 0)
+                } else {
+                    ((u - vr::TENSION_CABIN) as usize, 1)
+                };
+                *o = (0..6).map(|k| s[cable][end][k] * dw[k]).sum();
+            }
+        }
+        Ok(())
+    }
+
+    /// Of the last step's map, exactly, from its converged iteration matrix.
+    fn step_map_derivative(&mut self, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
+        let dw = Self::wrench_seed(at.knowns, at.seed)?;
+        let dy = match &mut self.dynamics {
+            Some(dy) if dy.state.last_step.is_some() => dy,
+            _ => return Err("no step has been taken yet: the step map is defined after fmi2DoStep".into()),
+        };
+        let q = dy.cabin().orientation.into_inner();
+        let d = dy.wrench_sensitivity(&dw)?;
+        for (o, u) in out.iter_mut().zip(at.unknowns) {
+            *o = delta_output(&d, &q, *u).ok_or_else(|| format!("value reference {u} is not an output"))?;
+        }
+        Ok(())
+    }
+}
+
+/// The variable table, inputs starting at the wrench `w0`.
+fn variables(w0: &Vector6<f64>) -> Vec<Variable> {
+    let inputs = input_names();
+    let mut variables: Vec<Variable> = inputs
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let unit = if k < 3 { "N" } else { "N.m" };
+            let what = if k < 3 { "force" } else { "moment about the cabin centre point" };
+            Variable::real_input(name.clone(), vr::WRENCH + k as u32, w0[k], unit).describe(format!(
+                "{what} the Stewart platform exerts on the cabin, world frame (start: scene C's static value)"
+            ))
+        })
+        .collect();
+    // The start pose depends on the scene only; the equilibrium's tensions also on the
+    // wrench and the discretisation.
+    let pose_knowns = ["scene"];
+    let tension_knowns: Vec<String> =
+        inputs.iter().cloned().chain(["scene", "elements_per_cable"].map(String::from)).collect();
+    for (k, (name, unit, what)) in outputs().into_iter().enumerate() {
+        let vr = vr::POSITION + k as u32;
+        let initially: Vec<String> = if is_tension(vr) {
+            tension_knowns.clone()
+        } else if vr < vr::VELOCITY {
+            pose_knowns.map(String::from).to_vec()
+        } else {
+            vec![]
+        };
+        variables.push(
+            Variable::real_output(name, vr, unit)
+                .describe(what)
+                .depends_on::<&str>(&[])
+                .initially_depends_on(&initially),
+        );
+    }
+    variables.push(
+        Variable::parameter("damping_ratio", vr::DAMPING_RATIO, -1.0, false)
+            .describe("Rayleigh damping ratio of the cable structure; negative: the scene's value"),
+    );
+    variables.push(Variable::parameter("rho_inf", vr::RHO_INF, -1.0, false).describe(
+        "spectral radius at infinity of the generalized-alpha integrator, in [0, 1]; negative: the scene's value",
+    ));
+    variables.push(Variable::parameter("newton_tol", vr::NEWTON_TOL, -1.0, false).unit("m").describe(
+        "Newton tolerance on the largest position correction (rad for rotations); non-positive: the scene's value",
+    ));
+    variables.push(
+        Variable::parameter("elements_per_cable", vr::ELEMENTS, 0, false)
+            .describe("finite elements per cable; 0: the scene's value"),
+    );
+    variables.push(Variable::parameter("scene", vr::SCENE, DEFAULT_SCENE, false).describe(
+        "scene file (TOML); relative paths resolve inside resources/, which holds lt50m_B.toml and lt50m_C.toml",
+    ));
+    variables
 }
 
 /// The output `vr` of a motion delta (for directional derivatives), with `q` the orientation.
@@ -312,99 +426,38 @@ fn delta_output(d: &CabinDelta, q: &nalgebra::Quaternion<f64>, vr: u32) -> Optio
 }
 
 impl Model for CableFmu {
+    type State<'a> = SavedCable<'a>;
+
     fn description() -> Result<ModelDescription, ModelError> {
-        let default = load_scene(DEFAULT_SCENE, None)?;
-        let w0 = static_wrench(&default);
-        let inputs = input_names();
-        let mut variables: Vec<Variable> = inputs
-            .iter()
-            .enumerate()
-            .map(|(k, name)| {
-                let unit = if k < 3 { "N" } else { "N.m" };
-                let what = if k < 3 { "force" } else { "moment about the cabin centre point" };
-                Variable::real_input(name.clone(), vr::WRENCH + k as u32, w0[k], unit).describe(format!(
-                    "{what} the Stewart platform exerts on the cabin, world frame (start: scene C's static value)"
-                ))
-            })
-            .collect();
-        // The start pose depends on the scene only; the equilibrium's tensions also on the
-        // wrench and the discretisation.
-        let pose_knowns = ["scene"];
-        let tension_knowns: Vec<String> =
-            inputs.iter().cloned().chain(["scene", "elements_per_cable"].map(String::from)).collect();
-        for (k, (name, unit, what)) in outputs().into_iter().enumerate() {
-            let vr = vr::POSITION + k as u32;
-            let initially: Vec<String> = if is_tension(vr) {
-                tension_knowns.clone()
-            } else if vr < vr::VELOCITY {
-                pose_knowns.map(String::from).to_vec()
-            } else {
-                vec![]
-            };
-            variables.push(
-                Variable::real_output(name, vr, unit)
-                    .describe(what)
-                    .depends_on::<&str>(&[])
-                    .initially_depends_on(&initially),
-            );
-        }
-        variables.push(
-            Variable::parameter("damping_ratio", vr::DAMPING_RATIO, -1.0, false)
-                .describe("Rayleigh damping ratio of the cable structure; negative: the scene's value"),
-        );
-        variables.push(Variable::parameter("rho_inf", vr::RHO_INF, -1.0, false).describe(
-            "spectral radius at infinity of the generalized-alpha integrator, in [0, 1]; negative: the scene's value",
-        ));
-        variables.push(Variable::parameter("newton_tol", vr::NEWTON_TOL, -1.0, false).unit("m").describe(
-            "Newton tolerance on the largest position correction (rad for rotations); non-positive: the scene's value",
-        ));
-        variables.push(
-            Variable::parameter("elements_per_cable", vr::ELEMENTS, 0, false)
-                .describe("finite elements per cable; 0: the scene's value"),
-        );
-        variables.push(Variable::parameter("scene", vr::SCENE, DEFAULT_SCENE, false).describe(
-            "scene file (TOML); relative paths resolve inside resources/, which holds lt50m_B.toml and lt50m_C.toml",
-        ));
+        let w0 = static_wrench(SCENES.open(None, DEFAULT_SCENE)?.value());
         Ok(ModelDescription::co_simulation(
             "cable_fmu",
-            "{3c0b5e9a-7d41-4f8e-b2a6-1e9d4c7f6a03}",
+            GUID,
             "Six-cable finite-element net carrying the feed cabin (LT50m); input: the Stewart platform's wrench",
             env!("CARGO_PKG_VERSION"),
-            Capabilities {
-                provides_directional_derivative: true,
-                can_interpolate_inputs: true,
-                provides_step_map_derivative: true,
-            },
-            variables,
+            CoSimulationFlags::EXPORTED_WITH_DERIVATIVES,
+            variables(&w0),
         ))
     }
 
     fn resources() -> Vec<Resource> {
-        Resource::texts(&feedcore::shipped::SCENES)
+        SCENES.resources()
     }
 
     fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
-        let scene = load_scene(DEFAULT_SCENE, resources)?;
+        let scene = SCENES.open(resources, DEFAULT_SCENE)?;
         Ok(CableFmu {
-            resources: resources.map(Path::to_owned),
-            settings: Settings {
-                scene_name: DEFAULT_SCENE.into(),
-                elements: 0,
-                damping_ratio: -1.0,
-                rho_inf: -1.0,
-                newton_tol: -1.0,
-            },
             // Inputs start at their declared start values (FMI 2.0): scene C's static wrench.
-            wrench: static_wrench(&scene),
+            wrench: static_wrench(scene.value()),
             scene,
+            settings: Settings { elements: 0, damping_ratio: -1.0, rho_inf: -1.0, newton_tol: -1.0 },
             nominal: None,
-            built_for: None,
             balanced: None,
             dynamics: None,
             start_wrench: Vector6::zeros(),
             wrench_rate: Vector6::zeros(),
             tensions: [(0.0, 0.0); CABLES],
-            scratch: std::cell::RefCell::new(Vec::new()),
+            scratch: Vec::new(),
         })
     }
 
@@ -447,53 +500,42 @@ impl Model for CableFmu {
         }
     }
 
-    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), ModelError> {
-        if vr != vr::ELEMENTS {
-            return Err(format!("value reference {vr} is not a settable Integer").into());
-        }
+    /// `elements_per_cable`, the only Integer (the layer has checked the value reference).
+    fn set_integer(&mut self, _vr: u32, value: i32) -> Result<(), ModelError> {
         if value < 0 {
             return Err(format!("elements_per_cable = {value}: must be at least 1 (0: the scene's value)").into());
         }
-        let settings = Settings { elements: value, ..self.settings.clone() };
-        self.effective_scene(&settings)?; // refuses what would not fit, before anything is built
+        let settings = Settings { elements: value, ..self.settings };
+        effective_scene(&self.scene, &settings)?; // refuses what would not fit, before anything is built
         self.settings = settings;
         self.settings_changed();
         Ok(())
     }
 
-    fn get_integer(&mut self, vr: u32) -> Result<i32, ModelError> {
-        if vr != vr::ELEMENTS {
-            return Err(format!("value reference {vr} is not an Integer of this model").into());
-        }
+    fn get_integer(&mut self, _vr: u32) -> Result<i32, ModelError> {
         Ok(self.settings.elements)
     }
 
-    fn set_string(&mut self, vr: u32, value: &str) -> Result<(), ModelError> {
-        if vr != vr::SCENE {
-            return Err(format!("value reference {vr} is not a settable String").into());
+    /// `scene`, the only String.
+    fn set_string(&mut self, _vr: u32, value: &str) -> Result<(), ModelError> {
+        if self.scene.set(value)? {
+            self.settings_changed();
         }
-        self.scene = load_scene(value, self.resources.as_deref())?;
-        self.settings.scene_name = value.to_string();
-        self.settings_changed();
         Ok(())
     }
 
-    fn get_string(&mut self, vr: u32) -> Result<String, ModelError> {
-        if vr != vr::SCENE {
-            return Err(format!("value reference {vr} is not a String of this model").into());
-        }
-        Ok(self.settings.scene_name.clone())
+    fn get_string(&mut self, _vr: u32) -> Result<String, ModelError> {
+        Ok(self.scene.name().to_owned())
     }
 
     /// At rest at the target pose under the wrench held now.
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
-        self.balanced()?;
-        let balanced = self.balanced.as_ref().expect("built above");
-        let model = balanced.model.as_deref().unwrap_or(self.nominal.as_ref().expect("built"));
-        let dy = model.dynamics_with(Payload::External, start_time, &self.wrench)?;
+        let w = self.wrench;
+        let (model, _, _) = self.balanced()?;
+        let dy = model.dynamics_with(Payload::External, start_time, &w)?;
         dy.end_tensions(&mut self.tensions);
         self.dynamics = Some(dy);
-        self.start_wrench = self.wrench;
+        self.start_wrench = w;
         self.balanced = None;
         Ok(())
     }
@@ -519,148 +561,74 @@ impl Model for CableFmu {
         Ok(StepOutcome::Complete)
     }
 
-    fn set_real_input_derivative(&mut self, vr: u32, _order: i32, value: f64) -> Result<(), ModelError> {
-        match vr {
-            vr::WRENCH..vr::POSITION => {
-                self.wrench_rate[(vr - vr::WRENCH) as usize] = value;
-                Ok(())
-            }
-            _ => Err(format!("value reference {vr} is not an input").into()),
-        }
-    }
-
-    /// At an instant: in step mode nothing responds to the wrench; in initialization mode the
-    /// tensions do, through the form finding.
-    fn directional_derivative(
-        &mut self,
-        unknowns: &[u32],
-        knowns: &[u32],
-        seed: &[f64],
-        out: &mut [f64],
-    ) -> Result<(), ModelError> {
-        let dw = Self::wrench_seed(knowns, seed)?;
-        out.fill(0.0);
-        if self.dynamics.is_some() || !unknowns.iter().any(|u| is_tension(*u)) {
-            return Ok(());
-        }
-        self.balanced()?;
-        let b = self.balanced.as_ref().expect("built above");
-        let m = b.model.as_deref().unwrap_or(self.nominal.as_ref().expect("built"));
-        let s = crate::statics::tension_wrench_sensitivity(&m.net, &m.equilibrium)?;
-        for (o, u) in out.iter_mut().zip(unknowns) {
-            if is_tension(*u) {
-                let (cable, end) = if *u < vr::TENSION_CABIN {
-                    ((u - vr::TENSION_ANCHOR) as usize, 0)
-                } else {
-                    ((u - vr::TENSION_CABIN) as usize, 1)
-                };
-                *o = (0..6).map(|k| s[cable][end][k] * dw[k]).sum();
-            }
-        }
+    /// A wrench input (the only inputs).
+    fn set_real_input_derivative(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
+        let rate = self.wrench_rate.get_mut((vr - vr::WRENCH) as usize);
+        *rate.ok_or_else(|| format!("value reference {vr} is not an input"))? = value;
         Ok(())
     }
 
-    fn step_map_derivative(
-        &mut self,
-        unknowns: &[u32],
-        knowns: &[u32],
-        seed: &[f64],
-        out: &mut [f64],
-    ) -> Result<(), ModelError> {
-        let dw = Self::wrench_seed(knowns, seed)?;
-        let dy = match &mut self.dynamics {
-            Some(dy) if dy.state.last_step.is_some() => dy,
-            _ => return Err("no step has been taken yet: the step map is defined after fmi2DoStep".into()),
-        };
-        let q = dy.cabin().orientation.into_inner();
-        let d = dy.wrench_sensitivity(&dw)?;
-        for (o, u) in out.iter_mut().zip(unknowns) {
-            *o = delta_output(&d, &q, *u).ok_or_else(|| format!("value reference {u} is not an output"))?;
+    fn derivative(&mut self, kind: Derivative, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
+        match kind {
+            Derivative::Instant => self.instant_derivative(at, out),
+            Derivative::StepMap => self.step_map_derivative(at, out),
         }
-        Ok(())
     }
 
-    fn save_state(&self, out: &mut Vec<u8>) -> Result<(), ModelError> {
-        let mut w = StateWriter::new(out);
-        let s = &self.settings;
-        w.str(&s.scene_name).i32(s.elements).f64(s.damping_ratio).f64(s.rho_inf).f64(s.newton_tol);
-        for k in 0..6 {
-            w.f64(self.wrench[k]).f64(self.wrench_rate[k]);
-        }
-        match &self.dynamics {
+    fn save(&mut self) -> Result<SavedCable<'_>, ModelError> {
+        let motion = match &self.dynamics {
             Some(dy) => {
-                let mut numbers = self.scratch.borrow_mut();
-                numbers.clear();
-                dy.encode_state(&mut numbers);
-                w.bool(true).f64s(self.start_wrench.as_slice()).f64s(&numbers);
+                self.scratch.clear();
+                dy.encode_state(&mut self.scratch);
+                Some(SavedMotion { start_wrench: self.start_wrench.into(), numbers: Reals::new(&self.scratch) })
             }
-            None => {
-                w.bool(false);
-            }
-        }
-        Ok(())
+            None => None,
+        };
+        Ok(SavedCable {
+            scene: self.scene.name(),
+            settings: self.settings,
+            wrench: self.wrench.into(),
+            wrench_rate: self.wrench_rate.into(),
+            motion,
+        })
     }
 
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), ModelError> {
-        let mut r = StateReader::new(bytes);
-        let settings = Settings {
-            scene_name: r.string()?,
-            elements: r.i32()?,
-            damping_ratio: r.f64()?,
-            rho_inf: r.f64()?,
-            newton_tol: r.f64()?,
-        };
-        let mut wrench = Vector6::zeros();
-        let mut wrench_rate = Vector6::zeros();
-        for k in 0..6 {
-            wrench[k] = r.f64()?;
-            wrench_rate[k] = r.f64()?;
-        }
-        let has_dynamics = r.bool()?;
-        let mut start_wrench = Vector6::zeros();
-        let mut numbers = std::mem::take(&mut *self.scratch.borrow_mut());
-        if has_dynamics {
-            r.f64s_into(start_wrench.as_mut_slice())?;
-            r.f64s_to_vec(&mut numbers)?;
-        }
-        r.finish()?;
+    fn restore(&mut self, saved: SavedCable<'_>) -> Result<(), ModelError> {
         // A state carries its parameters: an instance configured otherwise adopts them (the
         // scene is looked up under the same rules as the parameter).
-        if settings != self.settings {
-            if settings.scene_name != self.settings.scene_name {
-                self.scene = load_scene(&settings.scene_name, self.resources.as_deref())?;
-            }
-            self.effective_scene(&settings)?;
-            self.settings = settings;
+        if self.scene.set(saved.scene)? || saved.settings != self.settings {
+            effective_scene(&self.scene, &saved.settings)?;
+            self.settings = saved.settings;
             self.settings_changed();
             self.dynamics = None;
         }
-        self.wrench = wrench;
-        self.wrench_rate = wrench_rate;
-        let result = if has_dynamics {
-            if self.dynamics.is_none() || start_wrench != self.start_wrench {
+        self.wrench = saved.wrench.into();
+        self.wrench_rate = saved.wrench_rate.into();
+        let Some(motion) = saved.motion else {
+            self.dynamics = None;
+            self.balanced = None;
+            return Ok(());
+        };
+        let start_wrench = Vector6::from(motion.start_wrench);
+        let dy = match self.dynamics.take() {
+            Some(dy) if start_wrench == self.start_wrench => dy,
+            _ => {
                 // The cable lengths follow from the wrench the state started under: rebuild the
                 // model for it (the state then replaces the motion).
-                let nominal = self.nominal()?;
+                let nominal = nominal(&mut self.nominal, &self.scene, &self.settings)?;
                 let under = if start_wrench == nominal.static_payload_wrench() {
                     None
                 } else {
                     Some(nominal.under_wrench(&start_wrench)?)
                 };
-                let model = under.as_ref().unwrap_or(nominal);
-                self.dynamics = Some(model.dynamics_with(Payload::External, 0.0, &start_wrench)?);
                 self.start_wrench = start_wrench;
+                under.as_ref().unwrap_or(nominal).dynamics_with(Payload::External, 0.0, &start_wrench)?
             }
-            let dy = self.dynamics.as_mut().expect("built above");
-            let r = dy.decode_state(&numbers);
-            dy.end_tensions(&mut self.tensions);
-            r.map_err(ModelError::from)
-        } else {
-            self.dynamics = None;
-            self.balanced = None;
-            Ok(())
         };
-        *self.scratch.borrow_mut() = numbers;
-        result
+        let dy = self.dynamics.insert(dy);
+        motion.numbers.copy_into(&mut self.scratch);
+        let result = dy.decode_state(&self.scratch);
+        dy.end_tensions(&mut self.tensions);
+        result.map_err(ModelError::from)
     }
 }

@@ -152,17 +152,6 @@ impl Status {
         })
     }
 
-    pub fn raw(self) -> fmi2Status {
-        match self {
-            Status::Ok => fmi2OK,
-            Status::Warning => fmi2Warning,
-            Status::Discard => fmi2Discard,
-            Status::Error => fmi2Error,
-            Status::Fatal => fmi2Fatal,
-            Status::Pending => fmi2Pending,
-        }
-    }
-
     /// The standard's spelling, e.g. `fmi2Error`.
     pub fn name(self) -> &'static str {
         match self {
@@ -175,41 +164,3 @@ impl Status {
         }
     }
 }
-
-/// The 34 functions a Co-Simulation FMU exports. Importers resolve all of them.
-pub const COSIMULATION_FUNCTIONS: [&str; 34] = [
-    "fmi2GetTypesPlatform",
-    "fmi2GetVersion",
-    "fmi2SetDebugLogging",
-    "fmi2Instantiate",
-    "fmi2FreeInstance",
-    "fmi2SetupExperiment",
-    "fmi2EnterInitializationMode",
-    "fmi2ExitInitializationMode",
-    "fmi2Terminate",
-    "fmi2Reset",
-    "fmi2GetReal",
-    "fmi2GetInteger",
-    "fmi2GetBoolean",
-    "fmi2GetString",
-    "fmi2SetReal",
-    "fmi2SetInteger",
-    "fmi2SetBoolean",
-    "fmi2SetString",
-    "fmi2GetFMUstate",
-    "fmi2SetFMUstate",
-    "fmi2FreeFMUstate",
-    "fmi2SerializedFMUstateSize",
-    "fmi2SerializeFMUstate",
-    "fmi2DeSerializeFMUstate",
-    "fmi2GetDirectionalDerivative",
-    "fmi2SetRealInputDerivatives",
-    "fmi2GetRealOutputDerivatives",
-    "fmi2DoStep",
-    "fmi2CancelStep",
-    "fmi2GetStatus",
-    "fmi2GetRealStatus",
-    "fmi2GetIntegerStatus",
-    "fmi2GetBooleanStatus",
-    "fmi2GetStringStatus",
-];

@@ -7,37 +7,67 @@ use std::path::{Path, PathBuf};
 use zip::CompressionMethod;
 use zip::write::SimpleFileOptions;
 
-use crate::description::ModelDescription;
+use crate::description::{DescriptionError, ModelDescription, ModelInfo};
 use crate::export::{Model, Resource};
-use crate::xml::model_description_xml;
+use crate::xml::{model_description_xml, parse_model_description};
 
 /// The platform folder of the binaries this build produces.
-pub const PLATFORM: &str = "linux64";
+pub(crate) const PLATFORM: &str = "linux64";
+
+/// Why an archive was not written.
+#[derive(Debug, thiserror::Error)]
+pub enum PackageError {
+    #[error("the model's description: {0}")]
+    Model(String),
+    #[error("{identifier}: {source}")]
+    Description { identifier: String, source: DescriptionError },
+    #[error("{identifier}: modelDescription.xml would not read back as the model declares it ({why}); a bug in fmi2")]
+    RoundTrip { identifier: String, why: String },
+    #[error("cannot read the shared library {path}: {source}")]
+    Library { path: PathBuf, source: std::io::Error },
+    #[error("resource name `{0}` must be a relative path inside resources/")]
+    ResourceName(String),
+    #[error("cannot create {path}: {source}")]
+    Directory { path: PathBuf, source: std::io::Error },
+    #[error("cannot write {path}: {source}")]
+    Write { path: PathBuf, source: zip::result::ZipError },
+    #[error("cannot move {from} to {to}: {source}")]
+    Rename { from: PathBuf, to: PathBuf, source: std::io::Error },
+}
 
 /// Write `out_dir/<modelIdentifier>.fmu` for model `M` from its in-process description, its
 /// resources and the cdylib `library` built from it. Returns the archive's path.
-pub fn package_model<M: Model>(out_dir: &Path, library: &Path) -> Result<PathBuf, String> {
-    let description = M::description().map_err(|e| format!("the model's description: {e}"))?;
+pub fn package_model<M: Model>(out_dir: &Path, library: &Path) -> Result<PathBuf, PackageError> {
+    let description = M::description().map_err(|e| PackageError::Model(e.to_string()))?;
     let path = out_dir.join(format!("{}.fmu", description.model_identifier));
     write_fmu(&path, &description, library, &M::resources())?;
     Ok(path)
 }
 
-/// Write an `.fmu` archive at `out` (written to a temporary name first, then renamed).
+/// Write an `.fmu` archive at `out` (written to a temporary name first, then renamed). The
+/// description is validated, and its XML must read back as it (what importers will see).
 pub fn write_fmu(
     out: &Path,
     description: &ModelDescription,
     library: &Path,
     resources: &[Resource],
-) -> Result<(), String> {
-    let xml = model_description_xml(description).map_err(|e| format!("{}: {e}", description.model_identifier))?;
-    let binary =
-        std::fs::read(library).map_err(|e| format!("cannot read the shared library {}: {e}", library.display()))?;
+) -> Result<(), PackageError> {
+    let identifier = description.model_identifier.clone();
+    let invalid = |source| PackageError::Description { identifier: identifier.clone(), source };
+    let declared = ModelInfo::new(description.clone()).map_err(invalid)?.description;
+    let xml = model_description_xml(&declared).map_err(invalid)?;
+    let round_trip = |why: String| PackageError::RoundTrip { identifier: identifier.clone(), why };
+    match parse_model_description(&xml) {
+        Ok(read) if read == declared => {}
+        Ok(_) => return Err(round_trip("it reads back different".into())),
+        Err(e) => return Err(round_trip(e.to_string())),
+    }
+    let binary = std::fs::read(library).map_err(|source| PackageError::Library { path: library.into(), source })?;
     for r in resources {
         check_resource_name(&r.name)?;
     }
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|source| PackageError::Directory { path: dir.into(), source })?;
     }
     let tmp = out.with_extension("fmu.partial");
     let result = (|| -> Result<(), zip::result::ZipError> {
@@ -45,8 +75,7 @@ pub fn write_fmu(
         let file = SimpleFileOptions::default().compression_method(CompressionMethod::Deflated).unix_permissions(0o644);
         zip.start_file("modelDescription.xml", file)?;
         zip.write_all(xml.as_bytes())?;
-        let id = &description.model_identifier;
-        zip.start_file(format!("binaries/{PLATFORM}/{id}.so"), file.unix_permissions(0o755))?;
+        zip.start_file(format!("binaries/{PLATFORM}/{identifier}.so"), file.unix_permissions(0o755))?;
         zip.write_all(&binary)?;
         zip.add_directory("resources/", file.unix_permissions(0o755))?;
         for r in resources {
@@ -58,22 +87,22 @@ pub fn write_fmu(
     })();
     match result {
         Ok(()) => {
-            std::fs::rename(&tmp, out).map_err(|e| format!("cannot move {} to {}: {e}", tmp.display(), out.display()))
+            std::fs::rename(&tmp, out).map_err(|source| PackageError::Rename { from: tmp, to: out.into(), source })
         }
-        Err(e) => {
+        Err(source) => {
             let _ = std::fs::remove_file(&tmp);
-            Err(format!("cannot write {}: {e}", out.display()))
+            Err(PackageError::Write { path: out.into(), source })
         }
     }
 }
 
 /// A resource name is a relative, `/`-separated path without `..`, `.` or backslashes.
-fn check_resource_name(name: &str) -> Result<(), String> {
+fn check_resource_name(name: &str) -> Result<(), PackageError> {
     let ok = !name.is_empty()
         && !name.starts_with('/')
         && !name.contains('\\')
         && name.split('/').all(|p| !p.is_empty() && p != "." && p != "..");
-    if ok { Ok(()) } else { Err(format!("resource name `{name}` must be a relative path inside resources/")) }
+    if ok { Ok(()) } else { Err(PackageError::ResourceName(name.to_owned())) }
 }
 
 #[cfg(test)]

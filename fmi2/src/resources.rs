@@ -9,6 +9,8 @@
 use std::io::Read;
 use std::path::{Component, Path, PathBuf};
 
+use crate::export::Resource;
+
 /// Why a resource could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum ResourceError {
@@ -29,7 +31,7 @@ pub enum ResourceError {
 /// Text of the resource `name`: relative names inside `resources` (or one of `shipped`, the
 /// copies compiled into the binary, when there is no such file or no location), absolute names
 /// as given. Returns the text and where it came from (for messages).
-pub fn read_text(
+pub(crate) fn read_text(
     name: &str,
     resources: Option<&Path>,
     shipped: &[(&str, &str)],
@@ -78,7 +80,7 @@ pub fn read_text(
 
 /// The resource `name` (see [`read_text`]) parsed by `parse(text, origin)`; a parse error is
 /// reported as a short escaped excerpt, so a log never shows more of a file than that.
-pub fn load_parsed<T, E: std::fmt::Display>(
+pub(crate) fn load_parsed<T, E: std::fmt::Display>(
     name: &str,
     resources: Option<&Path>,
     shipped: &[(&str, &str)],
@@ -89,9 +91,78 @@ pub fn load_parsed<T, E: std::fmt::Display>(
     parse(&text, &origin).map_err(|e| ResourceError::Invalid { origin, message: excerpt(&e.to_string(), 300) })
 }
 
+/// One kind of file a model reads through a String parameter (a scene, a configuration).
+pub struct FileKind<T, E> {
+    shipped: &'static [(&'static str, &'static str)],
+    limit: u64,
+    parse: fn(&str, &str) -> Result<T, E>,
+}
+
+impl<T, E: std::fmt::Display> FileKind<T, E> {
+    /// Files of this kind: `shipped` are copies compiled into the binary as (name, text) (also
+    /// found without a resource location, and written to `resources/` by [`FileKind::resources`]);
+    /// at most `limit` bytes are read; `parse(text, origin)` reads one (`origin` names the file).
+    pub const fn new(
+        shipped: &'static [(&'static str, &'static str)],
+        limit: u64,
+        parse: fn(&str, &str) -> Result<T, E>,
+    ) -> Self {
+        FileKind { shipped, limit, parse }
+    }
+
+    /// The shipped copies, for the FMU's `resources/` directory.
+    pub fn resources(&self) -> Vec<Resource> {
+        Resource::texts(self.shipped)
+    }
+
+    /// The file `name`, read and parsed, as the value of a parameter; `resources`: the FMU's
+    /// `resources/` directory, if the importer gave one.
+    pub fn open(&'static self, resources: Option<&Path>, name: &str) -> Result<FileParameter<T, E>, ResourceError> {
+        let value = self.load(name, resources)?;
+        Ok(FileParameter { kind: self, resources: resources.map(Path::to_owned), name: name.to_owned(), value })
+    }
+
+    fn load(&self, name: &str, resources: Option<&Path>) -> Result<T, ResourceError> {
+        load_parsed(name, resources, self.shipped, self.limit, self.parse)
+    }
+}
+
+/// A String parameter naming a file, and the file as parsed: a model keeps one per such
+/// parameter, and the name in its saved state.
+pub struct FileParameter<T: 'static, E: 'static> {
+    kind: &'static FileKind<T, E>,
+    resources: Option<PathBuf>,
+    name: String,
+    value: T,
+}
+
+impl<T, E: std::fmt::Display> FileParameter<T, E> {
+    /// The name as set.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The file as parsed.
+    pub fn value(&self) -> &T {
+        &self.value
+    }
+
+    /// Names another file, read and parsed now (so a missing or malformed file is the setter's
+    /// error, and the parameter is unchanged then). Returns whether the name changed; the same
+    /// name is not read again.
+    pub fn set(&mut self, name: &str) -> Result<bool, ResourceError> {
+        if name == self.name {
+            return Ok(false);
+        }
+        self.value = self.kind.load(name, self.resources.as_deref())?;
+        self.name = name.to_owned();
+        Ok(true)
+    }
+}
+
 /// A message about a file's contents, cut to `max` characters, every control character
 /// escaped: what a log may show of a file the FMU was pointed at.
-pub fn excerpt(message: &str, max: usize) -> String {
+pub(crate) fn excerpt(message: &str, max: usize) -> String {
     let mut out = String::new();
     for (i, c) in message.chars().enumerate() {
         if i == max {
@@ -150,6 +221,29 @@ mod tests {
         assert!(e.to_string().contains("none.toml"), "{e}");
         std::fs::write(res.join("big.txt"), vec![b'x'; 101]).unwrap();
         assert!(matches!(read_text("big.txt", Some(&res), &[], 100), Err(ResourceError::TooLarge { .. })));
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_file_parameter_reads_its_file_when_set_and_keeps_it_on_error() {
+        static NUMBERS: FileKind<f64, String> = FileKind::new(&[("one.txt", "1")], 100, |text, origin| {
+            text.trim().parse().map_err(|e| format!("{origin}: {e}"))
+        });
+        let d = dir("parameter");
+        let res = d.join("resources");
+        std::fs::write(res.join("two.txt"), "2").unwrap();
+        std::fs::write(res.join("bad.txt"), "two").unwrap();
+        let mut p = NUMBERS.open(Some(&res), "one.txt").unwrap();
+        assert_eq!((p.name(), *p.value()), ("one.txt", 1.0));
+        assert!(p.set("two.txt").unwrap());
+        assert_eq!((p.name(), *p.value()), ("two.txt", 2.0));
+        assert!(!p.set("two.txt").unwrap(), "the same name is not read again");
+        let e = p.set("bad.txt").unwrap_err();
+        assert!(matches!(e, ResourceError::Invalid { .. }) && e.to_string().contains("bad.txt"), "{e}");
+        assert!(matches!(p.set("../secret.txt"), Err(ResourceError::Outside { .. })));
+        assert_eq!((p.name(), *p.value()), ("two.txt", 2.0), "unchanged by the errors");
+        assert!(NUMBERS.open(None, "one.txt").is_ok(), "shipped: found without a location");
+        assert_eq!(NUMBERS.resources(), [Resource { name: "one.txt".into(), bytes: b"1".to_vec() }]);
         std::fs::remove_dir_all(&d).unwrap();
     }
 

@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 /// The directory a resource-location URI names; `Ok(None)` for a null or empty location.
-pub fn resource_dir(uri: &str) -> Result<Option<PathBuf>, String> {
+pub(crate) fn resource_dir(uri: &str) -> Result<Option<PathBuf>, String> {
     let uri = uri.trim();
     if uri.is_empty() {
         return Ok(None);
@@ -45,7 +45,7 @@ fn strip_prefix_ignore_case<'a>(s: &'a str, prefix: &str) -> Option<&'a str> {
 }
 
 /// Decode `%XX` escapes; the result must be UTF-8.
-pub fn percent_decode(s: &str) -> Result<String, String> {
+fn percent_decode(s: &str) -> Result<String, String> {
     let bytes = s.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;

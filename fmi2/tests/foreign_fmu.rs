@@ -39,7 +39,8 @@ fn a_c_fmu_runs_through_the_importer() {
     assert_eq!(d.default_experiment.unwrap().step_size, Some(0.01));
     let mode = fmu.variable("mode").unwrap();
     assert_eq!((mode.var_type, mode.causality), (VarType::Integer, Causality::Local), "defaults and Enumeration");
-    assert_eq!(d.outputs, vec![(1, Some(vec![]))]);
+    assert_eq!(d.variables[1].depends_on, Some(vec![]), "`dependencies=\"\"`: on no input");
+    assert_eq!(d.variables[1].start, Some(fmi2::Value::Real(0.0)));
 
     let mut i = fmu.instantiate("c1", true).unwrap();
     let log = i.take_messages();

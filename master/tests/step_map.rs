@@ -14,7 +14,7 @@ fn ijcsa_with_the_extension_and_with_finite_differences_agree() {
     let fmu = fmi2::import::Fmu::load(&common::fmu_dir().join("cable_fmu.fmu")).unwrap();
     assert!(fmu.description().flags.provides_step_map_derivative);
     let mut description = <cable_fmu::fmu::CableFmu as fmi2::export::Model>::description().unwrap();
-    description.capabilities.provides_step_map_derivative = false;
+    description.flags.provides_step_map_derivative = false;
     let plain = common::fmu_dir().join("plain").join("cable_fmu.fmu");
     let library = fmu.root().join("binaries/linux64/cable_fmu.so");
     let resources = <cable_fmu::fmu::CableFmu as fmi2::export::Model>::resources();

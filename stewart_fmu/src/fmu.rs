@@ -24,55 +24,53 @@
 //! velocity (polarization); an orientation change acts through the cabin-frame components of
 //! gravity, acceleration and angular velocity.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use feedcore::rigid::skew;
-use feedcore::scene::{LEGS, Scene, Start};
+use feedcore::scene::{LEGS, Scene, SceneError, Start};
 use feedcore::{Quat, Vec3};
-use fmi2::export::{Model, ModelError, StepOutcome};
-use fmi2::state_bytes::{StateReader, StateWriter};
-use fmi2::{Capabilities, ModelDescription, Resource, Variable};
+use fmi2::description::indexed_names;
+use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
+use fmi2::resources::{FileKind, FileParameter};
+use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::{Matrix3x6, Vector6};
+use serde::{Deserialize, Serialize};
 
 use crate::{CabinMotion, Evaluation, Stewart, Wrench, WrenchJacobians};
 
+/// The scene used unless the `scene` parameter names another one.
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
-/// Largest scene file the FMU reads.
-pub const SCENE_LIMIT_BYTES: u64 = 1 << 20;
-
-/// The scene file named by a `scene` parameter: inside `resources/` when relative, size-capped,
-/// errors quoting at most an excerpt of the file.
-pub fn load_scene(name: &str, resources: Option<&Path>) -> Result<Scene, fmi2::resources::ResourceError> {
-    fmi2::resources::load_parsed(name, resources, &feedcore::shipped::SCENES, SCENE_LIMIT_BYTES, Scene::from_toml)
-}
+/// Identifies the variable table: change it whenever the table changes.
+pub const GUID: &str = "{9a47c3e1-52b8-4d0f-a6e3-7c1b2d8f4e96}";
 /// Number of Real inputs: r 3, q 4, v 3, ω 3, a 3, α 3.
 pub const INPUTS: usize = 19;
 
+/// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
+static SCENES: FileKind<Scene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
+
 /// Value references (separate spaces per type).
 pub mod vr {
-    pub const R: u32 = 0;
-    pub const Q: u32 = 3;
-    pub const V: u32 = 7;
-    pub const W: u32 = 10;
-    pub const A: u32 = 13;
-    pub const ALPHA: u32 = 16;
-    pub const FORCE: u32 = 19;
-    pub const MOMENT: u32 = 22;
-    pub const ACTUATOR: u32 = 25;
-    pub const PLATFORM_R: u32 = 31;
-    pub const PLATFORM_Q: u32 = 34;
-    pub const RADIUS: u32 = 38;
-    pub const SPEED: u32 = 39;
-    pub const RAMP_TIME: u32 = 40;
-    /// Integer.
+    use feedcore::scene::LEGS;
+
+    fmi2::value_references! {
+        /// Real inputs, the cabin's motion: position, orientation (w, x, y, z), velocity,
+        /// angular velocity, acceleration, angular acceleration.
+        R: 3, Q: 4, V: 3, W: 3, A: 3, ALPHA: 3,
+        /// Real outputs: the wrench on the cabin (force, moment), the actuator forces, the
+        /// moving platform's position and orientation.
+        FORCE: 3, MOMENT: 3, ACTUATOR: LEGS, PLATFORM_R: 3, PLATFORM_Q: 4,
+        /// Real parameters.
+        RADIUS: 1, SPEED: 1, RAMP_TIME: 1,
+    }
+    /// Integer `start`.
     pub const START: u32 = 0;
-    /// String.
+    /// String `scene`.
     pub const SCENE: u32 = 0;
 }
 
-#[derive(Clone, Debug, PartialEq)]
+/// The scalar parameters that modify the scene's motion.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 struct Settings {
-    scene_name: String,
     /// Negative: the scene's value.
     radius: f64,
     speed: f64,
@@ -98,18 +96,31 @@ struct Cache {
 }
 
 pub struct StewartFmu {
-    resources: Option<PathBuf>,
-    settings: Settings,
-    scene: Scene,
+    scene: FileParameter<Scene, SceneError>,
+    /// The settings, inputs and time, saved as they are.
+    data: Data,
     model: Option<Stewart>,
     /// The settings the model was built for, and whether in step mode (in initialization mode
     /// the platform rests at its start pose).
     built_for: Option<(Settings, bool)>,
+    cache: Cache,
+}
+
+/// Everything but the scene file: the model has no state but time.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+struct Data {
+    settings: Settings,
     initialized: bool,
     time: f64,
     inputs: [f64; INPUTS],
     rates: [f64; INPUTS],
-    cache: Cache,
+}
+
+/// A saved state: the scene file's name and the rest.
+#[derive(Serialize, Deserialize)]
+pub struct SavedStewart<'a> {
+    scene: &'a str,
+    data: Data,
 }
 
 /// The scene's static pose at rest, as input values.
@@ -121,12 +132,49 @@ fn rest_inputs(scene: &Scene) -> [f64; INPUTS] {
     u
 }
 
-fn input_names() -> Vec<String> {
+/// The output variables in value-reference order from [`vr::FORCE`]: (name, unit, description).
+fn outputs() -> Vec<(String, &'static str, String)> {
     let mut v = Vec::new();
-    for (p, n) in [("cabin.r", 3), ("cabin.q", 4), ("cabin.v", 3), ("cabin.w", 3), ("cabin.a", 3), ("cabin.alpha", 3)] {
-        v.extend((1..=n).map(|k| format!("{p}[{k}]")));
-    }
+    let mut block = |prefix: &str, unit: &'static str, texts: Vec<String>| {
+        v.extend(indexed_names(prefix, texts.len()).zip(texts).map(|(name, text)| (name, unit, text)));
+    };
+    block("wrench.f", "N", vec!["force the platform exerts on the cabin, world frame".into(); 3]);
+    block("wrench.m", "N.m", vec!["moment on the cabin about its centre point, world frame".into(); 3]);
+    let tension = |k| format!("tension of actuator {k} (positive: pulls the platform up)");
+    block("actuator.force", "N", (1..=LEGS).map(tension).collect());
+    block("platform.r", "m", vec!["position of the moving platform's centre, world frame".into(); 3]);
+    let component = |c| format!("orientation of the moving platform ({c}), body to world");
+    block("platform.q", "", ["w", "x", "y", "z"].map(component).to_vec());
     v
+}
+
+/// The names of the outputs, in value-reference order.
+pub fn output_names() -> Vec<String> {
+    outputs().into_iter().map(|(name, _, _)| name).collect()
+}
+
+/// The names of the inputs, in value-reference order from 0.
+pub fn input_names() -> Vec<String> {
+    let parts = [("cabin.r", 3), ("cabin.q", 4), ("cabin.v", 3), ("cabin.w", 3), ("cabin.a", 3), ("cabin.alpha", 3)];
+    parts.into_iter().flat_map(|(p, n)| indexed_names(p, n)).collect()
+}
+
+/// The cabin's motion the input values `u` give (the orientation normalized); refused when
+/// `cabin.q` is far from a rotation.
+pub fn cabin_motion(u: &[f64; INPUTS]) -> Result<CabinMotion, ModelError> {
+    let q = nalgebra::Quaternion::new(u[3], u[4], u[5], u[6]);
+    if q.norm() < 0.5 {
+        return Err(format!("cabin.q = {:?} is not a rotation (norm {:.3}, expected 1)", &u[3..7], q.norm()).into());
+    }
+    let v3 = |i: usize| Vec3::new(u[i], u[i + 1], u[i + 2]);
+    Ok(CabinMotion {
+        position: v3(vr::R as usize),
+        orientation: Quat::from_quaternion(q),
+        velocity: v3(vr::V as usize),
+        angular_velocity: v3(vr::W as usize),
+        acceleration: v3(vr::A as usize),
+        angular_acceleration: v3(vr::ALPHA as usize),
+    })
 }
 
 /// The unit quaternion of the input components and the world rotation `δθ` a change `dq` of
@@ -142,72 +190,63 @@ fn rotation_of(q: &[f64], dq: &[f64]) -> Vec3 {
 
 impl StewartFmu {
     fn model(&mut self) -> Result<&Stewart, ModelError> {
-        let key = (self.settings.clone(), self.initialized);
-        if self.model.is_none() || self.built_for.as_ref() != Some(&key) {
-            let mut s = self.scene.clone();
-            let st = &self.settings;
-            if st.radius >= 0.0 {
-                s.motion.radius_m = st.radius;
+        let key = (self.data.settings, self.data.initialized);
+        let model = match self.model.take() {
+            Some(m) if self.built_for == Some(key) => m,
+            _ => {
+                let mut s = self.scene.value().clone();
+                let st = &self.data.settings;
+                for (value, target) in [(st.radius, &mut s.motion.radius_m), (st.speed, &mut s.motion.speed_m_s)] {
+                    if value >= 0.0 {
+                        *target = value;
+                    }
+                }
+                if st.ramp_time > 0.0 {
+                    s.motion.ramp_time_s = st.ramp_time;
+                }
+                match st.start {
+                    1 => s.motion.start = Start::Abrupt,
+                    2 => s.motion.start = Start::Ramp,
+                    _ => {}
+                }
+                s.validate(self.scene.name())?;
+                // Before the start the platform rests at its start pose: the motion (and an
+                // abrupt start's jump) begins at the start time, so that a consistent
+                // initialization puts the cable net in its static equilibrium under the
+                // platform's weight.
+                let mut held = s.clone();
+                held.motion.speed_m_s = 0.0;
+                let model = Stewart::from_scene(if self.data.initialized { &s } else { &held })?;
+                self.built_for = Some(key);
+                self.cache = Cache::default();
+                model
             }
-            if st.speed >= 0.0 {
-                s.motion.speed_m_s = st.speed;
-            }
-            if st.ramp_time > 0.0 {
-                s.motion.ramp_time_s = st.ramp_time;
-            }
-            match st.start {
-                1 => s.motion.start = Start::Abrupt,
-                2 => s.motion.start = Start::Ramp,
-                _ => {}
-            }
-            s.validate(&st.scene_name)?;
-            // Before the start the platform rests at its start pose: the motion (and an abrupt
-            // start's jump) begins at the start time, so that a consistent initialization puts
-            // the cable net in its static equilibrium under the platform's weight.
-            let mut held = s.clone();
-            held.motion.speed_m_s = 0.0;
-            self.model = Some(Stewart::from_scene(if self.initialized { &s } else { &held })?);
-            self.built_for = Some(key);
-            self.cache = Cache::default();
-        }
-        Ok(self.model.as_ref().expect("built"))
+        };
+        Ok(self.model.insert(model))
     }
 
     fn cabin(&self) -> Result<CabinMotion, ModelError> {
-        let u = &self.inputs;
-        let q = nalgebra::Quaternion::new(u[3], u[4], u[5], u[6]);
-        if q.norm() < 0.5 {
-            return Err(format!("cabin.q = {:?} is not a rotation (norm {:.3}, expected 1)", &u[3..7], q.norm()).into());
-        }
-        let v3 = |i: usize| Vec3::new(u[i], u[i + 1], u[i + 2]);
-        Ok(CabinMotion {
-            position: v3(0),
-            orientation: Quat::from_quaternion(q),
-            velocity: v3(7),
-            angular_velocity: v3(10),
-            acceleration: v3(13),
-            angular_acceleration: v3(16),
-        })
+        cabin_motion(&self.data.inputs)
     }
 
     fn wrench(&mut self) -> Result<(Wrench, WrenchJacobians), ModelError> {
-        if self.cache.wrench.is_none() {
-            let t = self.time;
-            let cabin = self.cabin()?;
-            let w = self.model()?.wrench_with_jacobians(&cabin, t).map_err(|e| e.to_string())?;
-            self.cache.wrench = Some(w);
+        if let Some(w) = self.cache.wrench {
+            return Ok(w);
         }
-        Ok(self.cache.wrench.expect("computed"))
+        let (t, cabin) = (self.data.time, self.cabin()?);
+        let w = self.model()?.wrench_with_jacobians(&cabin, t).map_err(|e| e.to_string())?;
+        Ok(*self.cache.wrench.insert(w))
     }
 
     fn evaluation(&mut self) -> Result<&Evaluation, ModelError> {
-        if self.cache.evaluation.is_none() {
-            let t = self.time;
-            let cabin = self.cabin()?;
-            let e = self.model()?.evaluate(&cabin, t).map_err(|e| e.to_string())?;
-            self.cache.evaluation = Some(e);
-        }
-        Ok(self.cache.evaluation.as_ref().expect("computed"))
+        let e = match self.cache.evaluation.take() {
+            Some(e) => e,
+            None => {
+                let (t, cabin) = (self.data.time, self.cabin()?);
+                self.model()?.evaluate(&cabin, t).map_err(|e| e.to_string())?
+            }
+        };
+        Ok(self.cache.evaluation.insert(e))
     }
 
     /// ∂(actuator forces)/∂(a, α, ω) (world frame), exact: the forces are linear in (a, α) and
@@ -216,7 +255,7 @@ impl StewartFmu {
         if let Some(r) = self.cache.actuator_rates {
             return Ok(r);
         }
-        let t = self.time;
+        let t = self.data.time;
         let cabin = self.cabin()?;
         let model = self.model()?;
         let forces = |c: &CabinMotion| model.evaluate(c, t).map(|e| e.actuator_forces).map_err(|e| e.to_string());
@@ -255,10 +294,11 @@ impl StewartFmu {
 }
 
 impl Model for StewartFmu {
+    type State<'a> = SavedStewart<'a>;
+
     fn description() -> Result<ModelDescription, ModelError> {
-        let default = load_scene(DEFAULT_SCENE, None)?;
-        let rest = rest_inputs(&default);
         let inputs = input_names();
+        let rest = rest_inputs(SCENES.open(None, DEFAULT_SCENE)?.value());
         let units = |i: usize| match i {
             0..3 => "m",
             3..7 => "",
@@ -323,45 +363,8 @@ impl Model for StewartFmu {
                 Variable::real_output(name, vr, unit).describe(text).depends_on(&d).initially_depends_on(&initially),
             );
         };
-        for k in 0..3 {
-            out(
-                format!("wrench.f[{}]", k + 1),
-                vr::FORCE + k,
-                "N",
-                "force the platform exerts on the cabin, world frame".into(),
-            );
-        }
-        for k in 0..3 {
-            out(
-                format!("wrench.m[{}]", k + 1),
-                vr::MOMENT + k,
-                "N.m",
-                "moment on the cabin about its centre point, world frame".into(),
-            );
-        }
-        for k in 0..LEGS as u32 {
-            out(
-                format!("actuator.force[{}]", k + 1),
-                vr::ACTUATOR + k,
-                "N",
-                format!("tension of actuator {} (positive: pulls the platform up)", k + 1),
-            );
-        }
-        for k in 0..3 {
-            out(
-                format!("platform.r[{}]", k + 1),
-                vr::PLATFORM_R + k,
-                "m",
-                "position of the moving platform's centre, world frame".into(),
-            );
-        }
-        for (k, c) in ["w", "x", "y", "z"].iter().enumerate() {
-            out(
-                format!("platform.q[{}]", k + 1),
-                vr::PLATFORM_Q + k as u32,
-                "",
-                format!("orientation of the moving platform ({c}), body to world"),
-            );
+        for (k, (name, unit, text)) in outputs().into_iter().enumerate() {
+            out(name, vr::FORCE + k as u32, unit, text);
         }
         variables.push(
             Variable::parameter("radius", vr::RADIUS, -1.0, false)
@@ -387,41 +390,28 @@ impl Model for StewartFmu {
         ));
         Ok(ModelDescription::co_simulation(
             "stewart_fmu",
-            "{9a47c3e1-52b8-4d0f-a6e3-7c1b2d8f4e96}",
+            GUID,
             "Stewart platform (13 rigid bodies) hanging in the feed cabin, platform on a circle; output: its wrench on the cabin",
             env!("CARGO_PKG_VERSION"),
-            Capabilities {
-                provides_directional_derivative: true,
-                can_interpolate_inputs: true,
-                provides_step_map_derivative: true,
-            },
+            CoSimulationFlags::EXPORTED_WITH_DERIVATIVES,
             variables,
         ))
     }
 
     fn resources() -> Vec<Resource> {
-        Resource::texts(&feedcore::shipped::SCENES)
+        SCENES.resources()
     }
 
     fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
-        let scene = load_scene(DEFAULT_SCENE, resources)?;
+        let scene = SCENES.open(resources, DEFAULT_SCENE)?;
+        // Inputs start at their declared start values (FMI 2.0): scene C's pose at rest.
+        let inputs = rest_inputs(scene.value());
+        let settings = Settings { radius: -1.0, speed: -1.0, ramp_time: -1.0, start: 0 };
         Ok(StewartFmu {
-            resources: resources.map(Path::to_owned),
-            settings: Settings {
-                scene_name: DEFAULT_SCENE.into(),
-                radius: -1.0,
-                speed: -1.0,
-                ramp_time: -1.0,
-                start: 0,
-            },
-            // Inputs start at their declared start values (FMI 2.0): scene C's pose at rest.
-            inputs: rest_inputs(&scene),
+            data: Data { settings, initialized: false, time: 0.0, inputs, rates: [0.0; INPUTS] },
             scene,
             model: None,
             built_for: None,
-            initialized: false,
-            time: 0.0,
-            rates: [0.0; INPUTS],
             cache: Cache::default(),
         })
     }
@@ -429,13 +419,13 @@ impl Model for StewartFmu {
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
         match vr {
             0..19 => {
-                self.inputs[vr as usize] = value;
+                self.data.inputs[vr as usize] = value;
                 self.cache = Cache::default();
                 return Ok(());
             }
-            vr::RADIUS => self.settings.radius = value,
-            vr::SPEED => self.settings.speed = value,
-            vr::RAMP_TIME => self.settings.ramp_time = value,
+            vr::RADIUS => self.data.settings.radius = value,
+            vr::SPEED => self.data.settings.speed = value,
+            vr::RAMP_TIME => self.data.settings.ramp_time = value,
             _ => return Err(format!("value reference {vr} is not a settable Real").into()),
         }
         self.settings_changed();
@@ -444,7 +434,7 @@ impl Model for StewartFmu {
 
     fn get_real(&mut self, vr: u32) -> Result<f64, ModelError> {
         match vr {
-            0..19 => Ok(self.inputs[vr as usize]),
+            0..19 => Ok(self.data.inputs[vr as usize]),
             vr::FORCE..vr::ACTUATOR => {
                 let (w, _) = self.wrench()?;
                 Ok(w.to_vector()[(vr - vr::FORCE) as usize])
@@ -455,53 +445,42 @@ impl Model for StewartFmu {
                 let q = self.evaluation()?.platform.orientation;
                 Ok([q.w, q.i, q.j, q.k][(vr - vr::PLATFORM_Q) as usize])
             }
-            vr::RADIUS => Ok(self.settings.radius),
-            vr::SPEED => Ok(self.settings.speed),
-            vr::RAMP_TIME => Ok(self.settings.ramp_time),
+            vr::RADIUS => Ok(self.data.settings.radius),
+            vr::SPEED => Ok(self.data.settings.speed),
+            vr::RAMP_TIME => Ok(self.data.settings.ramp_time),
             _ => Err(format!("value reference {vr} is not a Real of this model").into()),
         }
     }
 
-    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), ModelError> {
-        if vr != vr::START {
-            return Err(format!("value reference {vr} is not a settable Integer").into());
-        }
+    /// `start`, the only Integer (the layer has checked the value reference).
+    fn set_integer(&mut self, _vr: u32, value: i32) -> Result<(), ModelError> {
         if !(0..=2).contains(&value) {
             return Err(format!("start = {value}: must be 0 (the scene's), 1 (abrupt) or 2 (ramp)").into());
         }
-        self.settings.start = value;
+        self.data.settings.start = value;
         self.settings_changed();
         Ok(())
     }
 
-    fn get_integer(&mut self, vr: u32) -> Result<i32, ModelError> {
-        if vr != vr::START {
-            return Err(format!("value reference {vr} is not an Integer of this model").into());
-        }
-        Ok(self.settings.start)
+    fn get_integer(&mut self, _vr: u32) -> Result<i32, ModelError> {
+        Ok(self.data.settings.start)
     }
 
-    fn set_string(&mut self, vr: u32, value: &str) -> Result<(), ModelError> {
-        if vr != vr::SCENE {
-            return Err(format!("value reference {vr} is not a settable String").into());
-        }
-        self.scene = load_scene(value, self.resources.as_deref())?;
-        self.settings.scene_name = value.to_string();
+    /// `scene`, the only String.
+    fn set_string(&mut self, _vr: u32, value: &str) -> Result<(), ModelError> {
+        self.scene.set(value)?;
         self.settings_changed();
         Ok(())
     }
 
-    fn get_string(&mut self, vr: u32) -> Result<String, ModelError> {
-        if vr != vr::SCENE {
-            return Err(format!("value reference {vr} is not a String of this model").into());
-        }
-        Ok(self.settings.scene_name.clone())
+    fn get_string(&mut self, _vr: u32) -> Result<String, ModelError> {
+        Ok(self.scene.name().to_owned())
     }
 
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
-        self.initialized = true;
+        self.data.initialized = true;
         self.model()?;
-        self.time = start_time;
+        self.data.time = start_time;
         self.cache = Cache::default();
         Ok(())
     }
@@ -509,10 +488,10 @@ impl Model for StewartFmu {
     fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {
         self.model()?;
         for k in 0..INPUTS {
-            self.inputs[k] += self.rates[k] * h;
+            self.data.inputs[k] += self.data.rates[k] * h;
         }
-        self.rates = [0.0; INPUTS]; // input derivatives apply to one step
-        self.time = t + h;
+        self.data.rates = [0.0; INPUTS]; // input derivatives apply to one step
+        self.data.time = t + h;
         self.cache = Cache::default();
         // evaluate now, so that a leg leaving its stroke, or a non-finite result, is reported
         // by this step
@@ -520,26 +499,23 @@ impl Model for StewartFmu {
         let w = w.to_vector();
         if let Some(k) = w.iter().position(|x| !x.is_finite()) {
             let name = if k < 3 { format!("wrench.f[{}]", k + 1) } else { format!("wrench.m[{}]", k - 2) };
-            return Err(format!("`{name}` = {} at t = {}: the cabin inputs are {:?}", w[k], t + h, self.inputs).into());
+            return Err(
+                format!("`{name}` = {} at t = {}: the cabin inputs are {:?}", w[k], t + h, self.data.inputs).into()
+            );
         }
         Ok(StepOutcome::Complete)
     }
 
-    fn set_real_input_derivative(&mut self, vr: u32, _order: i32, value: f64) -> Result<(), ModelError> {
-        if vr as usize >= INPUTS {
-            return Err(format!("value reference {vr} is not an input").into());
-        }
-        self.rates[vr as usize] = value;
+    fn set_real_input_derivative(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
+        let rate = self.data.rates.get_mut(vr as usize);
+        *rate.ok_or_else(|| format!("value reference {vr} is not an input"))? = value;
         Ok(())
     }
 
-    fn directional_derivative(
-        &mut self,
-        unknowns: &[u32],
-        knowns: &[u32],
-        seed: &[f64],
-        out: &mut [f64],
-    ) -> Result<(), ModelError> {
+    /// Every output follows the inputs at the same instant, and after a step the inputs at its
+    /// end: the step map's derivative is the instantaneous one at the current time.
+    fn derivative(&mut self, _kind: Derivative, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
+        let Seeds { unknowns, knowns, seed } = at;
         let mut du = [0.0; INPUTS];
         for (k, s) in knowns.iter().zip(seed) {
             if *k as usize >= INPUTS {
@@ -552,7 +528,7 @@ impl Model for StewartFmu {
         }
         let v3 = |i: usize| Vec3::new(du[i], du[i + 1], du[i + 2]);
         let (dr, dv, dw, da, dal) = (v3(0), v3(7), v3(10), v3(13), v3(16));
-        let dth = rotation_of(&self.inputs[3..7], &du[3..7]);
+        let dth = rotation_of(&self.data.inputs[3..7], &du[3..7]);
         let stack = |a: Vec3, b: Vec3| Vector6::new(a.x, a.y, a.z, b.x, b.y, b.z);
         let needs_wrench = unknowns.iter().any(|u| (vr::FORCE..vr::ACTUATOR).contains(u));
         let needs_actuators = unknowns.iter().any(|u| (vr::ACTUATOR..vr::PLATFORM_R).contains(u));
@@ -578,7 +554,7 @@ impl Model for StewartFmu {
             nalgebra::Vector6::zeros()
         };
         let (dp, dq) = if needs_platform {
-            let cabin_r = Vec3::new(self.inputs[0], self.inputs[1], self.inputs[2]);
+            let cabin_r = Vec3::new(self.data.inputs[0], self.data.inputs[1], self.data.inputs[2]);
             let e = self.evaluation()?;
             let arm = e.platform.position - cabin_r;
             let q = e.platform.orientation.into_inner();
@@ -598,64 +574,16 @@ impl Model for StewartFmu {
         Ok(())
     }
 
-    /// The outputs follow the inputs at the end of the step: the step map's derivative is the
-    /// instantaneous one at the current time.
-    fn step_map_derivative(
-        &mut self,
-        unknowns: &[u32],
-        knowns: &[u32],
-        seed: &[f64],
-        out: &mut [f64],
-    ) -> Result<(), ModelError> {
-        self.directional_derivative(unknowns, knowns, seed, out)
+    fn save(&mut self) -> Result<SavedStewart<'_>, ModelError> {
+        Ok(SavedStewart { scene: self.scene.name(), data: self.data })
     }
 
-    fn save_state(&self, out: &mut Vec<u8>) -> Result<(), ModelError> {
-        let mut w = StateWriter::new(out);
-        let s = &self.settings;
-        w.str(&s.scene_name)
-            .f64(s.radius)
-            .f64(s.speed)
-            .f64(s.ramp_time)
-            .i32(s.start)
-            .f64(self.time)
-            .bool(self.initialized);
-        for k in 0..INPUTS {
-            w.f64(self.inputs[k]).f64(self.rates[k]);
-        }
-        Ok(())
-    }
-
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), ModelError> {
-        let mut r = StateReader::new(bytes);
-        let settings = Settings {
-            scene_name: r.string()?,
-            radius: r.f64()?,
-            speed: r.f64()?,
-            ramp_time: r.f64()?,
-            start: r.i32()?,
-        };
-        let time = r.f64()?;
-        let initialized = r.bool()?;
-        let mut inputs = [0.0; INPUTS];
-        let mut rates = [0.0; INPUTS];
-        for k in 0..INPUTS {
-            inputs[k] = r.f64()?;
-            rates[k] = r.f64()?;
-        }
-        r.finish()?;
-        if settings != self.settings {
-            if settings.scene_name != self.settings.scene_name {
-                self.scene = load_scene(&settings.scene_name, self.resources.as_deref())?;
-            }
-            self.settings = settings;
+    fn restore(&mut self, saved: SavedStewart<'_>) -> Result<(), ModelError> {
+        if self.scene.set(saved.scene)? || saved.data.settings != self.data.settings {
             self.settings_changed();
         }
-        self.initialized = initialized;
+        self.data = saved.data;
         self.model()?;
-        self.time = time;
-        self.inputs = inputs;
-        self.rates = rates;
         self.cache = Cache::default();
         Ok(())
     }

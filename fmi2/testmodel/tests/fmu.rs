@@ -62,8 +62,7 @@ fn archive_layout_and_description() {
     let e = f.require(Capability::OutputDerivatives).unwrap_err();
     assert_eq!(e.to_string(), "FMU `oscillator` does not declare maxOutputDerivativeOrder ≥ 1 in modelDescription.xml");
     // Outputs with their direct dependencies: only `a` depends on `F` (index 1).
-    let a = d.variables.iter().position(|v| v.name == "a").unwrap();
-    assert!(d.outputs.contains(&(a, Some(vec![0]))));
+    assert_eq!(d.variable("a").unwrap().depends_on, Some(vec!["F".to_owned()]));
     assert_eq!(f.value_reference("v").unwrap(), vr::V);
     assert!(f.value_reference("w").unwrap_err().to_string().contains("no variable named `w`"));
 }
@@ -177,8 +176,8 @@ fn directional_derivatives_are_those_of_the_current_instant() {
     assert_eq!((jac[0], jac[1]), (0.0, 0.0));
     assert!((jac[2] - 0.5).abs() < 1e-15, "1/m with m = 2 kg: {}", jac[2]);
     // The declared structure says the same.
-    let deps: Vec<_> = f.description().outputs.iter().map(|(_, d)| d.clone().unwrap()).collect();
-    assert_eq!(deps[..3], [vec![], vec![], vec![0]]);
+    let deps = ["x", "v", "a"].map(|n| f.description().variable(n).unwrap().depends_on.clone().unwrap());
+    assert_eq!(deps, [vec![], vec![], vec!["F".to_owned()]]);
 }
 
 /// A model that ends: fmi2Discard, fmi2Terminated true, fmi2LastSuccessfulTime at the end.
@@ -306,7 +305,7 @@ fn misuse_gives_errors_that_name_the_problem() {
     let mut i = f.instantiate("config", false).unwrap();
     let e = i.set_string(&[vr::CONFIG], &["100% missing.txt"]).unwrap_err();
     let text = e.to_string();
-    assert!(text.contains("cannot read config file") && text.contains("resources/100% missing.txt"), "{text}");
+    assert!(text.contains("No such file") && text.contains("resources/100% missing.txt"), "{text}");
     // After an error the instance stays unusable until reset.
     assert!(i.enter_initialization_mode().is_err());
     i.reset().unwrap();
@@ -365,7 +364,7 @@ fn malformed_archives_are_clear_errors() {
     let no_lib = dir.join("no_lib.fmu");
     let missing = dir.join("missing.so");
     let e = fmi2::package::write_fmu(&no_lib, &d, &missing, &[]).unwrap_err();
-    assert!(e.contains("missing.so"), "{e}");
+    assert!(e.to_string().contains("missing.so"), "{e}");
     let unpacked = dir.join("unpacked");
     std::fs::create_dir_all(unpacked.join("binaries/linux64")).unwrap();
     std::fs::write(unpacked.join("modelDescription.xml"), "<fmiModelDescription fmiVersion=\"2.0\"").unwrap();

@@ -22,7 +22,7 @@ pub struct Exportable {
     /// Cargo package of the cdylib (its library is `lib<package>.so`).
     pub package: &'static str,
     /// Writes `<out>/<modelIdentifier>.fmu` from the library; returns the archive path.
-    pub write: fn(&Path, &Path) -> Result<PathBuf, String>,
+    pub write: fn(&Path, &Path) -> Result<PathBuf, fmi2::package::PackageError>,
 }
 
 impl Exportable {

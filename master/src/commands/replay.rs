@@ -73,12 +73,19 @@ pub fn run(args: &Args) -> CmdResult {
     }
 }
 
+/// The columns of `header` that hold the inputs `names`.
+fn columns(header: &[String], names: &[String]) -> Result<Vec<usize>, String> {
+    let find = |n: &String| header.iter().position(|h| h == n).ok_or(format!("input column `{n}` missing"));
+    names.iter().map(find).collect()
+}
+
+/// `time` and the outputs' names: the header of the output CSV.
+fn head(outputs: Vec<String>) -> String {
+    std::iter::once("time".to_owned()).chain(outputs).collect::<Vec<_>>().join(",")
+}
+
 fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathBuf) -> CmdResult {
-    let names = ["wrench.f[1]", "wrench.f[2]", "wrench.f[3]", "wrench.m[1]", "wrench.m[2]", "wrench.m[3]"];
-    let cols: Vec<usize> = names
-        .iter()
-        .map(|n| header.iter().position(|h| h == n).ok_or(format!("input column `{n}` missing")))
-        .collect::<Result<_, _>>()?;
+    let cols = columns(header, &cable_fmu::fmu::input_names())?;
     let wrench = |r: &[f64]| Vector6::from_iterator(cols.iter().map(|&c| r[c]));
     let model = CableCabin::from_scene(scene)?;
     // As the FMU: at rest at the target pose under the first wrench (form-found for it).
@@ -86,14 +93,7 @@ fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathB
     let under = if w0 == model.static_payload_wrench() { None } else { Some(model.under_wrench(&w0)?) };
     let mut dy = under.as_ref().unwrap_or(&model).dynamics_with(Payload::External, rows[0][0], &w0)?;
     let mut f = std::io::BufWriter::new(std::fs::File::create(out)?);
-    let axes = |p: &str, n: usize| (1..=n).map(|k| format!("{p}[{k}]")).collect::<Vec<_>>();
-    let mut cols_out = vec!["time".to_string()];
-    for (p, n) in [("cabin.r", 3), ("cabin.q", 4), ("cabin.v", 3), ("cabin.w", 3), ("cabin.a", 3), ("cabin.alpha", 3)] {
-        cols_out.extend(axes(p, n));
-    }
-    cols_out.extend(axes("cable.tension_anchor", 6));
-    cols_out.extend(axes("cable.tension_cabin", 6));
-    writeln!(f, "{}", cols_out.join(","))?;
+    writeln!(f, "{}", head(cable_fmu::fmu::output_names()))?;
     let mut tensions = vec![(0.0, 0.0); dy.system.cables()];
     let mut write_row =
         |dy: &cable_fmu::dynamics::Dynamics, f: &mut std::io::BufWriter<std::fs::File>| -> std::io::Result<()> {
@@ -119,33 +119,13 @@ fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathB
 }
 
 fn replay_stewart(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathBuf) -> CmdResult {
-    let mut names = Vec::new();
-    for (p, n) in [("cabin.r", 3), ("cabin.q", 4), ("cabin.v", 3), ("cabin.w", 3), ("cabin.a", 3), ("cabin.alpha", 3)] {
-        names.extend((1..=n).map(|k| format!("{p}[{k}]")));
-    }
-    let cols: Vec<usize> = names
-        .iter()
-        .map(|n| header.iter().position(|h| h == n).ok_or(format!("input column `{n}` missing")))
-        .collect::<Result<_, _>>()?;
+    let cols = columns(header, &stewart_fmu::fmu::input_names())?;
     let model = stewart_fmu::Stewart::from_scene(scene)?;
     let mut f = std::io::BufWriter::new(std::fs::File::create(out)?);
-    let mut head = vec!["time".to_string()];
-    for (p, n) in [("wrench.f", 3), ("wrench.m", 3), ("actuator.force", 6), ("platform.r", 3), ("platform.q", 4)] {
-        head.extend((1..=n).map(|k| format!("{p}[{k}]")));
-    }
-    writeln!(f, "{}", head.join(","))?;
+    writeln!(f, "{}", head(stewart_fmu::fmu::output_names()))?;
     for r in rows {
-        let u: Vec<f64> = cols.iter().map(|&c| r[c]).collect();
-        let v3 = |i: usize| feedcore::Vec3::new(u[i], u[i + 1], u[i + 2]);
-        let q = feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(u[3], u[4], u[5], u[6]));
-        let cabin = stewart_fmu::CabinMotion {
-            position: v3(0),
-            orientation: q,
-            velocity: v3(7),
-            angular_velocity: v3(10),
-            acceleration: v3(13),
-            angular_acceleration: v3(16),
-        };
+        let u: [f64; stewart_fmu::fmu::INPUTS] = std::array::from_fn(|i| r[cols[i]]);
+        let cabin = stewart_fmu::fmu::cabin_motion(&u).map_err(|e| e.to_string())?;
         let t = r[0];
         let w = model.wrench(&cabin, t)?.to_vector();
         let e = model.evaluate(&cabin, t)?;

@@ -1,19 +1,15 @@
-//! `modelDescription.xml` written from a validated [`ModelInfo`], elements in schema order.
+//! `modelDescription.xml` written from a validated description, elements in schema order.
 
+use std::collections::HashMap;
 use std::fmt::Write;
 
-use crate::description::{
-    BASE_UNIT_NAMES, Causality, DescriptionError, Initial, LOG_CATEGORIES, ModelDescription, ModelInfo, Value,
-};
-
-/// `<VendorAnnotations><Tool name=...>` of this workspace's extensions.
-pub const VENDOR_TOOL: &str = "feedsim";
-/// The element inside the tool's annotation that announces `feedsimGetStepMapDerivative`.
-pub const STEP_MAP_ANNOTATION: &str = "StepMapDerivative";
+use super::{STEP_MAP_ANNOTATION, VENDOR_TOOL};
+use crate::description::{BASE_UNIT_NAMES, Causality, DescriptionError, Initial, ModelDescription, ModelInfo};
+use crate::export::LOG_CATEGORIES;
 
 /// The XML text of `modelDescription.xml` for this description (validated first).
 pub fn model_description_xml(description: &ModelDescription) -> Result<String, DescriptionError> {
-    Ok(write_xml(&ModelInfo::new(description.clone())?))
+    Ok(write(&ModelInfo::new(description.clone())?.description))
 }
 
 /// Escape text for an attribute value in double quotes.
@@ -36,47 +32,62 @@ pub fn escape(s: &str) -> String {
     out
 }
 
-/// Shortest text that reads back to the same f64 (`xs:double` accepts `1e-9`, `2.0`).
-fn real(x: f64) -> String {
-    format!("{x:?}")
-}
-
 fn bool_attr(b: bool) -> &'static str {
     if b { "true" } else { "false" }
 }
 
-pub fn write_xml(info: &ModelInfo) -> String {
-    let d = &info.description;
-    let mut x = String::with_capacity(4096 + 300 * info.vars.len());
+/// The text of a description that [`ModelInfo::new`] has validated and normalized (every
+/// `initial` the standard allows is written, so readers need not know the defaults).
+pub(crate) fn write(d: &ModelDescription) -> String {
+    let mut x = String::with_capacity(4096 + 300 * d.variables.len());
     // `write!` to a String cannot fail.
     let _ = writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = writeln!(
         x,
-        r#"<fmiModelDescription fmiVersion="2.0" modelName="{}" guid="{}" description="{}" version="{}" generationTool="feedsim fmi2 {}" variableNamingConvention="structured" numberOfEventIndicators="0">"#,
+        r#"<fmiModelDescription fmiVersion="{}" modelName="{}" guid="{}" description="{}" version="{}" generationTool="feedsim fmi2 {}" variableNamingConvention="structured" numberOfEventIndicators="0">"#,
+        escape(&d.fmi_version),
         escape(&d.model_name),
         escape(&d.guid),
         escape(&d.description),
         escape(&d.version),
         env!("CARGO_PKG_VERSION"),
     );
-    let caps = d.capabilities;
+    let f = &d.flags;
     let _ = writeln!(
         x,
-        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="{}" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="{}"/>"#,
+        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="{}" canHandleVariableCommunicationStepSize="{}" canInterpolateInputs="{}" maxOutputDerivativeOrder="{}" canRunAsynchronuously="{}" canBeInstantiatedOnlyOncePerProcess="{}" canNotUseMemoryManagementFunctions="{}" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="{}"/>"#,
         escape(&d.model_identifier),
-        bool_attr(caps.can_interpolate_inputs),
-        bool_attr(caps.provides_directional_derivative),
+        bool_attr(f.needs_execution_tool),
+        bool_attr(f.can_handle_variable_communication_step_size),
+        bool_attr(f.can_interpolate_inputs),
+        f.max_output_derivative_order,
+        bool_attr(f.can_run_asynchronuously),
+        bool_attr(f.can_be_instantiated_only_once_per_process),
+        bool_attr(f.can_not_use_memory_management_functions),
+        bool_attr(f.can_get_and_set_fmu_state),
+        bool_attr(f.can_serialize_fmu_state),
+        bool_attr(f.provides_directional_derivative),
     );
-    if !info.units.is_empty() {
+    if !d.units.is_empty() {
         x.push_str("  <UnitDefinitions>\n");
-        for u in &info.units {
-            let mut base = String::new();
-            for (name, e) in BASE_UNIT_NAMES.iter().zip(u.exponents) {
-                if e != 0 {
-                    let _ = write!(base, r#" {name}="{e}""#);
+        for u in &d.units {
+            let _ = write!(x, r#"    <Unit name="{}">"#, escape(&u.name));
+            if let Some(b) = &u.base_unit {
+                x.push_str("<BaseUnit");
+                for (name, e) in BASE_UNIT_NAMES.iter().zip(b.exponents) {
+                    if e != 0 {
+                        let _ = write!(x, r#" {name}="{e}""#);
+                    }
                 }
+                if b.factor != 1.0 {
+                    let _ = write!(x, r#" factor="{:?}""#, b.factor);
+                }
+                if b.offset != 0.0 {
+                    let _ = write!(x, r#" offset="{:?}""#, b.offset);
+                }
+                x.push_str("/>");
             }
-            let _ = writeln!(x, r#"    <Unit name="{}"><BaseUnit{base}/></Unit>"#, escape(&u.name));
+            x.push_str("</Unit>\n");
         }
         x.push_str("  </UnitDefinitions>\n");
     }
@@ -86,33 +97,35 @@ pub fn write_xml(info: &ModelInfo) -> String {
     }
     x.push_str("  </LogCategories>\n");
     if let Some(e) = &d.default_experiment {
-        let tol = e.tolerance.map(|t| format!(r#" tolerance="{}""#, real(t))).unwrap_or_default();
-        let _ = writeln!(
-            x,
-            r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"{tol}/>"#,
-            real(e.start_time),
-            real(e.stop_time),
-            real(e.step_size)
-        );
+        x.push_str("  <DefaultExperiment");
+        for (name, value) in [
+            ("startTime", e.start_time),
+            ("stopTime", e.stop_time),
+            ("tolerance", e.tolerance),
+            ("stepSize", e.step_size),
+        ] {
+            if let Some(v) = value {
+                let _ = write!(x, r#" {name}="{v:?}""#);
+            }
+        }
+        x.push_str("/>\n");
     }
-    if caps.provides_step_map_derivative {
+    if f.provides_step_map_derivative {
         // Schema order: VendorAnnotations after DefaultExperiment, before ModelVariables.
         x.push_str("  <VendorAnnotations>\n");
         let _ = writeln!(x, r#"    <Tool name="{VENDOR_TOOL}"><{STEP_MAP_ANNOTATION}/></Tool>"#);
         x.push_str("  </VendorAnnotations>\n");
     }
     x.push_str("  <ModelVariables>\n");
-    for v in &info.vars {
-        let var = &v.var;
-        let _ = writeln!(x, "    <!-- index {} -->", v.index);
+    for (i, var) in d.variables.iter().enumerate() {
+        let _ = writeln!(x, "    <!-- index {} -->", i + 1);
         let _ =
             write!(x, r#"    <ScalarVariable name="{}" valueReference="{}""#, escape(&var.name), var.value_reference);
         if !var.description.is_empty() {
             let _ = write!(x, r#" description="{}""#, escape(&var.description));
         }
         let _ = write!(x, r#" causality="{}" variability="{}""#, var.causality.as_str(), var.variability.as_str());
-        // Write `initial` wherever it is allowed, so readers need not know the defaults.
-        if let Some(i) = v.initial {
+        if let Some(i) = var.initial {
             let _ = write!(x, r#" initial="{}""#, i.as_str());
         }
         let _ = write!(x, ">\n      <{}", var.var_type.as_str());
@@ -120,39 +133,33 @@ pub fn write_xml(info: &ModelInfo) -> String {
             let _ = write!(x, r#" unit="{}""#, escape(u));
         }
         if let Some(s) = &var.start {
-            let text = match s {
-                Value::Real(r) => real(*r),
-                Value::Integer(i) => i.to_string(),
-                Value::Boolean(b) => bool_attr(*b).to_owned(),
-                Value::String(s) => escape(s),
-            };
-            let _ = write!(x, r#" start="{text}""#);
+            let _ = write!(x, r#" start="{}""#, escape(&s.to_string()));
         }
         x.push_str("/>\n    </ScalarVariable>\n");
     }
     x.push_str("  </ModelVariables>\n  <ModelStructure>\n");
-    let outputs: Vec<_> = info.vars.iter().filter(|v| v.var.causality == Causality::Output).collect();
+    let index: HashMap<&str, usize> = d.variables.iter().enumerate().map(|(i, v)| (v.name.as_str(), i + 1)).collect();
+    let outputs: Vec<_> = (1..).zip(&d.variables).filter(|(_, v)| v.causality == Causality::Output).collect();
     if !outputs.is_empty() {
         x.push_str("    <Outputs>\n");
-        for v in &outputs {
-            x.push_str(&unknown(v.index, v.dependencies.as_deref()));
+        for (i, v) in &outputs {
+            unknown(&mut x, *i, v.depends_on.as_deref(), &index);
         }
         x.push_str("    </Outputs>\n");
     }
     // Exactly the outputs with initial approx/calculated and the calculated parameters
     // (Co-Simulation has no continuous states), with their initialization-mode dependencies.
-    let initial_unknowns: Vec<_> = info
-        .vars
-        .iter()
-        .filter(|v| {
-            (v.var.causality == Causality::Output && matches!(v.initial, Some(Initial::Approx | Initial::Calculated)))
-                || v.var.causality == Causality::CalculatedParameter
+    let initial_unknowns: Vec<_> = (1..)
+        .zip(&d.variables)
+        .filter(|(_, v)| {
+            (v.causality == Causality::Output && matches!(v.initial, Some(Initial::Approx | Initial::Calculated)))
+                || v.causality == Causality::CalculatedParameter
         })
         .collect();
     if !initial_unknowns.is_empty() {
         x.push_str("    <InitialUnknowns>\n");
-        for v in &initial_unknowns {
-            x.push_str(&unknown(v.index, v.initial_dependencies.as_deref()));
+        for (i, v) in &initial_unknowns {
+            unknown(&mut x, *i, v.initial_depends_on.as_deref(), &index);
         }
         x.push_str("    </InitialUnknowns>\n");
     }
@@ -160,54 +167,21 @@ pub fn write_xml(info: &ModelInfo) -> String {
     x
 }
 
-fn unknown(index: usize, dependencies: Option<&[usize]>) -> String {
-    match dependencies {
-        None => format!("      <Unknown index=\"{index}\"/>\n"),
-        Some(deps) => {
-            let list: Vec<String> = deps.iter().map(|d| d.to_string()).collect();
-            let kinds = vec!["dependent"; deps.len()];
-            format!(
-                "      <Unknown index=\"{index}\" dependencies=\"{}\" dependenciesKind=\"{}\"/>\n",
-                list.join(" "),
-                kinds.join(" ")
-            )
-        }
+/// `<Unknown>` with its dependencies (names validated, so every one has an index).
+fn unknown(x: &mut String, index: usize, dependencies: Option<&[String]>, indices: &HashMap<&str, usize>) {
+    let _ = write!(x, r#"      <Unknown index="{index}""#);
+    if let Some(deps) = dependencies {
+        let list: Vec<String> = deps.iter().filter_map(|n| indices.get(n.as_str())).map(|i| i.to_string()).collect();
+        let kinds = vec!["dependent"; list.len()];
+        let _ = write!(x, r#" dependencies="{}" dependenciesKind="{}""#, list.join(" "), kinds.join(" "));
     }
+    x.push_str("/>\n");
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::description::{Capabilities, DefaultExperiment, Variable};
-
-    fn sample() -> ModelDescription {
-        ModelDescription {
-            model_name: "A & B <model>".into(),
-            model_identifier: "ab".into(),
-            guid: "{1234}".into(),
-            description: "quote \" and 'apostrophe'".into(),
-            version: "0.1".into(),
-            capabilities: Capabilities {
-                provides_directional_derivative: true,
-                can_interpolate_inputs: false,
-                provides_step_map_derivative: true,
-            },
-            default_experiment: Some(DefaultExperiment {
-                start_time: 0.0,
-                stop_time: 10.0,
-                step_size: 0.01,
-                tolerance: None,
-            }),
-            extra_units: vec![],
-            variables: vec![
-                Variable::parameter("scene", 5, "dir/a&b.toml", false),
-                Variable::real_input("u", 0, 1e-9, "N"),
-                Variable::real_output("y", 1, "m").depends_on(&["u"]).initially_depends_on(&["u", "scene"]),
-                Variable::real_output("z", 2, "m").depends_on::<&str>(&[]),
-                Variable::parameter("k", 3, 2.5, true).unit("N/m"),
-            ],
-        }
-    }
+    use crate::xml::tests::sample;
 
     #[test]
     fn escaping() {
@@ -239,6 +213,7 @@ mod tests {
         assert!(x.contains(r#"fmiVersion="2.0""#));
         assert!(x.contains(r#"providesDirectionalDerivative="true""#));
         assert!(x.contains(r#"canInterpolateInputs="false""#));
+        assert!(x.contains(r#"canGetAndSetFMUstate="true" canSerializeFMUstate="true""#));
         assert!(x.contains(r#"<Unit name="N"><BaseUnit kg="1" m="1" s="-2"/></Unit>"#));
         assert!(x.contains(r#"<Unit name="N/m"><BaseUnit kg="1" s="-2"/></Unit>"#));
         assert!(x.contains(r#"<Real unit="N" start="1e-9"/>"#));
@@ -271,7 +246,7 @@ mod tests {
     #[test]
     fn invalid_tables_give_no_xml() {
         let mut d = sample();
-        d.variables.push(Variable::real_output("bad", 9, "").start(1.0));
+        d.variables.push(crate::description::Variable::real_output("bad", 9, "").start(1.0));
         assert!(model_description_xml(&d).is_err());
     }
 
@@ -281,6 +256,6 @@ mod tests {
         let doc = roxmltree::Document::parse(&text).unwrap();
         assert_eq!(doc.root_element().attribute("modelName"), Some("A & B <model>"));
         let n = doc.descendants().filter(|n| n.has_tag_name("ScalarVariable")).count();
-        assert_eq!(n, 5);
+        assert_eq!(n, 8);
     }
 }

@@ -1,382 +1,37 @@
-//! The static description of an exported model: identity, capabilities and the variable table.
-//!
-//! A model writes a [`ModelDescription`] (plain data, built with small helpers); [`ModelInfo::new`]
-//! validates it against the FMI 2.0 rules and indexes it. The C layer and the XML writer both use
-//! the validated [`ModelInfo`], so `modelDescription.xml` and the code cannot disagree.
+//! The exporter's checks of a [`ModelDescription`] against the FMI 2.0 rules, and the indexed
+//! view ([`ModelInfo`]) the C layer works from.
 
-use std::collections::HashSet;
-use std::fmt;
+use std::collections::{HashMap, HashSet};
 
-/// `causality` of a variable (FMI 2.0, 2.2.7).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Causality {
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-    Independent,
-}
+use super::{Causality, CoSimulationFlags, Initial, ModelDescription, Value, VarType, Variability, Variable};
 
-/// `variability` of a variable.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Variability {
-    Constant,
-    Fixed,
-    Tunable,
-    Discrete,
-    Continuous,
-}
-
-/// `initial` of a variable.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Initial {
-    Exact,
-    Approx,
-    Calculated,
-}
-
-/// The base type of a variable.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum VarType {
-    Real,
-    Integer,
-    Boolean,
-    String,
-}
-
-/// A start value; its variant must match the variable's type.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Value {
-    Real(f64),
-    Integer(i32),
-    Boolean(bool),
-    String(String),
-}
-
-impl Value {
-    pub fn var_type(&self) -> VarType {
-        match self {
-            Value::Real(_) => VarType::Real,
-            Value::Integer(_) => VarType::Integer,
-            Value::Boolean(_) => VarType::Boolean,
-            Value::String(_) => VarType::String,
-        }
-    }
-}
-
-impl From<f64> for Value {
-    fn from(v: f64) -> Value {
-        Value::Real(v)
-    }
-}
-impl From<i32> for Value {
-    fn from(v: i32) -> Value {
-        Value::Integer(v)
-    }
-}
-impl From<bool> for Value {
-    fn from(v: bool) -> Value {
-        Value::Boolean(v)
-    }
-}
-impl From<&str> for Value {
-    fn from(v: &str) -> Value {
-        Value::String(v.to_owned())
-    }
-}
-
-impl Causality {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Causality::Parameter => "parameter",
-            Causality::CalculatedParameter => "calculatedParameter",
-            Causality::Input => "input",
-            Causality::Output => "output",
-            Causality::Local => "local",
-            Causality::Independent => "independent",
-        }
-    }
-}
-
-impl Variability {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Variability::Constant => "constant",
-            Variability::Fixed => "fixed",
-            Variability::Tunable => "tunable",
-            Variability::Discrete => "discrete",
-            Variability::Continuous => "continuous",
-        }
-    }
-}
-
-impl Initial {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Initial::Exact => "exact",
-            Initial::Approx => "approx",
-            Initial::Calculated => "calculated",
-        }
-    }
-}
-
-impl VarType {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            VarType::Real => "Real",
-            VarType::Integer => "Integer",
-            VarType::Boolean => "Boolean",
-            VarType::String => "String",
-        }
-    }
-}
-
-/// One row of the variable table.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Variable {
-    /// Structured name, e.g. `cabin.r[1]`.
-    pub name: String,
-    pub value_reference: u32,
-    pub var_type: VarType,
-    pub causality: Causality,
-    pub variability: Variability,
-    /// `None`: the standard's default for this causality/variability.
-    pub initial: Option<Initial>,
-    pub start: Option<Value>,
-    /// A unit name from [`SI_UNITS`] or [`ModelDescription::extra_units`]; Real variables only.
-    pub unit: Option<String>,
-    pub description: String,
-    /// Outputs only: names of the inputs the output depends on at a communication point in step
-    /// mode (direct feedthrough; `None`: on all knowns). Written to `<ModelStructure><Outputs>`.
-    pub depends_on: Option<Vec<String>>,
-    /// Outputs only: names of the inputs and parameters the output depends on in initialization
-    /// mode (`None`: on all knowns). Written to `<ModelStructure><InitialUnknowns>`.
-    pub initial_depends_on: Option<Vec<String>>,
-}
-
-impl Variable {
-    /// A Real input with its start value.
-    pub fn real_input(name: impl Into<String>, vr: u32, start: f64, unit: &str) -> Variable {
-        Variable::new(name, vr, VarType::Real, Causality::Input, Variability::Continuous).start(start).unit(unit)
-    }
-
-    /// A continuous Real output computed by the model (`initial = calculated`).
-    pub fn real_output(name: impl Into<String>, vr: u32, unit: &str) -> Variable {
-        Variable::new(name, vr, VarType::Real, Causality::Output, Variability::Continuous).unit(unit)
-    }
-
-    /// A parameter of any type (`fixed`: set before initialization ends; `tunable`: also between steps).
-    pub fn parameter(name: impl Into<String>, vr: u32, start: impl Into<Value>, tunable: bool) -> Variable {
-        let start = start.into();
-        let variability = if tunable { Variability::Tunable } else { Variability::Fixed };
-        Variable::new(name, vr, start.var_type(), Causality::Parameter, variability).start(start)
-    }
-
-    pub fn new(
-        name: impl Into<String>,
-        vr: u32,
-        var_type: VarType,
-        causality: Causality,
-        variability: Variability,
-    ) -> Variable {
-        Variable {
-            name: name.into(),
-            value_reference: vr,
-            var_type,
-            causality,
-            variability,
-            initial: None,
-            start: None,
-            unit: None,
-            description: String::new(),
-            depends_on: None,
-            initial_depends_on: None,
-        }
-    }
-
-    pub fn start(mut self, v: impl Into<Value>) -> Variable {
-        self.start = Some(v.into());
-        self
-    }
-
-    pub fn unit(mut self, unit: &str) -> Variable {
-        self.unit = if unit.is_empty() { None } else { Some(unit.to_owned()) };
-        self
-    }
-
-    pub fn initial(mut self, initial: Initial) -> Variable {
-        self.initial = Some(initial);
-        self
-    }
-
-    pub fn describe(mut self, text: impl Into<String>) -> Variable {
-        self.description = text.into();
-        self
-    }
-
-    /// The inputs this output depends on at a communication point in step mode.
-    pub fn depends_on<S: AsRef<str>>(mut self, inputs: &[S]) -> Variable {
-        self.depends_on = Some(inputs.iter().map(|s| s.as_ref().to_owned()).collect());
-        self
-    }
-
-    /// The inputs and parameters this output depends on in initialization mode.
-    pub fn initially_depends_on<S: AsRef<str>>(mut self, knowns: &[S]) -> Variable {
-        self.initial_depends_on = Some(knowns.iter().map(|s| s.as_ref().to_owned()).collect());
-        self
-    }
-}
-
-/// A unit with its SI base-unit exponents (kg, m, s, A, K, mol, cd, rad), factor 1, offset 0.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Unit {
-    pub name: String,
-    pub exponents: [i32; 8],
-}
-
-/// Names of the base units in the order of [`Unit::exponents`], as the XML attributes spell them.
-pub const BASE_UNIT_NAMES: [&str; 8] = ["kg", "m", "s", "A", "K", "mol", "cd", "rad"];
-
-/// Units every model may use without declaring them: (name, [kg, m, s, A, K, mol, cd, rad]).
-pub const SI_UNITS: &[(&str, [i32; 8])] = &[
-    ("kg", [1, 0, 0, 0, 0, 0, 0, 0]),
-    ("m", [0, 1, 0, 0, 0, 0, 0, 0]),
-    ("s", [0, 0, 1, 0, 0, 0, 0, 0]),
-    ("rad", [0, 0, 0, 0, 0, 0, 0, 1]),
-    ("m/s", [0, 1, -1, 0, 0, 0, 0, 0]),
-    ("m/s2", [0, 1, -2, 0, 0, 0, 0, 0]),
-    ("rad/s", [0, 0, -1, 0, 0, 0, 0, 1]),
-    ("rad/s2", [0, 0, -2, 0, 0, 0, 0, 1]),
-    ("Hz", [0, 0, -1, 0, 0, 0, 0, 0]),
-    ("N", [1, 1, -2, 0, 0, 0, 0, 0]),
-    ("N.m", [1, 2, -2, 0, 0, 0, 0, 0]),
-    ("N/m", [1, 0, -2, 0, 0, 0, 0, 0]),
-    ("N.s/m", [1, 0, -1, 0, 0, 0, 0, 0]),
-    ("N.m/rad", [1, 2, -2, 0, 0, 0, 0, -1]),
-    ("kg.m2", [1, 2, 0, 0, 0, 0, 0, 0]),
-    ("kg/m", [1, -1, 0, 0, 0, 0, 0, 0]),
-    ("Pa", [1, -1, -2, 0, 0, 0, 0, 0]),
-    ("J", [1, 2, -2, 0, 0, 0, 0, 0]),
-    ("W", [1, 2, -3, 0, 0, 0, 0, 0]),
-];
-
-/// `<DefaultExperiment>`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct DefaultExperiment {
-    pub start_time: f64,
-    pub stop_time: f64,
-    pub step_size: f64,
-    pub tolerance: Option<f64>,
-}
-
-/// The optional capabilities a model implements. The layer always provides variable
-/// communication step sizes and get/set/serialize FMU state.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Capabilities {
-    /// `providesDirectionalDerivative`: the model implements [`crate::export::Model::directional_derivative`].
-    pub provides_directional_derivative: bool,
-    /// `canInterpolateInputs`: the model implements first-order [`crate::export::Model::set_real_input_derivative`].
-    pub can_interpolate_inputs: bool,
-    /// The opt-in extension of this workspace: the model implements
-    /// [`crate::export::Model::step_map_derivative`], exported as `feedsimGetStepMapDerivative` and
-    /// announced by `<VendorAnnotations><Tool name="feedsim"><StepMapDerivative/>`.
-    pub provides_step_map_derivative: bool,
-}
-
-/// Everything `modelDescription.xml` says, as the model declares it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct ModelDescription {
-    pub model_name: String,
-    /// C identifier: the name of the shared library and of `CoSimulation@modelIdentifier`.
-    pub model_identifier: String,
-    /// Identifies this interface; change it whenever the variable table changes.
-    pub guid: String,
-    pub description: String,
-    pub version: String,
-    pub capabilities: Capabilities,
-    pub default_experiment: Option<DefaultExperiment>,
-    /// Units beyond [`SI_UNITS`].
-    pub extra_units: Vec<Unit>,
-    pub variables: Vec<Variable>,
-}
-
-impl ModelDescription {
-    /// A Co-Simulation description with this workspace's defaults: model name = identifier,
-    /// default experiment 0 … 100 s at 0.01 s, SI units only.
-    pub fn co_simulation(
-        identifier: &str,
-        guid: &str,
-        description: &str,
-        version: &str,
-        capabilities: Capabilities,
-        variables: Vec<Variable>,
-    ) -> ModelDescription {
-        ModelDescription {
-            model_name: identifier.into(),
-            model_identifier: identifier.into(),
-            guid: guid.into(),
-            description: description.into(),
-            version: version.into(),
-            capabilities,
-            default_experiment: Some(DefaultExperiment {
-                start_time: 0.0,
-                stop_time: 100.0,
-                step_size: 0.01,
-                tolerance: None,
-            }),
-            extra_units: vec![],
-            variables,
-        }
-    }
-}
-
-/// The log categories every exported FMU declares (name, description).
-pub const LOG_CATEGORIES: [(&str, &str); 3] = [
-    (
-        "logError",
-        "Errors: calls in the wrong state, unknown value references, invalid values, model failures; and why a step was discarded",
-    ),
-    ("logInfo", "Informational messages: instantiation, mode changes"),
-    ("logAll", "All of the above"),
-];
-
-/// A rule of the standard that the description breaks.
-#[derive(Clone, Debug, PartialEq)]
+/// A rule of the standard (or of the export layer) that the description breaks.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("invalid model description: {0}")]
 pub struct DescriptionError(pub String);
 
-impl fmt::Display for DescriptionError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "invalid model description: {}", self.0)
-    }
-}
-
-impl std::error::Error for DescriptionError {}
-
-/// A validated variable: the declared row plus the effective `initial`, its 1-based index in
-/// `ModelVariables`, and its resolved output dependencies (1-based indices).
+/// A validated variable: its 1-based index in `ModelVariables` and its dependencies as
+/// 1-based indices.
 #[derive(Clone, Debug)]
 pub struct VarInfo {
+    /// The variable, `initial` filled in with the standard's default.
     pub var: Variable,
-    /// `None` for inputs and the independent variable (the attribute is not allowed there).
-    pub initial: Option<Initial>,
     pub index: usize,
     pub dependencies: Option<Vec<usize>>,
-    /// Resolved initialization-mode dependencies (1-based indices).
     pub initial_dependencies: Option<Vec<usize>>,
 }
 
 impl VarInfo {
     /// May `fmi2Set*` change this variable in the given phase? (FMI 2.0 CS state table.)
-    pub fn settable_in(&self, phase: SetPhase) -> bool {
+    pub(crate) fn settable_in(&self, phase: SetPhase) -> bool {
         let v = &self.var;
         if v.variability == Variability::Constant {
             return false;
         }
         let input = v.causality == Causality::Input;
         match phase {
-            SetPhase::Instantiated => input || matches!(self.initial, Some(Initial::Exact | Initial::Approx)),
-            SetPhase::InitializationMode => input || self.initial == Some(Initial::Exact),
+            SetPhase::Instantiated => input || matches!(v.initial, Some(Initial::Exact | Initial::Approx)),
+            SetPhase::InitializationMode => input || v.initial == Some(Initial::Exact),
             SetPhase::StepMode => {
                 input || (v.causality == Causality::Parameter && v.variability == Variability::Tunable)
             }
@@ -386,7 +41,7 @@ impl VarInfo {
 
 /// The phases in which `fmi2Set*` is allowed at all.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SetPhase {
+pub(crate) enum SetPhase {
     Instantiated,
     InitializationMode,
     StepMode,
@@ -395,10 +50,11 @@ pub enum SetPhase {
 /// A validated, indexed model description.
 #[derive(Clone, Debug)]
 pub struct ModelInfo {
+    /// The description as it is written: every `initial` the standard allows filled in, and
+    /// the dependencies in `ModelVariables` order without repetitions.
     pub description: ModelDescription,
+    /// The variables in `ModelVariables` order.
     pub vars: Vec<VarInfo>,
-    /// Units used by some variable, in first-use order.
-    pub units: Vec<Unit>,
     /// Per type (Real, Integer, Boolean, String): (value reference, position in `vars`), sorted.
     by_vr: [Vec<(u32, usize)>; 4],
 }
@@ -412,11 +68,24 @@ fn type_slot(t: VarType) -> usize {
     }
 }
 
+/// The `<CoSimulation>` flags the export layer decides; a model sets only the others.
+fn layer_flags(f: &CoSimulationFlags) -> CoSimulationFlags {
+    CoSimulationFlags {
+        can_interpolate_inputs: false,
+        provides_directional_derivative: false,
+        provides_step_map_derivative: false,
+        ..*f
+    }
+}
+
 impl ModelInfo {
     /// Check every rule of the standard the layer relies on; index the table.
     pub fn new(description: ModelDescription) -> Result<ModelInfo, DescriptionError> {
-        let d = &description;
+        let mut d = description;
         let err = |msg: String| Err(DescriptionError(msg));
+        if d.fmi_version != "2.0" {
+            return err(format!("fmiVersion `{}`: the exporter writes FMI 2.0 (`2.0`)", d.fmi_version));
+        }
         if d.model_name.trim().is_empty() {
             return err("`modelName` is empty".into());
         }
@@ -426,62 +95,60 @@ impl ModelInfo {
         if d.guid.trim().is_empty() {
             return err("`guid` is empty".into());
         }
+        if layer_flags(&d.flags) != CoSimulationFlags::EXPORTED {
+            return err(format!(
+                "the <CoSimulation> flags {:?} are not what the export layer implements; start from \
+                 `CoSimulationFlags::EXPORTED` and set only canInterpolateInputs, providesDirectionalDerivative \
+                 and the step-map extension",
+                d.flags
+            ));
+        }
         if let Some(e) = &d.default_experiment {
-            let finite = e.start_time.is_finite() && e.stop_time.is_finite() && e.step_size.is_finite();
-            if !finite || e.stop_time <= e.start_time || e.step_size <= 0.0 {
-                return err(format!(
-                    "DefaultExperiment needs finite startTime < stopTime and stepSize > 0, got {} .. {}, step {}",
-                    e.start_time, e.stop_time, e.step_size
-                ));
+            for (name, x) in [("startTime", e.start_time), ("stopTime", e.stop_time), ("stepSize", e.step_size)] {
+                if let Some(x) = x
+                    && !x.is_finite()
+                {
+                    return err(format!("DefaultExperiment {name} = {x} is not finite"));
+                }
             }
-            if let Some(t) = e.tolerance
-                && !(t.is_finite() && t > 0.0)
+            if let (Some(a), Some(b)) = (e.start_time, e.stop_time)
+                && b <= a
             {
-                return err(format!("DefaultExperiment tolerance must be positive, got {t}"));
+                return err(format!("DefaultExperiment needs startTime < stopTime, got {a} .. {b}"));
+            }
+            for (name, x) in [("stepSize", e.step_size), ("tolerance", e.tolerance)] {
+                if let Some(x) = x
+                    && !(x.is_finite() && x > 0.0)
+                {
+                    return err(format!("DefaultExperiment {name} must be positive, got {x}"));
+                }
             }
         }
-        for u in &d.extra_units {
-            if u.name.trim().is_empty() || SI_UNITS.iter().any(|(n, _)| *n == u.name) {
-                return err(format!("extra unit `{}` is empty or redefines a built-in unit", u.name));
+        let mut unit_names = HashSet::new();
+        for u in &d.units {
+            if u.name.trim().is_empty() || !unit_names.insert(u.name.as_str()) {
+                return err(format!("unit `{}` is empty or defined twice", u.name));
             }
         }
 
-        let mut names = HashSet::new();
+        let mut names = HashMap::new();
         let mut by_vr: [Vec<(u32, usize)>; 4] = Default::default();
-        let mut vars = Vec::with_capacity(d.variables.len());
-        let mut units: Vec<Unit> = Vec::new();
         let mut independents = 0;
-        for (pos, v) in d.variables.iter().enumerate() {
+        for (pos, v) in d.variables.iter_mut().enumerate() {
             let initial = check_variable(v).map_err(|m| DescriptionError(format!("variable `{}`: {m}", v.name)))?;
-            if !names.insert(v.name.as_str()) {
+            v.initial = initial;
+            if names.insert(v.name.clone(), pos).is_some() {
                 return err(format!("variable name `{}` is used twice", v.name));
             }
             by_vr[type_slot(v.var_type)].push((v.value_reference, pos));
             if v.causality == Causality::Independent {
                 independents += 1;
             }
-            if let Some(unit) = &v.unit {
-                let found = SI_UNITS
-                    .iter()
-                    .find(|(n, _)| n == unit)
-                    .map(|(n, e)| Unit { name: (*n).to_owned(), exponents: *e })
-                    .or_else(|| d.extra_units.iter().find(|u| &u.name == unit).cloned());
-                match found {
-                    Some(u) => {
-                        if !units.iter().any(|x| x.name == u.name) {
-                            units.push(u)
-                        }
-                    }
-                    None => return err(format!("variable `{}`: unit `{unit}` is not defined", v.name)),
-                }
+            if let Some(unit) = &v.unit
+                && !unit_names.contains(unit.as_str())
+            {
+                return err(format!("variable `{}`: unit `{unit}` is not defined in the unit definitions", v.name));
             }
-            vars.push(VarInfo {
-                var: v.clone(),
-                initial,
-                index: pos + 1,
-                dependencies: None,
-                initial_dependencies: None,
-            });
         }
         if independents > 1 {
             return err("more than one variable has causality `independent`".into());
@@ -496,49 +163,48 @@ impl ModelInfo {
                 ));
             }
         }
-        // Output dependencies: names → 1-based indices. In step mode the knowns are the inputs;
-        // in initialization mode also the parameters (FMI 2.0, 2.2.8).
-        for i in 0..vars.len() {
-            for initial in [false, true] {
-                let v = &vars[i].var;
+        // Dependencies: names → 1-based indices, and the names put in index order. In step mode
+        // the knowns are the inputs; in initialization mode also the parameters (FMI 2.0, 2.2.8).
+        let mut vars = Vec::with_capacity(d.variables.len());
+        for pos in 0..d.variables.len() {
+            let mut resolved = [None, None];
+            for (slot, initial) in [false, true].into_iter().enumerate() {
+                let v = &d.variables[pos];
                 let Some(deps) = (if initial { &v.initial_depends_on } else { &v.depends_on }) else { continue };
                 if v.causality != Causality::Output {
                     return err(format!("variable `{}`: only outputs may list dependencies", v.name));
                 }
                 let mut indices = Vec::with_capacity(deps.len());
                 for name in deps {
-                    match vars.iter().find(|x| &x.var.name == name) {
-                        Some(x) if x.var.causality == Causality::Input => indices.push(x.index),
-                        Some(x) if initial && x.var.causality == Causality::Parameter => indices.push(x.index),
-                        Some(_) => {
+                    let Some(&k) = names.get(name) else {
+                        return err(format!("output `{}` depends on unknown variable `{name}`", v.name));
+                    };
+                    match d.variables[k].causality {
+                        Causality::Input => indices.push(k + 1),
+                        Causality::Parameter if initial => indices.push(k + 1),
+                        _ => {
                             let allowed = if initial { "an input or a parameter" } else { "an input" };
                             return err(format!("output `{}` depends on `{name}`, which is not {allowed}", v.name));
-                        }
-                        None => {
-                            return err(format!("output `{}` depends on unknown variable `{name}`", v.name));
                         }
                     }
                 }
                 indices.sort_unstable();
                 indices.dedup();
-                if initial {
-                    vars[i].initial_dependencies = Some(indices);
-                } else {
-                    vars[i].dependencies = Some(indices);
-                }
+                let ordered = indices.iter().map(|&i| d.variables[i - 1].name.clone()).collect();
+                let v = &mut d.variables[pos];
+                *(if initial { &mut v.initial_depends_on } else { &mut v.depends_on }) = Some(ordered);
+                resolved[slot] = Some(indices);
             }
+            let [dependencies, initial_dependencies] = resolved;
+            vars.push(VarInfo { var: d.variables[pos].clone(), index: pos + 1, dependencies, initial_dependencies });
         }
-        Ok(ModelInfo { description, vars, units, by_vr })
+        Ok(ModelInfo { description: d, vars, by_vr })
     }
 
     /// The variable of this type with this value reference.
     pub fn lookup(&self, t: VarType, vr: u32) -> Option<&VarInfo> {
         let list = &self.by_vr[type_slot(t)];
         list.binary_search_by_key(&vr, |&(r, _)| r).ok().map(|i| &self.vars[list[i].1])
-    }
-
-    pub fn by_name(&self, name: &str) -> Option<&VarInfo> {
-        self.vars.iter().find(|v| v.var.name == name)
     }
 }
 
@@ -617,7 +283,7 @@ fn is_c_identifier(s: &str) -> bool {
 
 /// `variableNamingConvention="structured"` (subset): `ident ('[' int (',' int)* ']')? ('.' ...)*`
 /// with `ident = [A-Za-z_][A-Za-z0-9_]*` and array indices ≥ 1.
-pub fn check_structured_name(name: &str) -> Result<(), String> {
+fn check_structured_name(name: &str) -> Result<(), String> {
     let bad = |why: &str| Err(format!("name `{name}` is not a structured name ({why})"));
     if name.is_empty() {
         return bad("empty");
@@ -652,19 +318,13 @@ pub fn check_structured_name(name: &str) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::description::{DefaultExperiment, Unit};
 
+    /// A description with the variables and the SI units they use, no default experiment.
     fn desc(vars: Vec<Variable>) -> ModelDescription {
-        ModelDescription {
-            model_name: "t".into(),
-            model_identifier: "t".into(),
-            guid: "{g}".into(),
-            description: String::new(),
-            version: "1".into(),
-            capabilities: Capabilities::default(),
-            default_experiment: None,
-            extra_units: vec![],
-            variables: vars,
-        }
+        let mut d = ModelDescription::co_simulation("t", "{g}", "", "1", CoSimulationFlags::EXPORTED, vars);
+        d.default_experiment = None;
+        d
     }
 
     fn check(v: Variable) -> Result<ModelInfo, String> {
@@ -691,16 +351,18 @@ mod tests {
             Variable::new("k", 4, VarType::Real, Causality::Output, Variability::Constant).start(2.0),
         ]))
         .unwrap();
-        assert_eq!(info.vars[0].initial, None);
-        assert_eq!(info.vars[1].initial, Some(Initial::Calculated));
+        let initial = |i: usize| info.vars[i].var.initial;
+        assert_eq!(initial(0), None);
+        assert_eq!(initial(1), Some(Initial::Calculated));
         assert_eq!(info.vars[1].dependencies, Some(vec![1]));
-        assert_eq!(info.vars[2].initial, Some(Initial::Exact));
-        assert_eq!(info.vars[6].initial, Some(Initial::Calculated));
-        assert_eq!(info.vars[7].initial, Some(Initial::Exact));
+        assert_eq!(initial(2), Some(Initial::Exact));
+        assert_eq!(initial(6), Some(Initial::Calculated));
+        assert_eq!(initial(7), Some(Initial::Exact));
+        assert_eq!(info.description.variables[6].initial, Some(Initial::Calculated), "the description is normalized");
         assert_eq!(info.lookup(VarType::Integer, 0).unwrap().var.name, "n");
         assert_eq!(info.lookup(VarType::Real, 2).unwrap().var.name, "p");
         assert!(info.lookup(VarType::Real, 99).is_none());
-        assert_eq!(info.units.iter().map(|u| u.name.as_str()).collect::<Vec<_>>(), ["N", "m"]);
+        assert_eq!(info.description.units.iter().map(|u| u.name.as_str()).collect::<Vec<_>>(), ["N", "m"]);
     }
 
     #[test]
@@ -765,8 +427,10 @@ mod tests {
         rejects(Variable::real_input("u", 0, 0.0, "furlong"), "unit `furlong` is not defined");
         rejects(Variable::parameter("n", 0, 1, false).unit("m"), "only Real variables have units");
         let mut d = desc(vec![Variable::real_input("u", 0, 0.0, "furlong")]);
-        d.extra_units.push(Unit { name: "furlong".into(), exponents: [0, 1, 0, 0, 0, 0, 0, 0] });
-        assert_eq!(ModelInfo::new(d).unwrap().units[0].name, "furlong");
+        d.units.push(Unit { name: "furlong".into(), base_unit: None });
+        assert!(ModelInfo::new(d.clone()).is_ok());
+        d.units.push(Unit { name: "furlong".into(), base_unit: None });
+        assert!(ModelInfo::new(d).unwrap_err().0.contains("defined twice"));
     }
 
     #[test]
@@ -788,6 +452,14 @@ mod tests {
         assert!(ModelInfo::new(on_output).unwrap_err().0.contains("not an input"));
         let on_param = desc(vec![Variable::parameter("p", 0, 1.0, false).depends_on(&["p"])]);
         assert!(ModelInfo::new(on_param).unwrap_err().0.contains("only outputs"));
+        let twice_unordered = desc(vec![
+            Variable::real_input("a", 0, 0.0, ""),
+            Variable::real_input("b", 1, 0.0, ""),
+            Variable::real_output("y", 2, "").depends_on(&["b", "a", "b"]),
+        ]);
+        let info = ModelInfo::new(twice_unordered).unwrap();
+        assert_eq!(info.vars[2].dependencies, Some(vec![1, 2]));
+        assert_eq!(info.description.variables[2].depends_on, Some(vec!["a".to_owned(), "b".to_owned()]));
     }
 
     #[test]
@@ -811,8 +483,24 @@ mod tests {
         assert!(ModelInfo::new(d).unwrap_err().0.contains("guid"));
         let mut d = desc(vec![]);
         d.default_experiment =
-            Some(DefaultExperiment { start_time: 1.0, stop_time: 0.0, step_size: 0.1, tolerance: None });
+            Some(DefaultExperiment { start_time: Some(1.0), stop_time: Some(0.0), ..Default::default() });
         assert!(ModelInfo::new(d).unwrap_err().0.contains("DefaultExperiment"));
+        let mut d = desc(vec![]);
+        d.default_experiment = Some(DefaultExperiment { step_size: Some(0.0), ..Default::default() });
+        assert!(ModelInfo::new(d).unwrap_err().0.contains("stepSize must be positive"));
+        let mut d = desc(vec![]);
+        d.fmi_version = "3.0".into();
+        assert!(ModelInfo::new(d).unwrap_err().0.contains("fmiVersion"));
+    }
+
+    #[test]
+    fn flags_the_layer_decides_cannot_be_changed() {
+        let mut d = desc(vec![]);
+        d.flags.provides_directional_derivative = true;
+        d.flags.provides_step_map_derivative = true;
+        assert!(ModelInfo::new(d.clone()).is_ok());
+        d.flags.max_output_derivative_order = 1;
+        assert!(ModelInfo::new(d).unwrap_err().0.contains("CoSimulationFlags::EXPORTED"));
     }
 
     #[test]

@@ -1,0 +1,177 @@
+//! One FMU instance (what `fmi2Component` points to): the model, the FMI 2.0 Co-Simulation
+//! state machine around it, and the importer's logger.
+
+use std::ffi::{CStr, CString};
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+use super::{Model, ModelError};
+use crate::description::{ModelInfo, SetPhase, VarInfo, VarType};
+use crate::ffi::*;
+
+/// The phases of the FMI 2.0 Co-Simulation state machine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub(crate) enum Phase {
+    Instantiated,
+    InitializationMode,
+    StepMode,
+    Terminated,
+    Error,
+    Fatal,
+    /// `fmi2DoStep` returned `fmi2Discard` (the model stopped early): values and statuses can be
+    /// read, the state can be set back; no further step.
+    StepFailed,
+}
+
+impl Phase {
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Phase::Instantiated => "instantiated",
+            Phase::InitializationMode => "initialization mode",
+            Phase::StepMode => "step mode",
+            Phase::Terminated => "terminated",
+            Phase::Error => "error",
+            Phase::Fatal => "fatal",
+            Phase::StepFailed => "step failed (discarded)",
+        }
+    }
+
+    /// The phase whose rules `fmi2Set*` follows.
+    pub(crate) fn set_phase(self) -> SetPhase {
+        match self {
+            Phase::Instantiated => SetPhase::Instantiated,
+            Phase::InitializationMode => SetPhase::InitializationMode,
+            _ => SetPhase::StepMode,
+        }
+    }
+}
+
+/// One FMU instance.
+pub(crate) struct Instance<M: Model> {
+    pub(crate) info: &'static ModelInfo,
+    pub(crate) name: CString,
+    pub(crate) resources: Option<PathBuf>,
+    pub(crate) logger: fmi2CallbackLogger,
+    pub(crate) environment: fmi2ComponentEnvironment,
+    pub(crate) log_errors: bool,
+    pub(crate) log_info: bool,
+    pub(crate) phase: Phase,
+    pub(crate) time: f64,
+    pub(crate) start_time: f64,
+    pub(crate) stop_time: Option<f64>,
+    /// The model ended the simulation (a step returned [`super::StepOutcome::Terminated`]).
+    pub(crate) terminated: bool,
+    pub(crate) model: M,
+    /// Strings handed out by `fmi2GetString`; valid until the next `fmi2GetString`.
+    pub(crate) strings: Vec<CString>,
+    /// Reused by the derivative calls (no allocation per call).
+    pub(crate) scratch_knowns: Vec<u32>,
+    pub(crate) scratch_seed: Vec<f64>,
+}
+
+impl<M: Model> Instance<M> {
+    pub(crate) fn log(&self, status: fmi2Status, message: &str) {
+        // A discarded step is reported like an error: the importer must learn why the model ended.
+        let category = if status >= fmi2Discard { "logError" } else { "logInfo" };
+        let enabled = if status >= fmi2Discard { self.log_errors } else { self.log_info };
+        if enabled {
+            log_to(self.logger, self.environment, &self.name, status, category, message);
+        }
+    }
+
+    /// Runs `body` if the call is allowed in the current phase; an `Err` puts the instance in the
+    /// error state (as the standard says) with the message logged under the function's name.
+    /// Panics are the caller's to contain.
+    pub(crate) fn run(
+        &mut self,
+        func: &str,
+        allowed: &[Phase],
+        body: impl FnOnce(&mut Self) -> Result<fmi2Status, String>,
+    ) -> fmi2Status {
+        if !allowed.contains(&self.phase) {
+            if self.phase == Phase::Fatal {
+                let message = format!("{func}: the instance is in the fatal state; only fmi2FreeInstance is allowed");
+                self.log(fmi2Fatal, &message);
+                return fmi2Fatal;
+            }
+            self.log(fmi2Error, &format!("{func}: not allowed in state `{}`", self.phase.name()));
+            self.phase = Phase::Error;
+            return fmi2Error;
+        }
+        match body(self) {
+            Ok(status) => status,
+            Err(message) => {
+                self.phase = Phase::Error;
+                self.log(fmi2Error, &format!("{func}: {message}"));
+                fmi2Error
+            }
+        }
+    }
+
+    /// The variable of this type with this value reference, or an error naming both.
+    pub(crate) fn find(&self, t: VarType, vr: u32) -> Result<&'static VarInfo, String> {
+        let info: &'static ModelInfo = self.info;
+        info.lookup(t, vr).ok_or_else(|| format!("unknown value reference {vr} (no {} variable has it)", t.as_str()))
+    }
+}
+
+/// `` `name` (causality, variability) ``, for messages.
+pub(crate) fn describe(v: &VarInfo) -> String {
+    format!("`{}` ({}, {})", v.var.name, v.var.causality.as_str(), v.var.variability.as_str())
+}
+
+/// Calls the importer's printf-style logger with `message` as the format: `%` is escaped.
+pub(crate) fn log_to(
+    logger: fmi2CallbackLogger,
+    env: fmi2ComponentEnvironment,
+    name: &CStr,
+    status: fmi2Status,
+    category: &str,
+    message: &str,
+) {
+    let Some(logger) = logger else { return };
+    let text = CString::new(message.replace('%', "%%").replace('\0', "")).unwrap_or_default();
+    let cat = CString::new(category).unwrap_or_default();
+    // SAFETY: `logger` is the function the importer gave in fmi2CallbackFunctions, which FMI 2.0
+    // requires to stay callable while the instance lives, with its own environment pointer;
+    // the three strings are NUL-terminated and outlive the call; `text` has no conversion
+    // specifier left (every `%` is doubled), so no variadic argument is read.
+    unsafe { logger(env, name.as_ptr(), status, cat.as_ptr(), text.as_ptr()) };
+}
+
+/// Model errors as the layer's messages.
+pub(crate) trait Msg<T> {
+    fn msg(self) -> Result<T, String>;
+}
+
+impl<T> Msg<T> for Result<T, ModelError> {
+    fn msg(self) -> Result<T, String> {
+        self.map_err(|e| error_chain(&*e))
+    }
+}
+
+/// An error with its chain of sources, `a: b: c`.
+pub(crate) fn error_chain(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let more = s.to_string();
+        if !text.contains(&more) {
+            text.push_str(": ");
+            text.push_str(&more);
+        }
+        source = s.source();
+    }
+    text
+}
+
+pub(crate) fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_owned()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic payload".to_owned()
+    }
+}
