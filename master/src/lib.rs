@@ -2,12 +2,15 @@
 //!
 //! * [`cosim`]: FMUs coupled by a scheme (Jacobi, Gauss–Seidel, iterative, IJCSA);
 //! * [`monolithic`]: the paper's eq. (7) for the whole system, the accuracy reference;
-//! * [`plot`]: SVG figures (time histories like the paper's Figs. 4–5, log–log work–precision);
+//! * [`limits`]: what a run may cost (steps, memory), checked before anything is built;
+//! * [`plot`]: SVG figures (time histories like the paper's Figs. 4–5, log–log work–precision,
+//!   stability maps);
 //! * [`simulate`]: one run of a method (monolithic, a co-simulation scheme, decoupled) as a trace;
 //! * [`progress`]: a progress bar for long runs on a terminal;
 //! * [`table`]: plain-text tables.
 
 pub mod cosim;
+pub mod limits;
 pub mod monolithic;
 pub mod plot;
 pub mod progress;

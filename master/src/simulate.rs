@@ -1,18 +1,25 @@
 //! One run of the LT50m system with a chosen method, recorded as a [`Trace`]: the cabin-centre
-//! displacement and rotation from the static equilibrium, the Stewart wrench, and what each step
-//! cost. Methods: the monolithic eq. (7) model, a co-simulation scheme on the FMUs, or the
+//! displacement and rotation from the static equilibrium and the Stewart wrench, sampled at the
+//! scene's output interval, and a [`Summary`] (peaks, iterations, residuals) taken at every
+//! step. Methods: the monolithic eq. (7) model, a co-simulation scheme on the FMUs, the
 //! decoupled model of the paper's ref. [3] (the Stewart FMU with its cabin held at the static
-//! pose, its wrench applied to the cable FMU).
+//! pose, its wrench applied to the cable FMU), or the cable–cabin model alone.
+//!
+//! A run is checked whole before its first step ([`Run::prepare`]): the steps reach the end
+//! time exactly, their number is capped, the memory the models need fits, the scene has what
+//! the method needs. Any non-finite value seen while stepping stops the run with the time and
+//! the quantity.
 
 use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
 use feedcore::Vec3;
-use feedcore::scene::{Quantity, Scene};
+use feedcore::scene::{Quantity, Scene, StewartMode};
 
-use crate::cosim::{Coupled, Options};
-use crate::monolithic::Monolithic;
+use crate::cosim::{CosimError, Coupled, Options, Scheme};
+use crate::limits::{Footprint, Limits, Plan, PlanError, check_memory};
+use crate::monolithic::{Monolithic, MonolithicError};
 use crate::progress::Progress;
 
 /// How the system is solved.
@@ -37,49 +44,108 @@ impl Method {
     }
 }
 
-/// Time histories of one run, sampled at the scene's output interval.
+/// Why a run did not give a result.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Refused before anything was built (steps, caps, memory, what the method needs).
+    #[error("the {method} run cannot start: {reason}")]
+    Refused { method: &'static str, reason: String },
+    /// The model or the FMUs could not be set up (missing FMU, failed form-finding, ...).
+    #[error("setting up the {method} run")]
+    Setup {
+        method: &'static str,
+        #[source]
+        source: Detached,
+    },
+    /// A step failed or gave a non-finite value.
+    #[error("the {method} run stopped at t = {time:.6} s: {reason}")]
+    Stopped { method: &'static str, time: f64, reason: String },
+}
+
+/// An error's message chain, kept as text so that it can cross threads (`Send + Sync`) whatever
+/// the error it came from.
+#[derive(Debug)]
+pub struct Detached {
+    message: String,
+    source: Option<Box<Detached>>,
+}
+
+impl Detached {
+    pub fn of(e: &(dyn std::error::Error + 'static)) -> Detached {
+        Detached { message: e.to_string(), source: e.source().map(|s| Box::new(Detached::of(s))) }
+    }
+}
+
+impl std::fmt::Display for Detached {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for Detached {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.source.as_deref().map(|s| s as _)
+    }
+}
+
+/// Figures of a whole run, taken at every step (not from the samples).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Summary {
+    /// Largest |displacement| of the cabin centre per world axis, mm.
+    pub max_abs_disp_mm: [f64; 3],
+    /// Largest distance of the cabin centre from its static position, mm, and when.
+    pub peak_mm: f64,
+    pub peak_time_s: f64,
+    /// Steps taken and iterations (system evaluations, or Newton iterations) over all of them.
+    pub steps: u64,
+    pub iterations: u64,
+    /// Largest scaled interface residual at the end of a step (co-simulation).
+    pub max_interface_residual: f64,
+    /// Largest position-constraint residual (monolithic), m.
+    pub max_constraint_residual_m: f64,
+}
+
+/// Time histories of one run, sampled at the scene's output interval, and its summary.
 #[derive(Clone, Debug, Default)]
 pub struct Trace {
     pub method: String,
     pub dt: f64,
     pub t_end: f64,
-    pub steps: usize,
+    pub steps: u64,
+    /// Interval of the samples actually taken (a whole number of steps), s.
+    pub sample_interval_s: f64,
     pub t: Vec<f64>,
     /// Cabin-centre displacement from the static equilibrium, mm (world x, y, z).
     pub disp_mm: Vec<[f64; 3]>,
     /// Cabin rotation from the static orientation, world rotation vector, mrad.
     pub rot_mrad: Vec<[f64; 3]>,
-    /// What the Stewart platform exerts on the cabin (force N; moment about the centre point N·m).
+    /// What the Stewart platform exerts on the cabin (force N; moment about the centre point
+    /// N·m); zero unless the scene asks for the wrench or the method prescribes it.
     pub wrench: Vec<[f64; 6]>,
-    /// Iterations (system evaluations) per macro step, and the interface residual at its end.
-    pub iterations: Vec<usize>,
-    pub residual: Vec<f64>,
-    /// Largest position-constraint residual (monolithic only), m.
-    pub constraint_residual: f64,
+    pub summary: Summary,
     pub wall_time_s: f64,
 }
 
 impl Trace {
     pub fn max_abs_disp_mm(&self) -> [f64; 3] {
-        let mut m = [0.0f64; 3];
-        for d in &self.disp_mm {
-            for k in 0..3 {
-                m[k] = m[k].max(d[k].abs());
-            }
-        }
-        m
+        self.summary.max_abs_disp_mm
+    }
+
+    /// Largest distance of the cabin centre from its static position over every step, mm.
+    pub fn peak_mm(&self) -> f64 {
+        self.summary.peak_mm
     }
 
     pub fn mean_iterations(&self) -> f64 {
-        if self.iterations.is_empty() {
-            0.0
-        } else {
-            self.iterations.iter().sum::<usize>() as f64 / self.iterations.len() as f64
-        }
+        if self.summary.steps == 0 { 0.0 } else { self.summary.iterations as f64 / self.summary.steps as f64 }
     }
 
     pub fn max_residual(&self) -> f64 {
-        self.residual.iter().cloned().fold(0.0, f64::max)
+        self.summary.max_interface_residual
+    }
+
+    pub fn constraint_residual(&self) -> f64 {
+        self.summary.max_constraint_residual_m
     }
 
     /// Largest and RMS distance (mm) of the cabin centre from another run's at the common
@@ -96,23 +162,18 @@ impl Trace {
         (max, (sum / n.max(1) as f64).sqrt())
     }
 
-    /// Largest distance of the cabin centre from its static position, mm.
-    pub fn peak_mm(&self) -> f64 {
-        self.disp_mm.iter().map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()).fold(0.0, f64::max)
-    }
-
     /// Writes the time histories the scene asks for (`outputs.quantities`): `t`, then
     /// `dx_mm, dy_mm, dz_mm` (cabin displacement), `rx_mrad, ry_mrad, rz_mrad` (rotation),
     /// `fx_n … mz_nm` (Stewart wrench), each group only if asked for.
-    pub fn write_csv(&self, path: &Path, quantities: &[Quantity]) -> std::io::Result<()> {
-        type Column<'a> = &'a dyn Fn(usize) -> Vec<f64>;
+    pub fn write_csv(&self, out: &mut dyn Write, quantities: &[Quantity]) -> std::io::Result<()> {
+        type Column<'a> = &'a dyn Fn(usize) -> &'a [f64];
         let groups: [(Quantity, &str, Column); 3] = [
-            (Quantity::CabinDisplacement, "dx_mm,dy_mm,dz_mm", &|i| self.disp_mm[i].to_vec()),
-            (Quantity::CabinRotation, "rx_mrad,ry_mrad,rz_mrad", &|i| self.rot_mrad[i].to_vec()),
-            (Quantity::Wrench, "fx_n,fy_n,fz_n,mx_nm,my_nm,mz_nm", &|i| self.wrench[i].to_vec()),
+            (Quantity::CabinDisplacement, "dx_mm,dy_mm,dz_mm", &|i| &self.disp_mm[i]),
+            (Quantity::CabinRotation, "rx_mrad,ry_mrad,rz_mrad", &|i| &self.rot_mrad[i]),
+            (Quantity::Wrench, "fx_n,fy_n,fz_n,mx_nm,my_nm,mz_nm", &|i| &self.wrench[i]),
         ];
         let chosen: Vec<_> = groups.iter().filter(|g| quantities.contains(&g.0)).collect();
-        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+        let mut f = std::io::BufWriter::new(out);
         write!(f, "t")?;
         for g in &chosen {
             write!(f, ",{}", g.1)?;
@@ -127,7 +188,7 @@ impl Trace {
             }
             writeln!(f)?;
         }
-        Ok(())
+        f.flush()
     }
 }
 
@@ -138,22 +199,69 @@ struct Probe {
     wrench: [f64; 6],
 }
 
-/// Records a sample every `every` steps.
+/// Watches every step: refuses non-finite values, keeps the summary, samples every `every`
+/// steps.
 struct Recorder {
     trace: Trace,
-    every: usize,
+    every: u64,
     origin: Option<(Vec3, feedcore::Quat)>,
+    method: &'static str,
 }
 
 impl Recorder {
-    fn record(&mut self, t: f64, p: &Probe) {
+    fn stopped(&self, time: f64, reason: impl Into<String>) -> RunError {
+        RunError::Stopped { method: self.method, time, reason: reason.into() }
+    }
+
+    /// The state after step `k` (0: the start) at time `t`.
+    fn observe(&mut self, k: u64, t: f64, p: &Probe) -> Result<(), RunError> {
+        let names = ["x", "y", "z"];
+        for i in 0..3 {
+            if !p.position[i].is_finite() {
+                return Err(self.stopped(t, format!("the cabin position {} is {}", names[i], p.position[i])));
+            }
+        }
+        if !p.orientation.coords.iter().all(|x| x.is_finite()) {
+            return Err(self.stopped(t, "the cabin orientation is not finite"));
+        }
+        const WRENCH: [&str; 6] = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"];
+        if let Some(i) = p.wrench.iter().position(|x| !x.is_finite()) {
+            return Err(self.stopped(t, format!("the wrench on the cabin {} is {}", WRENCH[i], p.wrench[i])));
+        }
         let (p0, q0) = *self.origin.get_or_insert((p.position, p.orientation));
         let d = (p.position - p0) * 1e3;
-        let r = (p.orientation * q0.inverse()).scaled_axis() * 1e3;
-        self.trace.t.push(t);
-        self.trace.disp_mm.push([d.x, d.y, d.z]);
-        self.trace.rot_mrad.push([r.x, r.y, r.z]);
-        self.trace.wrench.push(p.wrench);
+        let s = &mut self.trace.summary;
+        for i in 0..3 {
+            s.max_abs_disp_mm[i] = s.max_abs_disp_mm[i].max(d[i].abs());
+        }
+        let distance = d.norm();
+        if !distance.is_finite() {
+            return Err(self.stopped(t, format!("the cabin displacement is {distance} mm")));
+        }
+        if distance > s.peak_mm {
+            s.peak_mm = distance;
+            s.peak_time_s = t;
+        }
+        if k % self.every == 0 {
+            let r = (p.orientation * q0.inverse()).scaled_axis() * 1e3;
+            self.trace.t.push(t);
+            self.trace.disp_mm.push([d.x, d.y, d.z]);
+            self.trace.rot_mrad.push([r.x, r.y, r.z]);
+            self.trace.wrench.push(p.wrench);
+        }
+        Ok(())
+    }
+
+    /// What step `k` (ending at `t`) cost.
+    fn cost(&mut self, t: f64, iterations: usize, interface_residual: f64) -> Result<(), RunError> {
+        if !interface_residual.is_finite() {
+            return Err(self.stopped(t, format!("the interface residual is {interface_residual}")));
+        }
+        let s = &mut self.trace.summary;
+        s.steps += 1;
+        s.iterations += iterations as u64;
+        s.max_interface_residual = s.max_interface_residual.max(interface_residual);
+        Ok(())
     }
 }
 
@@ -167,32 +275,28 @@ struct CosimProbe {
 }
 
 impl CosimProbe {
-    fn new(c: &mut Coupled) -> Result<CosimProbe, Box<dyn std::error::Error>> {
-        let vr = |c: &mut Coupled, fmu: &str, name: String| -> Result<u32, Box<dyn std::error::Error>> {
+    fn new(c: &mut Coupled, read_wrench: bool) -> Result<CosimProbe, Box<dyn std::error::Error>> {
+        let mut vr = |fmu: &str, name: &str| -> Result<u32, Box<dyn std::error::Error>> {
             let inst = c.instance(fmu).ok_or_else(|| format!("the system has no FMU named `{fmu}`"))?;
-            Ok(inst.fmu().value_reference(&name)?)
+            Ok(inst.fmu().value_reference(name)?)
         };
         Ok(CosimProbe {
-            r: [
-                vr(c, "cable", "cabin.r[1]".into())?,
-                vr(c, "cable", "cabin.r[2]".into())?,
-                vr(c, "cable", "cabin.r[3]".into())?,
-            ],
+            r: [vr("cable", "cabin.r[1]")?, vr("cable", "cabin.r[2]")?, vr("cable", "cabin.r[3]")?],
             q: [
-                vr(c, "cable", "cabin.q[1]".into())?,
-                vr(c, "cable", "cabin.q[2]".into())?,
-                vr(c, "cable", "cabin.q[3]".into())?,
-                vr(c, "cable", "cabin.q[4]".into())?,
+                vr("cable", "cabin.q[1]")?,
+                vr("cable", "cabin.q[2]")?,
+                vr("cable", "cabin.q[3]")?,
+                vr("cable", "cabin.q[4]")?,
             ],
             w: [
-                vr(c, "stewart", "wrench.f[1]".into())?,
-                vr(c, "stewart", "wrench.f[2]".into())?,
-                vr(c, "stewart", "wrench.f[3]".into())?,
-                vr(c, "stewart", "wrench.m[1]".into())?,
-                vr(c, "stewart", "wrench.m[2]".into())?,
-                vr(c, "stewart", "wrench.m[3]".into())?,
+                vr("stewart", "wrench.f[1]")?,
+                vr("stewart", "wrench.f[2]")?,
+                vr("stewart", "wrench.f[3]")?,
+                vr("stewart", "wrench.m[1]")?,
+                vr("stewart", "wrench.m[2]")?,
+                vr("stewart", "wrench.m[3]")?,
             ],
-            read_wrench: true,
+            read_wrench,
         })
     }
 
@@ -206,13 +310,194 @@ impl CosimProbe {
         }
         Ok(Probe {
             position: Vec3::from(r),
+            // a non-finite quaternion normalizes to NaN, which the recorder refuses
             orientation: feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3])),
             wrench: w,
         })
     }
 }
 
-/// Runs `scene` (read from `scene_file`) with `method` at step `dt` to `t_end`.
+/// A run checked whole, ready to start.
+#[derive(Clone, Debug)]
+pub struct Run<'a> {
+    scene: &'a Scene,
+    scene_file: &'a Path,
+    method: Method,
+    plan: Plan,
+    every: u64,
+}
+
+impl<'a> Run<'a> {
+    /// Checks everything the run needs before anything is built: the steps against the end time
+    /// and the step cap, the memory the models need, and what the method needs from the scene.
+    pub fn prepare(
+        scene: &'a Scene,
+        scene_file: &'a Path,
+        method: Method,
+        dt: f64,
+        t_end: f64,
+        limits: &Limits,
+    ) -> Result<Run<'a>, RunError> {
+        let refused = |reason: String| RunError::Refused { method: method.name(), reason };
+        let plan = Plan::new(dt, t_end, limits).map_err(|e| refused(e.to_string()))?;
+        let footprint = if method == Method::CableOnly { Footprint::CableModel } else { Footprint::Coupled };
+        check_memory(scene, footprint, scene.damping.fit_modes.is_some(), limits)
+            .map_err(|e: PlanError| refused(format!("{}: {e}", scene_file.display())))?;
+        let coupled = scene.analyses.stewart == StewartMode::Coupled;
+        match method {
+            Method::CableOnly => {
+                if scene.disturbance.is_none() && coupled {
+                    return Err(refused(format!(
+                        "{}: `--scheme cable` runs the cable–cabin model under the scene's [disturbance], and this \
+                         scene has none (its platform is coupled: run it with a coupling scheme or monolithic)",
+                        scene_file.display()
+                    )));
+                }
+            }
+            _ if !coupled => {
+                return Err(refused(format!(
+                    "{}: the scene has no moving platform (analyses.stewart = {:?}); only `--scheme cable` runs it",
+                    scene_file.display(),
+                    scene.analyses.stewart
+                )));
+            }
+            Method::Monolithic => {}
+            Method::Cosim(_) | Method::Decoupled(_) => {
+                if scene.system.is_none() {
+                    return Err(refused(format!(
+                        "{}: the scene has no [system] section (the FMUs and their connections)",
+                        scene_file.display()
+                    )));
+                }
+                // The FMUs get the scene's path as an FMI string, which is UTF-8.
+                let absolute =
+                    std::fs::canonicalize(scene_file).map_err(|e| refused(format!("{}: {e}", scene_file.display())))?;
+                if absolute.to_str().is_none() {
+                    return Err(refused(format!(
+                        "{}: the scene's path is not UTF-8, and the FMUs receive it as an FMI (UTF-8) string; \
+                         rename the file or link it under a UTF-8 name",
+                        scene_file.display()
+                    )));
+                }
+            }
+        }
+        let every = ((scene.outputs.sample_interval_s / dt).round() as u64).clamp(1, plan.steps);
+        Ok(Run { scene, scene_file, method, plan, every })
+    }
+
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    /// Runs it; `quiet`: no progress bar.
+    pub fn execute(&self, quiet: bool) -> Result<Trace, RunError> {
+        let (scene, plan, method) = (self.scene, self.plan, self.method);
+        let name = method.name();
+        let mut rec = Recorder {
+            trace: Trace {
+                method: name.into(),
+                dt: plan.dt,
+                t_end: plan.t_end,
+                steps: plan.steps,
+                sample_interval_s: self.every as f64 * plan.dt,
+                ..Default::default()
+            },
+            every: self.every,
+            origin: None,
+            method: name,
+        };
+        let setup = |e: &(dyn std::error::Error + 'static)| RunError::Setup { method: name, source: Detached::of(e) };
+        let bar = Progress::new(plan.steps, plan.dt, plan.t_end, quiet);
+        let start = Instant::now();
+        match method {
+            Method::CableOnly => {
+                let model = cable_fmu::model::CableCabin::build(scene, 0).map_err(|e| setup(&e))?;
+                let disturbance =
+                    |t: f64| nalgebra::Vector6::from(scene.disturbance.as_ref().map_or([0.0; 6], |d| d.wrench(t)));
+                let mut dy = model
+                    .dynamics_with(cable_fmu::model::Payload::Locked, 0.0, &disturbance(0.0))
+                    .map_err(|e| setup(&e))?;
+                let probe = |dy: &cable_fmu::dynamics::Dynamics, t: f64| {
+                    let c = dy.cabin();
+                    Probe { position: c.position, orientation: c.orientation, wrench: vec6(&disturbance(t)) }
+                };
+                rec.observe(0, 0.0, &probe(&dy, 0.0))?;
+                for k in 1..=plan.steps {
+                    let t = plan.time(k);
+                    let s = dy.step(plan.dt, &disturbance(t)).map_err(|e| RunError::Stopped {
+                        method: name,
+                        time: e.time,
+                        reason: e.reason,
+                    })?;
+                    rec.cost(t, s.iterations, 0.0)?;
+                    rec.observe(k, t, &probe(&dy, t))?;
+                    bar.update(k);
+                }
+            }
+            Method::Monolithic => {
+                let mut m = Monolithic::new(scene).map_err(|e| setup(&*e))?;
+                let s = m.sample();
+                let probe = |s: &crate::monolithic::Sample| Probe {
+                    position: s.cabin.position,
+                    orientation: s.cabin.orientation,
+                    wrench: vec6(&s.wrench),
+                };
+                rec.observe(0, 0.0, &probe(&s))?;
+                for k in 1..=plan.steps {
+                    let t = plan.time(k);
+                    let iterations = m.step(plan.dt).map_err(|e: MonolithicError| RunError::Stopped {
+                        method: name,
+                        time: e.time,
+                        reason: e.reason,
+                    })?;
+                    rec.cost(t, iterations, 0.0)?;
+                    let s = m.sample();
+                    if !s.constraint_residual.is_finite() {
+                        return Err(rec.stopped(t, format!("the constraint residual is {}", s.constraint_residual)));
+                    }
+                    let c = &mut rec.trace.summary.max_constraint_residual_m;
+                    *c = c.max(s.constraint_residual);
+                    rec.observe(k, t, &probe(&s))?;
+                    bar.update(k);
+                }
+            }
+            Method::Cosim(options) | Method::Decoupled(options) => {
+                let mut sc = scene.clone();
+                let mut options = options;
+                if matches!(method, Method::Decoupled(_)) {
+                    // ref. [3]: the platform's wrench with the cabin held at its static pose, fed
+                    // forward to the cable model: cut the connections into the Stewart FMU
+                    let sys = sc.system.as_mut().expect("checked in prepare");
+                    sys.connections.retain(|c| !c.to.starts_with("stewart."));
+                    options.scheme = Scheme::Sequential;
+                }
+                let mut c = Coupled::new(&sc, self.scene_file, options).map_err(|e| setup(&*e))?;
+                let read_wrench = scene.outputs.quantities.contains(&Quantity::Wrench);
+                let probe = CosimProbe::new(&mut c, read_wrench).map_err(|e| setup(&*e))?;
+                let fmi =
+                    |t: f64, e: fmi2::import::Error| RunError::Stopped { method: name, time: t, reason: e.to_string() };
+                rec.observe(0, 0.0, &probe.read(&mut c).map_err(|e| fmi(0.0, e))?)?;
+                for k in 1..=plan.steps {
+                    let t = plan.time(k);
+                    let report = c.step(plan.dt).map_err(|e: CosimError| RunError::Stopped {
+                        method: name,
+                        time: e.time,
+                        reason: e.reason,
+                    })?;
+                    rec.cost(t, report.iterations, report.residual)?;
+                    rec.observe(k, t, &probe.read(&mut c).map_err(|e| fmi(t, e))?)?;
+                    bar.update(k);
+                }
+            }
+        }
+        bar.finish();
+        rec.trace.wall_time_s = start.elapsed().as_secs_f64();
+        Ok(rec.trace)
+    }
+}
+
+/// Runs `scene` (read from `scene_file`) with `method` at step `dt` to `t_end`, within the
+/// default [`Limits`].
 pub fn simulate(
     scene: &Scene,
     scene_file: &Path,
@@ -220,104 +505,8 @@ pub fn simulate(
     dt: f64,
     t_end: f64,
     quiet: bool,
-) -> Result<Trace, Box<dyn std::error::Error>> {
-    if !(dt > 0.0 && dt.is_finite() && t_end > 0.0 && t_end.is_finite()) {
-        return Err(format!("the step ({dt} s) and the end time ({t_end} s) must be positive").into());
-    }
-    let steps = (t_end / dt).round() as usize;
-    let every = ((scene.outputs.sample_interval_s / dt).round() as usize).max(1);
-    let mut rec = Recorder {
-        trace: Trace { method: method.name().into(), dt, t_end, steps, ..Default::default() },
-        every,
-        origin: None,
-    };
-    let mut bar = Progress::stderr(steps as u64, t_end, quiet);
-    let start = Instant::now();
-    let coupled = scene.analyses.stewart == feedcore::scene::StewartMode::Coupled;
-    if !coupled && method != Method::CableOnly {
-        return Err(format!(
-            "{}: the scene has no moving platform (analyses.stewart = {:?}); only `--scheme cable` runs it",
-            scene_file.display(),
-            scene.analyses.stewart
-        )
-        .into());
-    }
-    match method {
-        Method::CableOnly => {
-            let model = cable_fmu::model::CableCabin::build(scene, 0)?;
-            let disturbance =
-                |t: f64| nalgebra::Vector6::from(scene.disturbance.as_ref().map_or([0.0; 6], |d| d.wrench(t)));
-            let mut dy = model.dynamics_with(cable_fmu::model::Payload::Locked, 0.0, &disturbance(0.0))?;
-            let probe = |dy: &cable_fmu::dynamics::Dynamics, t: f64| {
-                let c = dy.cabin();
-                Probe { position: c.position, orientation: c.orientation, wrench: vec6(&disturbance(t)) }
-            };
-            rec.record(0.0, &probe(&dy, 0.0));
-            for k in 1..=steps {
-                let t = k as f64 * dt;
-                let s = dy.step(dt, &disturbance(t))?;
-                rec.trace.iterations.push(s.iterations);
-                rec.trace.residual.push(0.0);
-                if k % rec.every == 0 {
-                    rec.record(t, &probe(&dy, t));
-                }
-                bar.update(k as u64, t);
-            }
-        }
-        Method::Monolithic => {
-            let mut m = Monolithic::new(scene)?;
-            let s = m.sample();
-            rec.record(
-                0.0,
-                &Probe { position: s.cabin.position, orientation: s.cabin.orientation, wrench: vec6(&s.wrench) },
-            );
-            for k in 1..=steps {
-                let iterations = m.step(dt)?;
-                rec.trace.iterations.push(iterations);
-                rec.trace.residual.push(0.0);
-                let s = m.sample();
-                rec.trace.constraint_residual = rec.trace.constraint_residual.max(s.constraint_residual);
-                if k % rec.every == 0 {
-                    rec.record(
-                        k as f64 * dt,
-                        &Probe {
-                            position: s.cabin.position,
-                            orientation: s.cabin.orientation,
-                            wrench: vec6(&s.wrench),
-                        },
-                    );
-                }
-                bar.update(k as u64, k as f64 * dt);
-            }
-        }
-        Method::Cosim(options) | Method::Decoupled(options) => {
-            let mut sc = scene.clone();
-            let mut options = options;
-            if matches!(method, Method::Decoupled(_)) {
-                // ref. [3]: the platform's wrench with the cabin held at its static pose, fed
-                // forward to the cable model: cut the connections into the Stewart FMU
-                let sys = sc.system.as_mut().ok_or_else(|| format!("{}: no [system] section", scene_file.display()))?;
-                sys.connections.retain(|c| !c.to.starts_with("stewart."));
-                options.scheme = crate::cosim::Scheme::Sequential;
-            }
-            let mut c = Coupled::new(&sc, scene_file, options)?;
-            let mut probe = CosimProbe::new(&mut c)?;
-            probe.read_wrench = scene.outputs.quantities.contains(&Quantity::Wrench);
-            rec.record(0.0, &probe.read(&mut c)?);
-            for k in 1..=steps {
-                let report = c.step(dt)?;
-                rec.trace.iterations.push(report.iterations);
-                rec.trace.residual.push(report.residual);
-                if k % rec.every == 0 {
-                    rec.record(k as f64 * dt, &probe.read(&mut c)?);
-                }
-                bar.update(k as u64, k as f64 * dt);
-            }
-        }
-    }
-    bar.finish();
-    rec.trace.wall_time_s = start.elapsed().as_secs_f64();
-    Ok(rec.trace)
+) -> Result<Trace, RunError> {
+    Run::prepare(scene, scene_file, method, dt, t_end, &Limits::default())?.execute(quiet)
 }
 
 fn vec6(v: &nalgebra::Vector6<f64>) -> [f64; 6] {
@@ -330,7 +519,7 @@ fn vec6(v: &nalgebra::Vector6<f64>) -> [f64; 6] {
 pub fn write_variant(scene: &Scene, scene_file: &Path, tag: &str) -> std::io::Result<(Scene, std::path::PathBuf)> {
     let mut s = scene.clone();
     if let Some(sys) = s.system.as_mut() {
-        let base = scene_file.parent().unwrap_or(Path::new("."));
+        let base = scene_file.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         for f in &mut sys.fmus {
             let p = Path::new(&f.path);
             if !p.is_absolute() {

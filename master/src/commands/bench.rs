@@ -5,34 +5,40 @@
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
-use feedcore::scene::Scene;
-use master::plot::{Figure, Scale, Series};
-use master::simulate::{Trace, simulate, write_variant};
+use anyhow::{Context, bail};
+use master::plot::{Precision, work_precision};
+use master::simulate::{Run, RunError, Trace, write_variant};
 use master::table::Table;
 
-use super::CmdResult;
-use super::run::create_parent;
-use super::scheme_args::{SCHEMES, SchemeOptions};
+use super::output::{Outputs, run_inputs};
+use super::scheme_args::{SchemeName, SchemeOptions, positive};
+use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
 pub struct Args {
     /// Scene file (TOML).
     #[arg(long)]
     pub scene: PathBuf,
-    /// Comma-separated methods.
-    #[arg(long, default_value = "monolithic,ijcsa,iterative,gauss-seidel,jacobi,decoupled", long_help = format!("Comma-separated methods: {SCHEMES}."))]
-    pub schemes: String,
-    /// Comma-separated macro steps (s).
-    #[arg(long, default_value = "0.04,0.02,0.01,0.005,0.0025")]
-    pub dts: String,
+    /// Methods (comma-separated).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "monolithic,ijcsa,iterative,gauss-seidel,jacobi,decoupled"
+    )]
+    pub schemes: Vec<SchemeName>,
+    /// Macro steps (s, comma-separated); the coarsest must be a whole multiple of each.
+    #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
+          default_value = "0.04,0.02,0.01,0.005,0.0025")]
+    pub dts: Vec<f64>,
     /// Runs per scheme and step; the median wall time is reported.
-    #[arg(long, default_value_t = 3)]
-    pub repeats: usize,
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub repeats: u32,
     /// Simulated time (s); default: the scene's solver.t_end_s.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub t_end: Option<f64>,
     /// Step of the monolithic reference (s); default: the smallest step / 4.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub reference_dt: Option<f64>,
     /// Directory for bench.csv and work_precision.svg.
     #[arg(long, default_value = "out/bench")]
@@ -44,164 +50,185 @@ pub struct Args {
     pub options: SchemeOptions,
 }
 
+/// What a scheme at one step measured: median wall time, max and RMS error, iterations.
+struct Measured {
+    wall: f64,
+    max: f64,
+    rms: f64,
+    iterations: f64,
+}
+
 /// One cell of the benchmark.
 struct Cell {
-    scheme: String,
+    scheme: SchemeName,
     dt: f64,
-    result: Result<(f64, f64, f64, f64), String>, // wall (median), max error, RMS error, iterations
+    result: Result<Measured, String>,
 }
 
 pub fn run(args: &Args) -> CmdResult {
-    let mut scene = Scene::load(&args.scene)?;
-    let dts: Vec<f64> = args
-        .dts
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| format!("--dts: {e}"))?;
-    if dts.is_empty() || dts.iter().any(|d| !(*d > 0.0)) || args.repeats == 0 {
-        return Err("--dts needs positive steps and --repeats at least 1".into());
+    let mut scene = load_scene(&args.scene)?;
+    let dts = &args.dts;
+    if dts.is_empty() {
+        bail!("--dts: give at least one step");
     }
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     // one sampling for all runs: the coarsest step, so every trace has the same times
     let coarse = dts.iter().cloned().fold(0.0, f64::max);
-    for d in &dts {
+    for d in dts {
         let ratio = coarse / d;
-        if (ratio - ratio.round()).abs() > 1e-9 {
-            return Err(format!("--dts: {d} does not divide the coarsest step {coarse}").into());
+        if (ratio - ratio.round()).abs() > 1e-9 * ratio {
+            bail!("--dts: {d} does not divide the coarsest step {coarse}");
         }
     }
     scene.outputs.sample_interval_s = coarse;
-    let (scene, file) = write_variant(&scene, &args.scene, &format!("bench-{}", scene.name))?;
-    let quiet = args.quiet || !std::io::stderr().is_terminal();
     let reference_dt = args.reference_dt.unwrap_or(dts.iter().cloned().fold(f64::INFINITY, f64::min) / 4.0);
-    eprintln!("reference: monolithic at h = {reference_dt} s …");
-    let reference = simulate(&scene, &file, args.options.method("monolithic")?, reference_dt, t_end, quiet)?;
-    let peak = reference.peak_mm();
-    let mut cells = Vec::new();
-    for name in args.schemes.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let method = args.options.method(name)?;
-        for &dt in &dts {
-            eprintln!("{name} at h = {dt} s …");
-            let mut walls = Vec::new();
-            let mut last: Option<Trace> = None;
-            let mut failure = None;
-            for _ in 0..args.repeats {
-                match simulate(&scene, &file, method, dt, t_end, quiet) {
-                    Ok(t) => {
-                        walls.push(t.wall_time_s);
-                        last = Some(t);
-                    }
-                    Err(e) => {
-                        failure = Some(e.to_string());
-                        break;
-                    }
-                }
-            }
-            let result = match (failure, last) {
-                (Some(e), _) => Err(e),
-                (None, Some(t)) => {
-                    walls.sort_by(f64::total_cmp);
-                    let (max, rms) = t.error_against(&reference);
-                    Ok((walls[walls.len() / 2], max, rms, t.mean_iterations()))
-                }
-                (None, None) => Err("no run".into()),
-            };
-            cells.push(Cell { scheme: name.to_string(), dt, result });
+
+    // every run is checked before the first one starts
+    let (variant, file) = write_variant(&scene, &args.scene, &format!("bench-{}", scene.name))
+        .context("writing the bench's copy of the scene")?;
+    let limits = caps().run;
+    let reference =
+        Run::prepare(&variant, &file, args.options.method(SchemeName::Monolithic), reference_dt, t_end, &limits)
+            .context("the monolithic reference (--reference-dt)")?;
+    let mut runs = Vec::new();
+    for &name in &args.schemes {
+        for &dt in dts {
+            let run = Run::prepare(&variant, &file, args.options.method(name), dt, t_end, &limits)
+                .with_context(|| format!("{} at h = {dt} s", name.as_str()))?;
+            runs.push((name, dt, run));
         }
     }
-    std::fs::create_dir_all(&args.out)?;
-    let csv_path = args.out.join("bench.csv");
-    let mut csv = std::fs::File::create(&csv_path)?;
-    writeln!(
-        csv,
-        "scheme,dt_s,wall_time_s,max_error_mm,rms_error_mm,max_error_percent_of_peak,mean_iterations,failure"
-    )?;
+    let mut outputs = Outputs::new(run_inputs(&args.scene, &variant));
+    let csv_id = outputs.declare("--out", &args.out.join("bench.csv"), Some("csv"))?;
+    let svg_id = outputs.declare("--out", &args.out.join("work_precision.svg"), Some("svg"))?;
+
+    let quiet = args.quiet || !std::io::stderr().is_terminal();
+    eprintln!("reference: monolithic at h = {reference_dt} s …");
+    let reference = reference.execute(quiet)?;
+    let peak = reference.peak_mm();
+    let percent = |m: f64| if peak > 0.0 { 100.0 * m / peak } else { f64::NAN };
+    let mut cells = Vec::new();
+    for (name, dt, run) in &runs {
+        eprintln!("{} at h = {dt} s …", name.as_str());
+        let mut walls = Vec::new();
+        let mut last: Option<Trace> = None;
+        let mut failure = None;
+        for _ in 0..args.repeats {
+            match run.execute(quiet) {
+                Ok(t) => {
+                    walls.push(t.wall_time_s);
+                    last = Some(t);
+                }
+                // a scheme that breaks down is a result of the benchmark
+                Err(e @ RunError::Stopped { .. }) => {
+                    failure = Some(e.to_string());
+                    break;
+                }
+                Err(e) => return Err(e).with_context(|| format!("{} at h = {dt} s", name.as_str())),
+            }
+        }
+        let result = match (failure, last) {
+            (Some(e), _) => Err(e),
+            (None, Some(t)) => {
+                walls.sort_by(f64::total_cmp);
+                let (max, rms) = t.error_against(&reference);
+                Ok(Measured { wall: walls[walls.len() / 2], max, rms, iterations: t.mean_iterations() })
+            }
+            (None, None) => Err("no run".into()),
+        };
+        cells.push(Cell { scheme: *name, dt: *dt, result });
+    }
+
     let mut table =
         Table::new(["scheme", "h s", "wall s", "max error mm", "RMS error mm", "% of peak", "iter/step", "note"]);
+    let mut csv = String::from(
+        "scheme,dt_s,wall_time_s,max_error_mm,rms_error_mm,max_error_percent_of_peak,mean_iterations,failure\n",
+    );
     for c in &cells {
+        let name = c.scheme.as_str();
         match &c.result {
-            Ok((w, m, r, it)) => {
-                writeln!(csv, "{},{},{w},{m:e},{r:e},{},{it},", c.scheme, c.dt, 100.0 * m / peak)?;
+            Ok(m) => {
+                let p = percent(m.max);
+                let p_csv = if p.is_finite() { p.to_string() } else { String::new() };
+                csv.push_str(&format!(
+                    "{name},{},{},{:e},{:e},{p_csv},{},\n",
+                    c.dt, m.wall, m.max, m.rms, m.iterations
+                ));
                 table.row([
-                    c.scheme.clone(),
+                    name.to_string(),
                     c.dt.to_string(),
-                    format!("{w:.3}"),
-                    format!("{m:.3e}"),
-                    format!("{r:.3e}"),
-                    format!("{:.4}", 100.0 * m / peak),
-                    format!("{it:.2}"),
+                    format!("{:.3}", m.wall),
+                    format!("{:.3e}", m.max),
+                    format!("{:.3e}", m.rms),
+                    if p.is_finite() { format!("{p:.4}") } else { "—".into() },
+                    format!("{:.2}", m.iterations),
                     String::new(),
                 ]);
             }
             Err(e) => {
                 let short: String = e.split(':').take(2).collect::<Vec<_>>().join(":");
-                writeln!(csv, "{},{},,,,,,\"{}\"", c.scheme, c.dt, e.replace('"', "'"))?;
-                table.row([
-                    c.scheme.clone(),
-                    c.dt.to_string(),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                    short,
-                ]);
+                csv.push_str(&format!("{name},{},,,,,,\"{}\"\n", c.dt, e.replace('"', "'")));
+                let mut row = vec![name.to_string(), c.dt.to_string()];
+                row.extend(std::iter::repeat_n(String::new(), 5));
+                row.push(short);
+                table.row(row);
             }
         }
     }
-    let svg = args.out.join("work_precision.svg");
-    create_parent(&svg)?;
-    let mut fig = Figure::new(900, 600);
-    fig.title(&format!(
-        "{}: work–precision, {t_end} s simulated (reference: monolithic at h = {reference_dt} s)",
-        scene.name
-    ));
-    fig.panel(|p| {
-        p.x_label("wall time (s)")
-            .y_label("max error of the cabin-centre displacement (mm)")
-            .x_scale(Scale::Log10)
-            .y_scale(Scale::Log10);
-        let mut names: Vec<&str> = cells.iter().map(|c| c.scheme.as_str()).collect();
-        names.dedup();
-        for name in names {
-            let pts: Vec<(f64, f64)> = cells
+    outputs.write(csv_id, |w| w.write_all(csv.as_bytes()))?;
+
+    let mut schemes: Vec<SchemeName> = cells.iter().map(|c| c.scheme).collect();
+    schemes.dedup();
+    // a zero error (a run identical to the reference) has no place on a log axis
+    let lines: Vec<Precision> = schemes
+        .iter()
+        .map(|&name| Precision {
+            name: name.as_str(),
+            points: cells
                 .iter()
                 .filter(|c| c.scheme == name)
-                .filter_map(|c| c.result.as_ref().ok().filter(|r| r.1 > 0.0).map(|r| (r.0, r.1)))
-                .collect();
-            if !pts.is_empty() {
-                let (x, y): (Vec<f64>, Vec<f64>) = pts.into_iter().unzip();
-                p.add(Series::line(name, &x, &y).auto_marker());
-            }
-        }
-        p.hline(0.01 * peak, "1 % of the peak");
-        p
-    });
-    fig.write_svg(&svg)?;
-    println!("{}: {t_end} s simulated; reference monolithic at h = {reference_dt} s, peak {peak:.4} mm", scene.name);
-    println!();
-    print!("{}", table.render());
-    println!();
+                .filter_map(|c| c.result.as_ref().ok().filter(|m| m.max > 0.0).map(|m| (m.wall, m.max)))
+                .collect(),
+        })
+        .collect();
+    let svg = work_precision(
+        &format!("{}: work–precision, {t_end} s simulated (reference: monolithic at h = {reference_dt} s)", scene.name),
+        "wall time (s)",
+        "max error of the cabin-centre displacement (mm)",
+        &lines,
+        (peak > 0.0).then_some((0.01 * peak, "1 % of the peak")),
+    )
+    .context("drawing the work–precision plot")?;
+    outputs.write(svg_id, |w| w.write_all(svg.as_bytes()))?;
+    let (csv_path, svg_path) = (outputs.path(csv_id).to_owned(), outputs.path(svg_id).to_owned());
+    outputs.commit()?;
+
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "{}: {t_end} s simulated; reference monolithic at h = {reference_dt} s, peak {peak:.4} mm",
+        scene.name
+    )?;
+    writeln!(out)?;
+    write!(out, "{}", table.render())?;
+    writeln!(out)?;
     // per scheme: the smallest error reached and the cheapest run within 1 % of the peak
     let mut summary = Table::new(["scheme", "smallest error mm", "at h s", "cheapest within 1 % of peak", "wall s"]);
-    let mut names: Vec<&str> = cells.iter().map(|c| c.scheme.as_str()).collect();
-    names.dedup();
-    for name in names {
-        let ok: Vec<(&Cell, &_)> =
-            cells.iter().filter(|c| c.scheme == name).filter_map(|c| c.result.as_ref().ok().map(|r| (c, r))).collect();
-        let best = ok.iter().min_by(|a, b| a.1.1.total_cmp(&b.1.1));
-        let cheap = ok.iter().filter(|(_, r)| r.1 <= 0.01 * peak).min_by(|a, b| a.1.0.total_cmp(&b.1.0));
+    for &name in &schemes {
+        let ok: Vec<(&Cell, &Measured)> =
+            cells.iter().filter(|c| c.scheme == name).filter_map(|c| c.result.as_ref().ok().map(|m| (c, m))).collect();
+        let best = ok.iter().min_by(|a, b| a.1.max.total_cmp(&b.1.max));
+        let cheap = ok.iter().filter(|(_, m)| m.max <= 0.01 * peak).min_by(|a, b| a.1.wall.total_cmp(&b.1.wall));
         summary.row([
-            name.to_string(),
-            best.map_or("—".into(), |(_, r)| format!("{:.3e}", r.1)),
+            name.as_str().to_string(),
+            best.map_or("—".into(), |(_, m)| format!("{:.3e}", m.max)),
             best.map_or("—".into(), |(c, _)| c.dt.to_string()),
             cheap.map_or("not reached".into(), |(c, _)| format!("h = {} s", c.dt)),
-            cheap.map_or("—".into(), |(_, r)| format!("{:.3}", r.0)),
+            cheap.map_or("—".into(), |(_, m)| format!("{:.3}", m.wall)),
         ]);
     }
-    print!("{}", summary.render());
-    println!();
-    println!("{} and {} written", csv_path.display(), svg.display());
+    write!(out, "{}", summary.render())?;
+    writeln!(out)?;
+    writeln!(out, "{} and {} written", csv_path.display(), svg_path.display())?;
     Ok(())
 }

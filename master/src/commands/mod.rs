@@ -1,8 +1,18 @@
-//! One module per subcommand. Each has an `Args` struct (clap) and `run(&Args)`.
+//! One module per subcommand. Each has an `Args` struct (clap) and `run(&Args)`; the shared
+//! pieces: scheme options, output files written whole or not at all, and the caps every command
+//! obeys (set once from the global flags).
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use anyhow::Context;
+use feedcore::scene::{Scene, SceneErrorKind};
+use master::limits::Limits;
 
 pub mod bench;
 pub mod compare;
 pub mod modes;
+pub mod output;
 pub mod package;
 pub mod replay;
 pub mod run;
@@ -12,5 +22,42 @@ pub mod statics;
 pub mod stewart;
 pub mod stress;
 
-/// Errors reach the user as one readable message.
-pub type CmdResult = Result<(), Box<dyn std::error::Error>>;
+/// Errors reach the user with their whole chain of causes.
+pub type CmdResult = anyhow::Result<()>;
+
+/// The result of the commands not yet moved to anyhow (package, replay).
+pub type BoxResult = Result<(), Box<dyn std::error::Error>>;
+
+/// A [`BoxResult`] as a [`CmdResult`] (the message chain kept as text).
+pub fn boxed(r: BoxResult) -> CmdResult {
+    r.map_err(|e| anyhow::Error::new(master::simulate::Detached::of(&*e)))
+}
+
+/// Caps from the global flags (`--max-steps`, `--max-memory-mb`, `--max-scene-bytes`).
+#[derive(Clone, Copy, Debug)]
+pub struct Caps {
+    pub run: Limits,
+    pub scene_bytes: u64,
+}
+
+static CAPS: OnceLock<Caps> = OnceLock::new();
+
+/// Sets the caps once, before any command runs.
+pub fn set_caps(caps: Caps) {
+    let _ = CAPS.set(caps);
+}
+
+pub fn caps() -> Caps {
+    *CAPS.get_or_init(|| Caps { run: Limits::default(), scene_bytes: feedcore::scene::MAX_SCENE_BYTES })
+}
+
+/// Reads a scene within the size cap; a file over it names the flag that raises it.
+pub fn load_scene(path: &Path) -> anyhow::Result<Scene> {
+    match Scene::load_limited(path, caps().scene_bytes) {
+        Ok(s) => Ok(s),
+        Err(e) if matches!(e.kind, SceneErrorKind::TooLarge { .. }) => {
+            Err(e).context("a scene file this large is refused; raise the limit with --max-scene-bytes if it is meant")
+        }
+        Err(e) => Err(e.into()),
+    }
+}

@@ -1,29 +1,32 @@
 //! `master run`: one simulation of the scene with the chosen method.
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
+use anyhow::Context;
 use feedcore::scene::Scene;
-use master::plot::Figure;
-use master::simulate::{Trace, simulate};
+use master::plot::{History, time_history};
+use master::simulate::{Run, Trace};
 use serde_json::json;
 
-use super::CmdResult;
-use super::scheme_args::{SCHEMES, SchemeOptions};
+use super::output::{OutputId, Outputs, run_inputs};
+use super::scheme_args::{SchemeName, SchemeOptions};
+use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
 pub struct Args {
     /// Scene file (TOML), e.g. scenes/lt50m_C.toml. Its [system] section names the FMUs.
     #[arg(long)]
     pub scene: PathBuf,
-    /// Method: monolithic, jacobi, gauss-seidel, gauss-seidel-reversed, iterative, ijcsa, decoupled, cable.
-    #[arg(long, long_help = format!("Method: {SCHEMES}."))]
-    pub scheme: String,
-    /// Macro step (s); default: the scene's solver.dt_s.
-    #[arg(long)]
+    /// Method.
+    #[arg(long, value_enum)]
+    pub scheme: SchemeName,
+    /// Macro step (s); default: the scene's solver.dt_s. The end time must be a whole number of
+    /// steps.
+    #[arg(long, allow_negative_numbers = true)]
     pub dt: Option<f64>,
     /// End time (s); default: the scene's solver.t_end_s.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub t_end: Option<f64>,
     /// Write the time histories as CSV: t, dx_mm, dy_mm, dz_mm (cabin-centre displacement from the
     /// static equilibrium), rx_mrad, ry_mrad, rz_mrad (rotation), fx_n … mz_nm (Stewart wrench) —
@@ -43,15 +46,7 @@ pub struct Args {
     pub options: SchemeOptions,
 }
 
-/// Creates the directory a result file goes to.
-pub fn create_parent(path: &std::path::Path) -> std::io::Result<()> {
-    match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => std::fs::create_dir_all(d),
-        _ => Ok(()),
-    }
-}
-
-/// JSON summary of a trace.
+/// JSON summary of a trace: every figure from every step.
 pub fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
     json!({
         "scene": scene.name,
@@ -59,79 +54,86 @@ pub fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
         "dt": t.dt,
         "t_end": t.t_end,
         "steps": t.steps,
+        "sample_interval_s": t.sample_interval_s,
         "wall_time_s": t.wall_time_s,
         "max_abs_disp_mm": t.max_abs_disp_mm(),
         "peak_disp_mm": t.peak_mm(),
+        "peak_time_s": t.summary.peak_time_s,
         "mean_iterations": t.mean_iterations(),
         "max_interface_residual": t.max_residual(),
-        "max_constraint_residual_m": t.constraint_residual,
+        "max_constraint_residual_m": t.constraint_residual(),
     })
 }
 
-/// The displacement histories as three stacked panels.
-pub fn plot_traces(traces: &[&Trace], title: &str, path: &PathBuf) -> CmdResult {
-    if path.extension().and_then(|e| e.to_str()) != Some("svg") {
-        return Err(format!("--plot {}: only SVG is written; name the file *.svg", path.display()).into());
-    }
-    create_parent(path)?;
-    let mut fig = Figure::new(900, 780);
-    fig.title(title).share_x(true);
-    for (k, axis) in ["X", "Y", "Z"].iter().enumerate() {
-        fig.panel(|p| {
-            p.y_label(&format!("{axis} displacement (mm)")).x_label("time (s)");
-            for t in traces {
-                let y: Vec<f64> = t.disp_mm.iter().map(|d| d[k]).collect();
-                p.line(&t.method, &t.t, &y);
-            }
-            p
-        });
-    }
-    fig.write_svg(path)?;
-    Ok(())
+/// The displacement histories as three stacked panels, into output `id`.
+pub fn plot_traces(outputs: &Outputs, id: OutputId, traces: &[&Trace], title: &str) -> CmdResult {
+    let runs: Vec<History> = traces.iter().map(|t| History { name: &t.method, t: &t.t, disp_mm: &t.disp_mm }).collect();
+    let svg = time_history(title, &runs).context("drawing the time histories")?;
+    outputs.write(id, |w| w.write_all(svg.as_bytes()))
 }
 
 pub fn run(args: &Args) -> CmdResult {
-    let scene = Scene::load(&args.scene)?;
-    let method = args.options.method(&args.scheme)?;
+    let scene = load_scene(&args.scene)?;
+    let method = args.options.method(args.scheme);
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
-    let trace = simulate(&scene, &args.scene, method, dt, t_end, quiet)?;
-    if let Some(out) = &args.out {
-        create_parent(out)?;
-        trace.write_csv(out, &scene.outputs.quantities)?;
+    // everything the run needs is checked before its first step
+    let run = Run::prepare(&scene, &args.scene, method, dt, t_end, &caps().run)?;
+    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
+    let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+
+    let trace = run.execute(quiet)?;
+    if let Some(id) = csv {
+        outputs.write(id, |w| trace.write_csv(w, &scene.outputs.quantities))?;
     }
-    if let Some(p) = &args.plot {
-        plot_traces(&[&trace], &format!("{}: cabin-centre response, {} at h = {dt} s", scene.name, trace.method), p)?;
+    if let Some(id) = svg {
+        let title = format!("{}: cabin-centre response, {} at h = {dt} s", scene.name, trace.method);
+        plot_traces(&outputs, id, &[&trace], &title)?;
     }
+    outputs.commit()?;
+
+    let mut out = std::io::stdout().lock();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&summary(&scene, &trace))?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&summary(&scene, &trace))?)?;
         return Ok(());
     }
     let m = trace.max_abs_disp_mm();
-    println!(
+    writeln!(
+        out,
         "{} — {} at h = {dt} s to {t_end} s: {} steps in {:.3} s",
         scene.name, trace.method, trace.steps, trace.wall_time_s
-    );
-    println!("peak cabin-centre displacement |X| {:.4} mm, |Y| {:.4} mm, |Z| {:.4} mm", m[0], m[1], m[2]);
-    match trace.method.as_str() {
-        "monolithic" => println!(
+    )?;
+    writeln!(
+        out,
+        "peak cabin-centre displacement {:.4} mm at t = {} s; |X| {:.4} mm, |Y| {:.4} mm, |Z| {:.4} mm",
+        trace.peak_mm(),
+        trace.summary.peak_time_s,
+        m[0],
+        m[1],
+        m[2]
+    )?;
+    match args.scheme {
+        SchemeName::Monolithic => writeln!(
+            out,
             "Newton iterations per step {:.2}, largest constraint residual {:.2e} m",
             trace.mean_iterations(),
-            trace.constraint_residual
-        ),
-        "cable" => println!("Newton iterations per step {:.2}", trace.mean_iterations()),
-        _ => println!(
+            trace.constraint_residual()
+        )?,
+        SchemeName::Cable => writeln!(out, "Newton iterations per step {:.2}", trace.mean_iterations())?,
+        _ => writeln!(
+            out,
             "iterations per step {:.2}, largest interface residual {:.2e}",
             trace.mean_iterations(),
             trace.max_residual()
-        ),
+        )?,
     }
-    if let Some(out) = &args.out {
-        println!("time histories: {}", out.display());
+    if let Some(p) = &args.out {
+        writeln!(out, "time histories: {}", p.display())?;
     }
     if let Some(p) = &args.plot {
-        println!("plot: {}", p.display());
+        writeln!(out, "plot: {}", p.display())?;
     }
     Ok(())
 }

@@ -1,75 +1,139 @@
-//! Command-line options that choose and tune a method (shared by run, compare, bench).
+//! Command-line options that choose and tune a method (shared by run, compare, bench,
+//! stability): the one place for scheme names and scheme options.
 
+use clap::ValueEnum;
 use master::cosim::{Extrapolation, JacobianUpdate, Options, Relaxation, Scheme};
 use master::simulate::Method;
+
+/// The methods `--scheme` and `--schemes` know, and what each needs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SchemeName {
+    /// The cable–cabin model alone, platform locked, under the scene's [disturbance]; in-process.
+    Cable,
+    /// Eq. (7): the whole system in one model, no FMUs; the accuracy reference.
+    Monolithic,
+    /// Every FMU steps with the inputs of the last communication point.
+    Jacobi,
+    /// The FMUs one after the other (cable first), each with the newest outputs.
+    GaussSeidel,
+    /// Gauss–Seidel with the Stewart FMU first.
+    GaussSeidelReversed,
+    /// Fixed point with rollback (needs get/set FMU state); --relaxation.
+    Iterative,
+    /// Newton on the interface with its Jacobian (needs get/set FMU state; directional
+    /// derivatives, else finite differences).
+    Ijcsa,
+    /// Ref. [3]: the Stewart wrench on a cabin held at its static pose, fed to the cable model.
+    Decoupled,
+}
+
+impl SchemeName {
+    /// The name as written on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SchemeName::Cable => "cable",
+            SchemeName::Monolithic => "monolithic",
+            SchemeName::Jacobi => "jacobi",
+            SchemeName::GaussSeidel => "gauss-seidel",
+            SchemeName::GaussSeidelReversed => "gauss-seidel-reversed",
+            SchemeName::Iterative => "iterative",
+            SchemeName::Ijcsa => "ijcsa",
+            SchemeName::Decoupled => "decoupled",
+        }
+    }
+
+    /// Whether the scheme iterates within a macro step.
+    pub fn iterates(self) -> bool {
+        matches!(self, SchemeName::Iterative | SchemeName::Ijcsa)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ExtrapolationArg {
+    /// The last outputs.
+    Constant,
+    /// Extrapolated from the last two (non-iterating schemes pass the slope to the FMUs
+    /// through fmi2SetRealInputDerivatives).
+    Linear,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum JacobianArg {
+    /// Recomputed every step.
+    EveryStep,
+    /// Quasi-Newton: kept while Newton contracts well.
+    Reuse,
+}
+
+/// `--relaxation`: `aitken` or a factor in (0, 1].
+fn relaxation(text: &str) -> Result<Relaxation, String> {
+    if text == "aitken" {
+        return Ok(Relaxation::Aitken);
+    }
+    match text.parse::<f64>() {
+        Ok(w) if w > 0.0 && w <= 1.0 => Ok(Relaxation::Fixed(w)),
+        _ => Err(format!("`{text}`: give `aitken` or a factor in (0, 1]")),
+    }
+}
+
+/// A positive finite number.
+pub fn positive(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(x) if x > 0.0 && x.is_finite() => Ok(x),
+        Ok(x) => Err(format!("{x} is not a positive finite number")),
+        Err(e) => Err(format!("`{text}`: {e}")),
+    }
+}
 
 /// Options of the coupling schemes.
 #[derive(clap::Args, Clone, Debug)]
 pub struct SchemeOptions {
-    /// First guess of the end-of-step inputs: `constant` (the last outputs) or `linear`
-    /// (extrapolated from the last two; non-iterating schemes pass the slope to the FMUs
-    /// through fmi2SetRealInputDerivatives).
-    #[arg(long, default_value = "constant", value_parser = ["constant", "linear"])]
-    pub extrapolation: String,
+    /// First guess of the end-of-step inputs.
+    #[arg(long, value_enum, default_value_t = ExtrapolationArg::Constant)]
+    pub extrapolation: ExtrapolationArg,
     /// Interface tolerance of iterating schemes: every |U − C·Y| ≤ tol · s, with s the largest
     /// start value (at least 1) among the inputs of the same FMU and unit (e.g. the weight for
     /// forces).
-    #[arg(long, default_value_t = 1e-8)]
+    #[arg(long, default_value_t = 1e-8, value_parser = positive)]
     pub tol: f64,
     /// Iteration limit per macro step of iterating schemes (exceeding it stops the run).
-    #[arg(long, default_value_t = 100)]
-    pub max_iter: usize,
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub max_iter: u32,
     /// Relaxation of `iterative`: a fixed factor in (0, 1], or `aitken` (dynamic; it stalls on
     /// the LT50m scenes, whose interface couples several modes of both signs).
-    #[arg(long, default_value = "0.5")]
-    pub relaxation: String,
-    /// Interface Jacobian of `ijcsa`: `every-step` (recomputed each step) or `reuse`
-    /// (quasi-Newton: kept while Newton contracts well).
-    #[arg(long, default_value = "every-step", value_parser = ["every-step", "reuse"])]
-    pub jacobian: String,
+    #[arg(long, default_value = "0.5", value_parser = relaxation)]
+    pub relaxation: Relaxation,
+    /// Interface Jacobian of `ijcsa`.
+    #[arg(long, value_enum, default_value_t = JacobianArg::EveryStep)]
+    pub jacobian: JacobianArg,
 }
 
-/// The methods `master run --scheme` knows, with what each needs from the FMUs.
-pub const SCHEMES: &str = "cable (the cable–cabin model alone with the platform locked, under the scene's \
-    [disturbance]; in-process), monolithic (eq. 7, no FMUs), jacobi, gauss-seidel (cable first), \
-    gauss-seidel-reversed (Stewart first), iterative (needs get/set FMU state), \
-    ijcsa (needs get/set FMU state; directional derivatives, else finite differences), \
-    decoupled (ref. [3]: the Stewart wrench on a fixed cabin fed to the cable model)";
-
 impl SchemeOptions {
-    pub fn method(&self, scheme: &str) -> Result<Method, String> {
-        let relaxation = match self.relaxation.as_str() {
-            "aitken" => Relaxation::Aitken,
-            x => match x.parse::<f64>() {
-                Ok(w) if w > 0.0 && w <= 1.0 => Relaxation::Fixed(w),
-                _ => return Err(format!("--relaxation {x}: give `aitken` or a factor in (0, 1]")),
-            },
-        };
-        if !(self.tol > 0.0) {
-            return Err(format!("--tol {}: must be positive", self.tol));
-        }
-        if self.max_iter < 1 {
-            return Err("--max-iter must be at least 1".into());
-        }
+    pub fn method(&self, scheme: SchemeName) -> Method {
         let mut options = Options {
             scheme: Scheme::Jacobi,
-            extrapolation: if self.extrapolation == "linear" { Extrapolation::Linear } else { Extrapolation::Constant },
-            relaxation,
-            jacobian: if self.jacobian == "reuse" { JacobianUpdate::Reuse } else { JacobianUpdate::EveryStep },
+            extrapolation: match self.extrapolation {
+                ExtrapolationArg::Constant => Extrapolation::Constant,
+                ExtrapolationArg::Linear => Extrapolation::Linear,
+            },
+            relaxation: self.relaxation,
+            jacobian: match self.jacobian {
+                JacobianArg::EveryStep => JacobianUpdate::EveryStep,
+                JacobianArg::Reuse => JacobianUpdate::Reuse,
+            },
             tol: self.tol,
-            max_iter: self.max_iter,
+            max_iter: self.max_iter as usize,
         };
         options.scheme = match scheme {
-            "monolithic" => return Ok(Method::Monolithic),
-            "cable" => return Ok(Method::CableOnly),
-            "decoupled" => return Ok(Method::Decoupled(options)),
-            "jacobi" => Scheme::Jacobi,
-            "gauss-seidel" => Scheme::GaussSeidel { reversed: false },
-            "gauss-seidel-reversed" => Scheme::GaussSeidel { reversed: true },
-            "iterative" => Scheme::Iterative,
-            "ijcsa" => Scheme::Ijcsa,
-            other => return Err(format!("unknown scheme `{other}`; known: {SCHEMES}")),
+            SchemeName::Monolithic => return Method::Monolithic,
+            SchemeName::Cable => return Method::CableOnly,
+            SchemeName::Decoupled => return Method::Decoupled(options),
+            SchemeName::Jacobi => Scheme::Jacobi,
+            SchemeName::GaussSeidel => Scheme::GaussSeidel { reversed: false },
+            SchemeName::GaussSeidelReversed => Scheme::GaussSeidel { reversed: true },
+            SchemeName::Iterative => Scheme::Iterative,
+            SchemeName::Ijcsa => Scheme::Ijcsa,
         };
-        Ok(Method::Cosim(options))
+        Method::Cosim(options)
     }
 }
