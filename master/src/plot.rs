@@ -135,7 +135,9 @@ fn decade_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
         return (0.1, 1.0);
     }
     let (a, b) = (lo.log10().floor(), hi.log10().ceil());
-    (10f64.powf(a), 10f64.powf(if b > a { b } else { a + 1.0 }))
+    let b = if b > a { b } else { a + 1.0 };
+    // a hair wider, so that the end decades get their ticks despite round-off
+    (10f64.powf(a) * (1.0 - 1e-9), 10f64.powf(b) * (1.0 + 1e-9))
 }
 
 fn draw_error<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotError {
@@ -188,7 +190,7 @@ pub fn time_history(title: &str, runs: &[History<'_>]) -> Result<String, PlotErr
             mesh.y_desc(format!("{axis} displacement (mm)"))
                 .label_style((FONT, 13))
                 .axis_desc_style((FONT, 15))
-                .light_line_style(RGBColor(235, 235, 235))
+                .light_line_style(RGBColor(248, 248, 248))
                 .bold_line_style(RGBColor(215, 215, 215));
             if k == 2 {
                 mesh.x_desc("time (s)");
@@ -275,22 +277,14 @@ pub fn work_precision(
             .axis_desc_style((FONT, 15))
             .x_label_formatter(&|v| format!("{v:e}"))
             .y_label_formatter(&|v| format!("{v:e}"))
-            .light_line_style(RGBColor(235, 235, 235))
+            .light_line_style(RGBColor(248, 248, 248))
             .bold_line_style(RGBColor(215, 215, 215))
             .draw()
             .map_err(draw_error)?;
         for (i, s) in schemes.iter().enumerate() {
             let color = PALETTE[i % PALETTE.len()];
             let style = color.stroke_width(2);
-            chart
-                .draw_series(LineSeries::new(s.points.iter().copied(), style))
-                .map_err(draw_error)?
-                .label(s.name)
-                .legend(move |(x, y)| {
-                    EmptyElement::at((x, y))
-                        + PathElement::new(vec![(0, 0), (24, 0)], style)
-                        + Circle::new((12, 0), 3, color.filled())
-                });
+            chart.draw_series(LineSeries::new(s.points.iter().copied(), style)).map_err(draw_error)?;
             // a marker shape per scheme, so that they stay apart in black-and-white print too
             let points = s.points.iter().copied();
             match i % 5 {
@@ -304,22 +298,56 @@ pub fn work_precision(
             }
             .map_err(draw_error)?;
         }
-        if let Some((y, label)) = reference {
-            let grey = RGBColor(90, 90, 90);
+        let grey = RGBColor(90, 90, 90);
+        if let Some((y, _)) = reference {
             chart
                 .draw_series(DashedLineSeries::new(vec![(x0, y), (x1, y)], 8, 5, grey.stroke_width(1)))
-                .map_err(draw_error)?
-                .label(label)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], grey.stroke_width(1)));
+                .map_err(draw_error)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(160, 160, 160))
-            .draw()
+        // the legend, top right inside the plot: a line and the scheme's marker per entry
+        let (xr, yr) = chart.plotting_area().get_pixel_range();
+        let mut entries: Vec<(String, RGBColor, Option<usize>)> = schemes
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let name = if s.points.is_empty() { format!("{} (no result)", s.name) } else { s.name.to_string() };
+                (name, PALETTE[i % PALETTE.len()], Some(i))
+            })
+            .collect();
+        if let Some((_, label)) = reference {
+            entries.push((label.to_string(), grey, None));
+        }
+        let width = 60 + 8 * entries.iter().map(|e| e.0.chars().count()).max().unwrap_or(0) as i32;
+        let (left, top) = (xr.end - width - 10, yr.start + 10);
+        let frame = [(left, top), (xr.end - 10, top + 10 + 20 * entries.len() as i32)];
+        root.draw(&Rectangle::new(frame, WHITE.mix(0.9).filled())).map_err(draw_error)?;
+        root.draw(&Rectangle::new(frame, RGBColor(160, 160, 160).stroke_width(1))).map_err(draw_error)?;
+        for (k, (name, color, mark)) in entries.iter().enumerate() {
+            let y = top + 15 + 20 * k as i32;
+            let (a, b) = ((left + 8, y), (left + 36, y));
+            match mark {
+                Some(_) => root.draw(&PathElement::new(vec![a, b], color.stroke_width(2))),
+                None => root
+                    .draw(&PathElement::new(vec![a, (left + 16, y)], color.stroke_width(1)))
+                    .and_then(|_| root.draw(&PathElement::new(vec![(left + 22, y), b], color.stroke_width(1)))),
+            }
             .map_err(draw_error)?;
+            let c = (left + 22, y);
+            match mark.map(|i| i % 5) {
+                Some(0) => root.draw(&Circle::new(c, 4, color.filled())),
+                Some(1) => root.draw(&TriangleMarker::new(c, 5, color.filled())),
+                Some(2) => root.draw(&Cross::new(c, 4, color.stroke_width(2))),
+                Some(3) => root.draw(&Rectangle::new([(c.0 - 4, c.1 - 4), (c.0 + 4, c.1 + 4)], color.filled())),
+                Some(_) => root.draw(&Circle::new(c, 4, color.stroke_width(2))),
+                None => Ok(()),
+            }
+            .map_err(draw_error)?;
+            let font = TextStyle::from((FONT, 13).into_font()).pos(plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Left,
+                plotters::style::text_anchor::VPos::Center,
+            ));
+            root.draw(&Text::new(name.clone(), (left + 44, y), font)).map_err(draw_error)?;
+        }
         root.present().map_err(draw_error)?;
     }
     Ok(svg)
@@ -546,8 +574,9 @@ mod tests {
         assert_eq!(padded_range([0.0, 10.0].into_iter()), (-0.4, 10.4));
         assert_eq!(padded_range([2.0, 2.0].into_iter()), (1.8, 2.2));
         assert_eq!(padded_range([f64::NAN].into_iter()), (0.0, 1.0));
-        assert_eq!(decade_range([0.03, 2.0].into_iter()), (0.01, 10.0));
-        assert_eq!(decade_range([1.0].into_iter()), (1.0, 10.0));
+        let close = |(a, b): (f64, f64), (c, d): (f64, f64)| (a / c - 1.0).abs() < 1e-8 && (b / d - 1.0).abs() < 1e-8;
+        assert!(close(decade_range([0.03, 2.0].into_iter()), (0.01, 10.0)));
+        assert!(close(decade_range([1.0].into_iter()), (1.0, 10.0)));
         assert_eq!(contrasting_text(CATEGORY_COLORS[3]), BLACK);
         assert_eq!(contrasting_text(PALETTE[0]), WHITE);
     }

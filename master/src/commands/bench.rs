@@ -166,7 +166,7 @@ pub fn run(args: &Args) -> CmdResult {
                 ]);
             }
             Err(e) => {
-                let short: String = e.split(':').take(2).collect::<Vec<_>>().join(":");
+                let short = e.split(';').next().unwrap_or_default().to_string();
                 csv.push_str(&format!("{name},{},,,,,,\"{}\"\n", c.dt, e.replace('"', "'")));
                 let mut row = vec![name.to_string(), c.dt.to_string()];
                 row.extend(std::iter::repeat_n(String::new(), 5));

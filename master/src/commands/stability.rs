@@ -143,7 +143,7 @@ pub fn run(args: &Args) -> CmdResult {
                     }
                 }
                 Err(RunError::Stopped { time, reason, .. }) => {
-                    (stopped_verdict(&reason), f64::NAN, format!("stopped at t = {time} s: {reason}"))
+                    (stopped_verdict(&reason), f64::NAN, format!("stopped at t = {time:.6} s: {reason}"))
                 }
                 // a missing FMU or a model that cannot be set up is no verdict on the scheme
                 Err(e) => return Err(e).with_context(|| format!("{}, mass ×{f}, h = {dt} s", name.as_str())),
