@@ -476,7 +476,10 @@ impl Scene {
                 return Err(c.err(
                     &format!("{name}.com_from_joint_m"),
                     &part.com_from_joint_m.to_string(),
-                    "the centre of mass lies beyond the end of the part",
+                    &format!(
+                        "the centre of mass lies beyond the end of the part ({name}.length_m = {})",
+                        part.length_m
+                    ),
                 ));
             }
             c.positive(&format!("{name}.inertia_transverse_kg_m2"), part.inertia_transverse_kg_m2)?;
@@ -570,7 +573,7 @@ impl Scene {
             let known = |key: &str, text: &str| -> Result<(), SceneError> {
                 match text.split_once('.') {
                     Some((fmu, rest)) if names.contains(&fmu) && !rest.is_empty() => Ok(()),
-                    _ => Err(c.err(key, text, &format!("must be `fmu.name` with fmu one of {names:?}"))),
+                    _ => Err(c.err(key, text, &format!("must be `fmu.name` with fmu one of system.fmus {names:?}"))),
                 }
             };
             for (i, k) in sys.connections.iter().enumerate() {

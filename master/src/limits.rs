@@ -30,13 +30,14 @@ pub enum PlanError {
     #[error("the end time {0} s must be a positive finite number")]
     BadEnd(f64),
     #[error(
-        "the end time {t_end} s is not a whole number of steps h = {dt} s ({ratio:.4} steps); \
-         use an end time of {below} s or {above} s, or a step that divides it"
+        "the end time {} s is not a whole number of steps h = {} s ({} steps); {}",
+        num(*.t_end), num(*.dt), num(*.ratio), suggest(*.below, *.above)
     )]
     NotMultiple { dt: f64, t_end: f64, ratio: f64, below: f64, above: f64 },
     #[error(
-        "{steps} steps (t_end {t_end} s / h {dt} s) exceed the cap of {cap} steps; raise it with --max-steps \
-         if that many are meant"
+        "{} steps (t_end {} s / h {} s) exceed the cap of {cap} steps; raise it with --max-steps if that many \
+         are meant",
+        num(*.steps), num(*.t_end), num(*.dt)
     )]
     TooManySteps { steps: f64, dt: f64, t_end: f64, cap: u64 },
     #[error(
@@ -45,6 +46,24 @@ pub enum PlanError {
         .needed / 1_000_000, .limit / 1_000_000
     )]
     Memory { needed: u64, limit: u64, what: String, source_of_limit: &'static str, hint: &'static str },
+}
+
+/// A number for a message: 9 significant digits, exponent form when very large or small.
+fn num(x: f64) -> String {
+    if x != 0.0 && !(1e-4..1e7).contains(&x.abs()) {
+        format!("{x:.4e}")
+    } else {
+        let s = format!("{x:.9}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    }
+}
+
+fn suggest(below: f64, above: f64) -> String {
+    if num(below) == num(above) {
+        format!("use an end time of {} s, or a step that divides it", num(above))
+    } else {
+        format!("use an end time of {} s or {} s, or a step that divides it", num(below), num(above))
+    }
 }
 
 /// The steps of a run: `steps` of `dt` reach `t_end` exactly (to round-off).

@@ -242,7 +242,7 @@ impl Recorder {
             s.peak_mm = distance;
             s.peak_time_s = t;
         }
-        if k % self.every == 0 {
+        if k.is_multiple_of(self.every) {
             let r = (p.orientation * q0.inverse()).scaled_axis() * 1e3;
             self.trace.t.push(t);
             self.trace.disp_mm.push([d.x, d.y, d.z]);

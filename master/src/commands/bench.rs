@@ -87,9 +87,6 @@ pub fn run(args: &Args) -> CmdResult {
     let (variant, file) = write_variant(&scene, &args.scene, &format!("bench-{}", scene.name))
         .context("writing the bench's copy of the scene")?;
     let limits = caps().run;
-    let reference =
-        Run::prepare(&variant, &file, args.options.method(SchemeName::Monolithic), reference_dt, t_end, &limits)
-            .context("the monolithic reference (--reference-dt)")?;
     let mut runs = Vec::new();
     for &name in &args.schemes {
         for &dt in dts {
@@ -98,6 +95,9 @@ pub fn run(args: &Args) -> CmdResult {
             runs.push((name, dt, run));
         }
     }
+    let reference =
+        Run::prepare(&variant, &file, args.options.method(SchemeName::Monolithic), reference_dt, t_end, &limits)
+            .context("the monolithic reference (--reference-dt)")?;
     let mut outputs = Outputs::new(run_inputs(&args.scene, &variant));
     let csv_id = outputs.declare("--out", &args.out.join("bench.csv"), Some("csv"))?;
     let svg_id = outputs.declare("--out", &args.out.join("work_precision.svg"), Some("svg"))?;

@@ -79,7 +79,15 @@ pub fn run(args: &Args) -> CmdResult {
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
     // everything the run needs is checked before its first step
-    let run = Run::prepare(&scene, &args.scene, method, dt, t_end, &caps().run)?;
+    let run = Run::prepare(&scene, &args.scene, method, dt, t_end, &caps().run).with_context(|| {
+        let from =
+            |flag: bool, given: &str, key: &str| if flag { given.to_string() } else { format!("the scene's {key}") };
+        format!(
+            "h = {dt} s from {}, end time {t_end} s from {}",
+            from(args.dt.is_some(), "--dt", "solver.dt_s"),
+            from(args.t_end.is_some(), "--t-end", "solver.t_end_s")
+        )
+    })?;
     let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
     let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
