@@ -359,8 +359,13 @@ fn every_scene_key_survives_hostile_values() {
     let results = run_all(&mutants);
     let mut counts: BTreeMap<Outcome, usize> = BTreeMap::new();
     let mut failures = Vec::new();
+    // MUTANTS_VERBOSE=1 lists every mutant with its outcome and the first line of its error
+    let verbose = std::env::var_os("MUTANTS_VERBOSE").is_some();
     for (m, (outcome, first)) in mutants.iter().zip(&results) {
         *counts.entry(*outcome).or_default() += 1;
+        if verbose {
+            eprintln!("{outcome:?}\t{}\t{first}", m.label);
+        }
         if outcome.is_failure() {
             failures.push(format!("{} [{}]: {outcome:?}: {first}", m.label, m.command.join(" ")));
         }
