@@ -452,7 +452,7 @@ impl Scene {
             if (a - attach).norm() < 1e-6 {
                 return Err(c.err(
                     &format!("anchors.angle_deg[{i}]"),
-                    &self.anchors.angle_deg[i].to_string(),
+                    &show(self.anchors.angle_deg[i]),
                     &format!(
                         "anchor {} coincides with its attachment point at the target pose {:?}",
                         i + 1,
@@ -475,7 +475,7 @@ impl Scene {
             if part.com_from_joint_m > part.length_m {
                 return Err(c.err(
                     &format!("{name}.com_from_joint_m"),
-                    &part.com_from_joint_m.to_string(),
+                    &show(part.com_from_joint_m),
                     &format!(
                         "the centre of mass lies beyond the end of the part ({name}.length_m = {})",
                         part.length_m
@@ -496,7 +496,7 @@ impl Scene {
 
         c.finite_nonneg("damping.ratio", self.damping.ratio)?;
         if self.damping.ratio >= 1.0 {
-            return Err(c.err("damping.ratio", &self.damping.ratio.to_string(), "a damping ratio must be below 1"));
+            return Err(c.err("damping.ratio", &show(self.damping.ratio), "a damping ratio must be below 1"));
         }
         match (&self.damping.fit_modes, &self.damping.fit_frequencies_hz) {
             (Some(m), None) => {
@@ -525,14 +525,14 @@ impl Scene {
         c.positive("solver.dt_s", self.solver.dt_s)?;
         c.positive("solver.t_end_s", self.solver.t_end_s)?;
         if !(0.0..=1.0).contains(&self.solver.rho_inf) {
-            return Err(c.err("solver.rho_inf", &self.solver.rho_inf.to_string(), "must lie in [0, 1]"));
+            return Err(c.err("solver.rho_inf", &show(self.solver.rho_inf), "must lie in [0, 1]"));
         }
         c.positive("solver.newton_tol", self.solver.newton_tol)?;
         let (lo, hi) = NEWTON_TOL_RANGE;
         if !(lo..=hi).contains(&self.solver.newton_tol) {
             return Err(c.err(
                 "solver.newton_tol",
-                &self.solver.newton_tol.to_string(),
+                &show(self.solver.newton_tol),
                 &format!(
                     "must lie in [{lo:e}, {hi:e}]: below, Newton stalls on round-off; above, the result drifts by \
                      more than the coupling schemes differ (1e-10 is the reference scenes' value)"
@@ -604,7 +604,7 @@ impl Scene {
             (None, Some(axis), Some(angle)) => {
                 c.vector("pose.rotation_axis", axis)?;
                 if !angle.is_finite() {
-                    return Err(c.err("pose.rotation_angle_deg", &angle.to_string(), "must be finite"));
+                    return Err(c.err("pose.rotation_angle_deg", &show(*angle), "must be finite"));
                 }
                 let a = Vec3::from(*axis);
                 let norm = a.norm();
@@ -681,17 +681,17 @@ impl Check<'_> {
     }
 
     fn finite(&self, key: &str, x: f64) -> Result<(), SceneError> {
-        if x.is_finite() { Ok(()) } else { Err(self.err(key, &x.to_string(), "must be a finite number")) }
+        if x.is_finite() { Ok(()) } else { Err(self.err(key, &show(x), "must be a finite number")) }
     }
 
     fn positive(&self, key: &str, x: f64) -> Result<(), SceneError> {
         self.finite(key, x)?;
-        if x > 0.0 { Ok(()) } else { Err(self.err(key, &x.to_string(), "must be positive")) }
+        if x > 0.0 { Ok(()) } else { Err(self.err(key, &show(x), "must be positive")) }
     }
 
     fn finite_nonneg(&self, key: &str, x: f64) -> Result<(), SceneError> {
         self.finite(key, x)?;
-        if x >= 0.0 { Ok(()) } else { Err(self.err(key, &x.to_string(), "must not be negative")) }
+        if x >= 0.0 { Ok(()) } else { Err(self.err(key, &show(x), "must not be negative")) }
     }
 
     fn vector(&self, key: &str, v: &[f64]) -> Result<(), SceneError> {
@@ -747,6 +747,12 @@ impl Check<'_> {
         }
         Ok(())
     }
+}
+
+/// A number as a message shows it: short, in exponent form when very large or small (1e300,
+/// not three hundred digits).
+fn show(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-5..1e9).contains(&x.abs()) { format!("{x:e}") } else { x.to_string() }
 }
 
 /// `text` cut to at most `max` characters and escaped (control characters, quotes), with an

@@ -121,6 +121,10 @@ fn replacements(v: &Value) -> Vec<(&'static str, Option<Value>)> {
         Value::String(_) => {
             r.extend([
                 ("empty", Some(Value::String(String::new()))),
+                // strings that FMU parameters read as numbers
+                ("\"1e300\"", Some(Value::String("1e300".into()))),
+                ("\"nan\"", Some(Value::String("nan".into()))),
+                ("\"-1\"", Some(Value::String("-1".into()))),
                 ("long", Some(Value::String("é\u{1b}".repeat(50_000)))),
                 ("wrong type", Some(Value::Integer(1))),
             ]);
