@@ -15,10 +15,10 @@ use super::scheme_args::{SchemeName, SchemeOptions, positive};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML).
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Methods (comma-separated).
     #[arg(
         long,
@@ -26,28 +26,28 @@ pub struct Args {
         value_delimiter = ',',
         default_value = "monolithic,ijcsa,iterative,gauss-seidel,jacobi,decoupled"
     )]
-    pub schemes: Vec<SchemeName>,
+    pub(crate) schemes: Vec<SchemeName>,
     /// Macro steps (s, comma-separated); the coarsest must be a whole multiple of each.
     #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
           default_value = "0.04,0.02,0.01,0.005,0.0025")]
-    pub dts: Vec<f64>,
+    pub(crate) dts: Vec<f64>,
     /// Runs per scheme and step; the median wall time is reported.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
-    pub repeats: u32,
+    pub(crate) repeats: u32,
     /// Simulated time (s); default: the scene's solver.t_end_s.
     #[arg(long, allow_negative_numbers = true)]
-    pub t_end: Option<f64>,
+    pub(crate) t_end: Option<f64>,
     /// Step of the monolithic reference (s); default: the smallest step / 4.
     #[arg(long, allow_negative_numbers = true)]
-    pub reference_dt: Option<f64>,
+    pub(crate) reference_dt: Option<f64>,
     /// Directory for bench.csv and work_precision.svg.
     #[arg(long, default_value = "out/bench")]
-    pub out: PathBuf,
+    pub(crate) out: PathBuf,
     /// No progress bars.
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
     #[command(flatten)]
-    pub options: SchemeOptions,
+    pub(crate) options: SchemeOptions,
 }
 
 /// What a scheme at one step measured: median wall time, max and RMS error, iterations.
@@ -65,7 +65,7 @@ struct Cell {
     result: Result<Measured, String>,
 }
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let mut scene = load_scene(&args.scene)?;
     let dts = &args.dts;
     if dts.is_empty() {

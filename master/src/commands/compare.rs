@@ -13,33 +13,33 @@ use super::scheme_args::{SchemeName, SchemeOptions};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML).
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Methods to compare with the monolithic reference (comma-separated).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "ijcsa,iterative,gauss-seidel,jacobi,decoupled")]
-    pub schemes: Vec<SchemeName>,
+    pub(crate) schemes: Vec<SchemeName>,
     /// Macro step (s) of every run; default: the scene's solver.dt_s.
     #[arg(long, allow_negative_numbers = true)]
-    pub dt: Option<f64>,
+    pub(crate) dt: Option<f64>,
     /// End time (s); default: the scene's solver.t_end_s.
     #[arg(long, allow_negative_numbers = true)]
-    pub t_end: Option<f64>,
+    pub(crate) t_end: Option<f64>,
     /// Print JSON instead of a table.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
     /// Draw all displacement histories in one SVG.
     #[arg(long)]
-    pub plot: Option<PathBuf>,
+    pub(crate) plot: Option<PathBuf>,
     /// No progress bars.
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
     #[command(flatten)]
-    pub options: SchemeOptions,
+    pub(crate) options: SchemeOptions,
 }
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);

@@ -13,17 +13,17 @@ use serde_json::json;
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML), e.g. scenes/lt50m_B.toml.
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Number of modes (lowest first); default: the scene's `analyses.modes`.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10_000))]
-    pub count: Option<u32>,
+    pub(crate) count: Option<u32>,
     /// Print JSON: frequencies_hz (ascending) and per mode its cabin participation and the
     /// cabin's part of the mass-normalized shape [dx, dy, dz, rx, ry, rz].
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
 }
 
 /// Share of the modal kinetic energy carried by the cabin, and a name for its main motion.
@@ -36,7 +36,7 @@ fn describe(cabin_mass: &nalgebra::Matrix6<f64>, shape: &Vector6<f64>) -> (f64, 
     (share, what)
 }
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let mut out = std::io::stdout().lock();
     let count = args.count.map_or(scene.analyses.modes, |c| c as usize);

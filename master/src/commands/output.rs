@@ -21,7 +21,7 @@ struct Planned {
 }
 
 /// The declared outputs of one command.
-pub struct Outputs {
+pub(crate) struct Outputs {
     files: Vec<Planned>,
     inputs: Vec<PathBuf>,
     committed: bool,
@@ -29,7 +29,7 @@ pub struct Outputs {
 
 /// An output declared in an [`Outputs`].
 #[derive(Clone, Copy, Debug)]
-pub struct OutputId(usize);
+pub(crate) struct OutputId(usize);
 
 /// `path` made absolute with its directory resolved (symbolic links followed) when it exists.
 fn resolved(path: &Path) -> PathBuf {
@@ -54,12 +54,12 @@ fn same_file(a: &Path, b: &Path) -> bool {
 impl Outputs {
     /// Outputs of a run that reads `inputs` (scene file, FMU archives, …), which no output may
     /// name.
-    pub fn new(inputs: impl IntoIterator<Item = PathBuf>) -> Outputs {
+    pub(crate) fn new(inputs: impl IntoIterator<Item = PathBuf>) -> Outputs {
         Outputs { files: Vec::new(), inputs: inputs.into_iter().collect(), committed: false }
     }
 
     /// Declares the output `path` given by `flag`; `extension`: the one it must have.
-    pub fn declare(&mut self, flag: &str, path: &Path, extension: Option<&str>) -> anyhow::Result<OutputId> {
+    pub(crate) fn declare(&mut self, flag: &str, path: &Path, extension: Option<&str>) -> anyhow::Result<OutputId> {
         let shown = path.display();
         if let Some(ext) = extension
             && path.extension().and_then(|e| e.to_str()) != Some(ext)
@@ -93,7 +93,7 @@ impl Outputs {
     }
 
     /// Writes the content of output `id` (to its temporary file).
-    pub fn write(
+    pub(crate) fn write(
         &self,
         id: OutputId,
         content: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
@@ -106,12 +106,12 @@ impl Outputs {
     }
 
     /// The final path of output `id`.
-    pub fn path(&self, id: OutputId) -> &Path {
+    pub(crate) fn path(&self, id: OutputId) -> &Path {
         &self.files[id.0].path
     }
 
     /// Moves every output into place.
-    pub fn commit(mut self) -> anyhow::Result<()> {
+    pub(crate) fn commit(mut self) -> anyhow::Result<()> {
         for f in &self.files {
             std::fs::rename(&f.temp, &f.path)
                 .with_context(|| format!("{} {}: cannot move the result into place", f.flag, f.path.display()))?;
@@ -139,7 +139,7 @@ impl Drop for Outputs {
 }
 
 /// The files a run of `scene_file` reads: the scene and the FMU archives of its [system].
-pub fn run_inputs(scene_file: &Path, scene: &feedcore::scene::Scene) -> Vec<PathBuf> {
+pub(crate) fn run_inputs(scene_file: &Path, scene: &feedcore::scene::Scene) -> Vec<PathBuf> {
     let base = scene_file.parent().unwrap_or(Path::new(""));
     let fmus = scene.system.iter().flat_map(|s| s.fmus.iter()).map(|f| base.join(&f.path));
     std::iter::once(scene_file.to_owned()).chain(fmus).collect()

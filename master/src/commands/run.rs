@@ -14,40 +14,40 @@ use super::scheme_args::{SchemeName, SchemeOptions};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML), e.g. scenes/lt50m_C.toml. Its [system] section names the FMUs.
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Method.
     #[arg(long, value_enum)]
-    pub scheme: SchemeName,
+    pub(crate) scheme: SchemeName,
     /// Macro step (s); default: the scene's solver.dt_s. The end time must be a whole number of
     /// steps.
     #[arg(long, allow_negative_numbers = true)]
-    pub dt: Option<f64>,
+    pub(crate) dt: Option<f64>,
     /// End time (s); default: the scene's solver.t_end_s.
     #[arg(long, allow_negative_numbers = true)]
-    pub t_end: Option<f64>,
+    pub(crate) t_end: Option<f64>,
     /// Write the time histories as CSV: t, dx_mm, dy_mm, dz_mm (cabin-centre displacement from the
     /// static equilibrium), rx_mrad, ry_mrad, rz_mrad (rotation), fx_n … mz_nm (Stewart wrench) —
     /// the groups the scene's outputs.quantities ask for, at its outputs.sample_interval_s.
     #[arg(long)]
-    pub out: Option<PathBuf>,
+    pub(crate) out: Option<PathBuf>,
     /// Print a JSON summary instead of text.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
     /// Draw the cabin-centre displacement (X, Y, Z panels, like the paper's Figs. 4–5) as SVG.
     #[arg(long)]
-    pub plot: Option<PathBuf>,
+    pub(crate) plot: Option<PathBuf>,
     /// No progress bar (it is also off when stderr is not a terminal).
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
     #[command(flatten)]
-    pub options: SchemeOptions,
+    pub(crate) options: SchemeOptions,
 }
 
 /// JSON summary of a trace: every figure from every step.
-pub fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
+pub(crate) fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
     json!({
         "scene": scene.name,
         "scheme": t.method,
@@ -66,13 +66,13 @@ pub fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
 }
 
 /// The displacement histories as three stacked panels, into output `id`.
-pub fn plot_traces(outputs: &Outputs, id: OutputId, traces: &[&Trace], title: &str) -> CmdResult {
+pub(crate) fn plot_traces(outputs: &Outputs, id: OutputId, traces: &[&Trace], title: &str) -> CmdResult {
     let runs: Vec<History> = traces.iter().map(|t| History { name: &t.method, t: &t.t, disp_mm: &t.disp_mm }).collect();
     let svg = time_history(title, &runs).context("drawing the time histories")?;
     outputs.write(id, |w| w.write_all(svg.as_bytes()))
 }
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let method = args.options.method(args.scheme);
     let dt = args.dt.unwrap_or(scene.solver.dt_s);

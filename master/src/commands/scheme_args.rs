@@ -7,7 +7,7 @@ use master::simulate::Method;
 
 /// The methods `--scheme` and `--schemes` know, and what each needs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum SchemeName {
+pub(crate) enum SchemeName {
     /// The cable–cabin model alone, platform locked, under the scene's [disturbance]; in-process.
     Cable,
     /// Eq. (7): the whole system in one model, no FMUs; the accuracy reference.
@@ -29,7 +29,7 @@ pub enum SchemeName {
 
 impl SchemeName {
     /// The name as written on the command line.
-    pub fn as_str(self) -> &'static str {
+    pub(crate) fn as_str(self) -> &'static str {
         match self {
             SchemeName::Cable => "cable",
             SchemeName::Monolithic => "monolithic",
@@ -43,13 +43,13 @@ impl SchemeName {
     }
 
     /// Whether the scheme iterates within a macro step.
-    pub fn iterates(self) -> bool {
+    pub(crate) fn iterates(self) -> bool {
         matches!(self, SchemeName::Iterative | SchemeName::Ijcsa)
     }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ExtrapolationArg {
+pub(crate) enum ExtrapolationArg {
     /// The last outputs.
     Constant,
     /// Extrapolated from the last two (non-iterating schemes pass the slope to the FMUs
@@ -58,7 +58,7 @@ pub enum ExtrapolationArg {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum JacobianArg {
+pub(crate) enum JacobianArg {
     /// Recomputed every step.
     EveryStep,
     /// Quasi-Newton: kept while Newton contracts well.
@@ -77,7 +77,7 @@ fn relaxation(text: &str) -> Result<Relaxation, String> {
 }
 
 /// A positive finite number.
-pub fn positive(text: &str) -> Result<f64, String> {
+pub(crate) fn positive(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(x) if x > 0.0 && x.is_finite() => Ok(x),
         Ok(x) => Err(format!("{x} is not a positive finite number")),
@@ -87,29 +87,29 @@ pub fn positive(text: &str) -> Result<f64, String> {
 
 /// Options of the coupling schemes.
 #[derive(clap::Args, Clone, Debug)]
-pub struct SchemeOptions {
+pub(crate) struct SchemeOptions {
     /// First guess of the end-of-step inputs.
     #[arg(long, value_enum, default_value_t = ExtrapolationArg::Constant)]
-    pub extrapolation: ExtrapolationArg,
+    pub(crate) extrapolation: ExtrapolationArg,
     /// Interface tolerance of iterating schemes: every |U − C·Y| ≤ tol · s, with s the largest
     /// start value (at least 1) among the inputs of the same FMU and unit (e.g. the weight for
     /// forces).
     #[arg(long, default_value_t = 1e-8, value_parser = positive)]
-    pub tol: f64,
+    pub(crate) tol: f64,
     /// Iteration limit per macro step of iterating schemes (exceeding it stops the run).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
-    pub max_iter: u32,
+    pub(crate) max_iter: u32,
     /// Relaxation of `iterative`: a fixed factor in (0, 1], or `aitken` (dynamic; it stalls on
     /// the LT50m scenes, whose interface couples several modes of both signs).
     #[arg(long, default_value = "0.5", value_parser = relaxation)]
-    pub relaxation: Relaxation,
+    pub(crate) relaxation: Relaxation,
     /// Interface Jacobian of `ijcsa`.
     #[arg(long, value_enum, default_value_t = JacobianArg::EveryStep)]
-    pub jacobian: JacobianArg,
+    pub(crate) jacobian: JacobianArg,
 }
 
 impl SchemeOptions {
-    pub fn method(&self, scheme: SchemeName) -> Method {
+    pub(crate) fn method(&self, scheme: SchemeName) -> Method {
         let mut options = Options {
             scheme: Scheme::Jacobi,
             extrapolation: match self.extrapolation {

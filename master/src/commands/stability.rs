@@ -18,10 +18,10 @@ use super::scheme_args::{SchemeName, SchemeOptions, positive};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML).
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Coupling schemes (comma-separated).
     #[arg(
         long,
@@ -29,26 +29,26 @@ pub struct Args {
         value_delimiter = ',',
         default_value = "jacobi,gauss-seidel,gauss-seidel-reversed,iterative,ijcsa"
     )]
-    pub schemes: Vec<SchemeName>,
+    pub(crate) schemes: Vec<SchemeName>,
     /// Factors on every mass and inertia of the Stewart platform (1: the scene's platform).
     #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
           default_value = "0.1,0.2,0.5,1,2,5,10")]
-    pub ratios: Vec<f64>,
+    pub(crate) ratios: Vec<f64>,
     /// Macro steps (s, comma-separated).
     #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
           default_value = "0.04,0.02,0.01,0.005,0.0025")]
-    pub dts: Vec<f64>,
+    pub(crate) dts: Vec<f64>,
     /// Simulated time of every run (s).
     #[arg(long, default_value_t = 10.0, value_parser = positive, allow_negative_numbers = true)]
-    pub t_end: f64,
+    pub(crate) t_end: f64,
     /// Directory for stability.csv and stability.svg.
     #[arg(long, default_value = "out/stability")]
-    pub out: PathBuf,
+    pub(crate) out: PathBuf,
     /// No progress bars.
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
     #[command(flatten)]
-    pub options: SchemeOptions,
+    pub(crate) options: SchemeOptions,
 }
 
 /// The outcome of one cell; the order is that of the map's colours ([`CATEGORY_COLORS`]).
@@ -87,7 +87,7 @@ fn scaled(scene: &Scene, f: f64) -> Scene {
     s
 }
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let (ratios, dts) = (&args.ratios, &args.dts);
     let quiet = args.quiet || !std::io::stderr().is_terminal();

@@ -13,18 +13,18 @@ use serde_json::json;
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML), e.g. scenes/lt50m_C.toml.
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Print JSON instead of a table: cabin_position [x, y, z] (m), cabin_orientation
     /// [w, x, y, z] (unit quaternion, body to world), and per cable unstretched_length_m,
     /// tension_anchor_n, tension_cabin_n, slack, nearly_slack, state, lowest_point_z_m.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
 }
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let mut out = std::io::stdout().lock();
     check_memory(&scene, Footprint::CableModel, false, &caps().run)

@@ -12,11 +12,11 @@ use stewart_fmu::{CabinMotion, Stewart};
 use super::{CmdResult, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML), e.g. scenes/lt50m_B.toml. The cabin is held at the scene's target pose
     /// and the platform runs the scene's motion, sampled every `solver.dt_s`.
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Print JSON instead of tables. Keys (world frame; 6-vectors and matrix rows/columns are
     /// force then moment, moments about the cabin centre point; SI units): added_mass (6×6, the
     /// locked spatial mass matrix, = −∂wrench/∂(a, α)), static_wrench (platform at rest at its
@@ -25,12 +25,12 @@ pub struct Args {
     /// max} per leg (tension positive), plus scene, total_mass_kg, cabin_position,
     /// cabin_orientation [w, x, y, z], revolution_s, samples.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
 }
 
 const LABELS: [&str; 6] = ["Fx N", "Fy N", "Fz N", "Mx N·m", "My N·m", "Mz N·m"];
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let mut out = std::io::stdout().lock();
     let st = Stewart::from_scene(&scene)?;

@@ -15,16 +15,16 @@ use master::table::Table;
 use super::{CmdResult, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene C (the centre of the workspace) …
     #[arg(long, default_value = "scenes/lt50m_C.toml")]
-    pub scene_c: PathBuf,
+    pub(crate) scene_c: PathBuf,
     /// … and scene B (the edge, with the nearly slack cable).
     #[arg(long, default_value = "scenes/lt50m_B.toml")]
-    pub scene_b: PathBuf,
+    pub(crate) scene_b: PathBuf,
     /// Durations divided by 50 (a check that every case runs, for the test suite).
     #[arg(long)]
-    pub quick: bool,
+    pub(crate) quick: bool,
 }
 
 fn ijcsa() -> Method {
@@ -74,7 +74,7 @@ fn fast_part(t: &Trace) -> f64 {
     (total / power).sqrt()
 }
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let quiet = !std::io::stderr().is_terminal();
     let scale = if args.quick { 1.0 / 50.0 } else { 1.0 };
     let c = load_scene(&args.scene_c)?;

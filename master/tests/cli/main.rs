@@ -20,9 +20,9 @@ mod stewart;
 use std::process::{Command, Output};
 
 /// The `master` binary under test.
-pub const MASTER: &str = env!("CARGO_BIN_EXE_master");
+pub(crate) const MASTER: &str = env!("CARGO_BIN_EXE_master");
 
 /// Runs `master` with `args` and waits for it.
-pub fn master(args: &[&str]) -> Output {
+pub(crate) fn master(args: &[&str]) -> Output {
     Command::new(MASTER).args(args).output().unwrap()
 }
