@@ -409,6 +409,7 @@ impl<'a> Run<'a> {
         let setup = |e: &(dyn std::error::Error + 'static)| RunError::Setup { method: name, source: Detached::of(e) };
         let bar = Progress::new(plan.steps, plan.dt, plan.t_end, quiet);
         let start = Instant::now();
+        let stopped = |time: f64, reason: String| RunError::Stopped { method: name, time, reason };
         match method {
             Method::CableOnly => {
                 let model = cable_fmu::model::CableCabin::build(scene, 0).map_err(|e| setup(&e))?;
@@ -421,45 +422,35 @@ impl<'a> Run<'a> {
                     let c = dy.cabin();
                     Probe { position: c.position, orientation: c.orientation, wrench: vec6(&disturbance(t)) }
                 };
-                rec.observe(0, 0.0, &probe(&dy, 0.0))?;
-                for k in 1..=plan.steps {
-                    let t = plan.time(k);
-                    let s = dy.step(plan.dt, &disturbance(t)).map_err(|e| RunError::Stopped {
-                        method: name,
-                        time: e.time,
-                        reason: e.reason,
-                    })?;
-                    rec.cost(t, s.iterations, 0.0)?;
-                    rec.observe(k, t, &probe(&dy, t))?;
-                    bar.update(k);
-                }
+                let first = probe(&dy, 0.0);
+                self.drive(&mut rec, &bar, first, |t| {
+                    let s = dy.step(plan.dt, &disturbance(t)).map_err(|e| stopped(e.time, e.reason))?;
+                    Ok(Stepped {
+                        iterations: s.iterations,
+                        interface_residual: 0.0,
+                        constraint_residual: 0.0,
+                        probe: probe(&dy, t),
+                    })
+                })?;
             }
             Method::Monolithic => {
                 let mut m = Monolithic::new(scene).map_err(|e| setup(&*e))?;
-                let s = m.sample();
                 let probe = |s: &crate::monolithic::Sample| Probe {
                     position: s.cabin.position,
                     orientation: s.cabin.orientation,
                     wrench: vec6(&s.wrench),
                 };
-                rec.observe(0, 0.0, &probe(&s))?;
-                for k in 1..=plan.steps {
-                    let t = plan.time(k);
-                    let iterations = m.step(plan.dt).map_err(|e: MonolithicError| RunError::Stopped {
-                        method: name,
-                        time: e.time,
-                        reason: e.reason,
-                    })?;
-                    rec.cost(t, iterations, 0.0)?;
+                let first = probe(&m.sample());
+                self.drive(&mut rec, &bar, first, |_| {
+                    let iterations = m.step(plan.dt).map_err(|e: MonolithicError| stopped(e.time, e.reason))?;
                     let s = m.sample();
-                    if !s.constraint_residual.is_finite() {
-                        return Err(rec.stopped(t, format!("the constraint residual is {}", s.constraint_residual)));
-                    }
-                    let c = &mut rec.trace.summary.max_constraint_residual_m;
-                    *c = c.max(s.constraint_residual);
-                    rec.observe(k, t, &probe(&s))?;
-                    bar.update(k);
-                }
+                    Ok(Stepped {
+                        iterations,
+                        interface_residual: 0.0,
+                        constraint_residual: s.constraint_residual,
+                        probe: probe(&s),
+                    })
+                })?;
             }
             Method::Cosim(options) | Method::Decoupled(options) => {
                 let mut sc = scene.clone();
@@ -474,25 +465,56 @@ impl<'a> Run<'a> {
                 let mut c = Coupled::new(&sc, self.scene_file, options).map_err(|e| setup(&*e))?;
                 let read_wrench = scene.outputs.quantities.contains(&Quantity::Wrench);
                 let probe = CosimProbe::new(&mut c, read_wrench).map_err(|e| setup(&*e))?;
-                let fmi =
-                    |t: f64, e: fmi2::import::Error| RunError::Stopped { method: name, time: t, reason: e.to_string() };
-                rec.observe(0, 0.0, &probe.read(&mut c).map_err(|e| fmi(0.0, e))?)?;
-                for k in 1..=plan.steps {
-                    let t = plan.time(k);
-                    let report = c.step(plan.dt).map_err(|e: CosimError| RunError::Stopped {
-                        method: name,
-                        time: e.time,
-                        reason: e.reason,
-                    })?;
-                    rec.cost(t, report.iterations, report.residual)?;
-                    rec.observe(k, t, &probe.read(&mut c).map_err(|e| fmi(t, e))?)?;
-                    bar.update(k);
-                }
+                let first = probe.read(&mut c).map_err(|e| stopped(0.0, e.to_string()))?;
+                self.drive(&mut rec, &bar, first, |t| {
+                    let report = c.step(plan.dt).map_err(|e: CosimError| stopped(e.time, e.reason))?;
+                    Ok(Stepped {
+                        iterations: report.iterations,
+                        interface_residual: report.residual,
+                        constraint_residual: 0.0,
+                        probe: probe.read(&mut c).map_err(|e| stopped(t, e.to_string()))?,
+                    })
+                })?;
             }
         }
         bar.finish();
         rec.trace.wall_time_s = start.elapsed().as_secs_f64();
         Ok(rec.trace)
+    }
+}
+
+/// What one step gave.
+struct Stepped {
+    iterations: usize,
+    interface_residual: f64,
+    constraint_residual: f64,
+    probe: Probe,
+}
+
+impl Run<'_> {
+    /// Observes the start, then takes every step with `step` (given the time at its end),
+    /// refusing non-finite values and keeping the summary.
+    fn drive(
+        &self,
+        rec: &mut Recorder,
+        bar: &Progress,
+        first: Probe,
+        mut step: impl FnMut(f64) -> Result<Stepped, RunError>,
+    ) -> Result<(), RunError> {
+        rec.observe(0, 0.0, &first)?;
+        for k in 1..=self.plan.steps {
+            let t = self.plan.time(k);
+            let s = step(t)?;
+            rec.cost(t, s.iterations, s.interface_residual)?;
+            if !s.constraint_residual.is_finite() {
+                return Err(rec.stopped(t, format!("the constraint residual is {}", s.constraint_residual)));
+            }
+            let c = &mut rec.trace.summary.max_constraint_residual_m;
+            *c = c.max(s.constraint_residual);
+            rec.observe(k, t, &s.probe)?;
+            bar.update(k);
+        }
+        Ok(())
     }
 }
 
