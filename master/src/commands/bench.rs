@@ -101,6 +101,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut outputs = Outputs::new(run_inputs(&args.scene, &variant));
     let csv_id = outputs.declare("--out", &args.out.join("bench.csv"), Some("csv"))?;
     let svg_id = outputs.declare("--out", &args.out.join("work_precision.svg"), Some("svg"))?;
+    outputs.open()?;
 
     let quiet = args.quiet || !std::io::stderr().is_terminal();
     eprintln!("reference: monolithic at h = {reference_dt} s …");

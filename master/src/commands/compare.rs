@@ -54,6 +54,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         args.schemes.iter().map(|&name| Ok((name, prepare(name)?))).collect::<Result<_, RunError>>()?;
     let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+    outputs.open()?;
 
     let reference = reference.execute(quiet)?;
     let peak = reference.peak_mm();

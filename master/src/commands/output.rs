@@ -1,11 +1,12 @@
 //! The result files of one command, written whole or not at all.
 //!
-//! Every output is declared before the run starts: its extension checked, refused if it names
-//! an input of the run or another output, its directory created and a temporary file opened
-//! beside it (so that an unwritable place fails at once, naming the path). Results go to the
-//! temporary files; [`Outputs::commit`] renames them all into place at the end. A command that
-//! fails after its outputs were declared removes the temporary files and also the files an
-//! earlier run left under the same names: no file that looks current outlives a failed run.
+//! Every output is declared before the run starts ([`Outputs::declare`]): its extension checked,
+//! refused if it names an input of the run or another output. [`Outputs::open`] then creates the
+//! directories and a temporary file beside each output, so that an unwritable place fails at
+//! once, naming the path. Results go to the temporary files; [`Outputs::commit`] renames them
+//! all into place at the end. A command that fails after opening its outputs removes the
+//! temporary files and also the files an earlier run left under the same names: no file that
+//! looks current outlives a failed run. (A refused declaration touches nothing.)
 
 use std::fs::File;
 use std::io::Write;
@@ -24,6 +25,7 @@ struct Planned {
 pub(crate) struct Outputs {
     files: Vec<Planned>,
     inputs: Vec<PathBuf>,
+    opened: bool,
     committed: bool,
 }
 
@@ -55,7 +57,7 @@ impl Outputs {
     /// Outputs of a run that reads `inputs` (scene file, FMU archives, …), which no output may
     /// name.
     pub(crate) fn new(inputs: impl IntoIterator<Item = PathBuf>) -> Outputs {
-        Outputs { files: Vec::new(), inputs: inputs.into_iter().collect(), committed: false }
+        Outputs { files: Vec::new(), inputs: inputs.into_iter().collect(), opened: false, committed: false }
     }
 
     /// Declares the output `path` given by `flag`; `extension`: the one it must have.
@@ -81,15 +83,24 @@ impl Outputs {
         }
         let name = path.file_name().with_context(|| format!("{flag} {shown}: no file name"))?;
         let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("{flag} {shown}: cannot create the directory {}", dir.display()))?;
         let mut temp_name = std::ffi::OsString::from(".");
         temp_name.push(name);
         temp_name.push(format!(".{}.tmp", std::process::id()));
-        let temp = dir.join(temp_name);
-        File::create(&temp).with_context(|| format!("{flag} {shown}: cannot write in {}", dir.display()))?;
-        self.files.push(Planned { flag: flag.to_string(), path: path.to_owned(), temp });
+        self.files.push(Planned { flag: flag.to_string(), path: path.to_owned(), temp: dir.join(temp_name) });
         Ok(OutputId(self.files.len() - 1))
+    }
+
+    /// Creates the directories and the temporary files of every declared output.
+    pub(crate) fn open(&mut self) -> anyhow::Result<()> {
+        for f in &self.files {
+            let dir = f.temp.parent().expect("a temporary file has a directory");
+            let shown = f.path.display();
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("{} {shown}: cannot create the directory {}", f.flag, dir.display()))?;
+            File::create(&f.temp).with_context(|| format!("{} {shown}: cannot write in {}", f.flag, dir.display()))?;
+        }
+        self.opened = true;
+        Ok(())
     }
 
     /// Writes the content of output `id` (to its temporary file).
@@ -128,7 +139,7 @@ impl Drop for Outputs {
         }
         for f in &self.files {
             let _ = std::fs::remove_file(&f.temp);
-            if f.path.is_file() && std::fs::remove_file(&f.path).is_ok() {
+            if self.opened && f.path.is_file() && std::fs::remove_file(&f.path).is_ok() {
                 eprintln!(
                     "note: removed {} from an earlier run so that it is not taken for this one's",
                     f.path.display()

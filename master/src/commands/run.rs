@@ -91,6 +91,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
     let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+    outputs.open()?;
 
     let trace = run.execute(quiet)?;
     if let Some(id) = csv {

@@ -120,6 +120,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
     let csv_id = outputs.declare("--out", &args.out.join("stability.csv"), Some("csv"))?;
     let svg_id = outputs.declare("--out", &args.out.join("stability.svg"), Some("svg"))?;
+    outputs.open()?;
 
     let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
     for (f, feasible, runs) in &variants {

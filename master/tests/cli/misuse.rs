@@ -65,6 +65,11 @@ fn output_paths_are_checked_before_the_run() {
     let csv = dir.join("x.csv");
     refused(&run(&["--out", s(&csv), "--plot", s(&dir.join("x.png"))]), &["--plot", "x.png", "SVG"]);
     assert!(!csv.exists(), "nothing written");
+    // a refused command line touches no earlier result
+    std::fs::write(&csv, "earlier").unwrap();
+    refused(&run(&["--out", s(&csv), "--plot", s(&dir.join("x.png"))]), &["SVG"]);
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), "earlier");
+    std::fs::remove_file(&csv).unwrap();
     // a place that cannot be written is named
     refused(&run(&["--out", "/proc/x.csv"]), &["--out /proc/x.csv"]);
     refused(&run(&["--out", s(&dir)]), &["is a directory"]);
