@@ -10,7 +10,7 @@ use crate::damping::{rayleigh_coefficients, rayleigh_matrix};
 use crate::dynamics::{Dynamics, DynamicsError, DynamicsOptions};
 use crate::modes::{Modes, modes};
 use crate::net::CableNet;
-use crate::statics::{Equilibrium, StaticsError, form_find};
+use crate::statics::{Equilibrium, StaticsError, form_find, form_find_under};
 use crate::system::{Config, Support, System};
 
 #[derive(Debug)]
@@ -124,6 +124,38 @@ impl CableCabin {
                 s
             }
         }
+    }
+
+    /// The same model in equilibrium at the same pose with the platform replaced by the
+    /// external `wrench` on the cabin: the unstretched lengths are form-found for it, the
+    /// damping keeps its fitted coefficients (on the stiffness of the new equilibrium).
+    pub fn under_wrench(&self, wrench: &Vector6<f64>) -> Result<CableCabin, ModelError> {
+        let (p, q) = (self.equilibrium.position, self.equilibrium.orientation);
+        let equilibrium = form_find_under(&self.net, p, q, wrench).map_err(ModelError::Statics)?;
+        let mut locked = System::new(self.net.clone(), equilibrium.lengths(), true, Support::Free);
+        let cfg = locked.config_from(&equilibrium);
+        locked.damping = Some(rayleigh_matrix(&locked, &cfg, self.damping.alpha, self.damping.beta));
+        Ok(CableCabin {
+            scene: self.scene.clone(),
+            net: self.net.clone(),
+            equilibrium,
+            modes: None,
+            damping: self.damping,
+            locked,
+        })
+    }
+
+    /// Bytes [`CableCabin::build`] and the dynamics would allocate for `scene` with at least
+    /// `mode_count` modes, as a float (it may not fit any integer for absurd sizes). Keep it in
+    /// step with the algorithms: the modal analysis is dense now (about ten n × n matrices,
+    /// n the number of unknowns); the chain matrices and states grow linearly.
+    pub fn memory_estimate(scene: &Scene, mode_count: usize) -> f64 {
+        let n = 3.0 * scene.cable_count() as f64 * (scene.cables.elements as f64 - 1.0) + 6.0;
+        let modes = scene.damping.fit_modes.map_or(0, |m| m[1]).max(mode_count);
+        let dense = if modes > 0 { 10.0 * n * n } else { 0.0 };
+        // chain blocks (3×3 and 3×6 per node) in a handful of matrices and factors, vectors
+        let linear = 400.0 * n;
+        8.0 * (dense + linear)
     }
 
     pub fn equilibrium_config(&self) -> Config {

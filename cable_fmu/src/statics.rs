@@ -106,10 +106,81 @@ fn weight_wrench(body: &MassProperties, rot: &Quat, gravity: &Vec3) -> Vector6<f
 
 /// Finds the unstretched lengths that hold the cabin at `position`, `orientation`.
 pub fn form_find(net: &CableNet, position: Vec3, orientation: Quat) -> Result<Equilibrium, StaticsError> {
+    let load = weight_wrench(&net.suspended(), &orientation, &net.spec.gravity);
+    form_find_loaded(net, position, orientation, load)
+}
+
+/// As [`form_find`], with the cabin carrying the `external` wrench (force; moment about the cabin
+/// centre point; world frame) in place of the payload's weight: what an external platform
+/// exerts on it (co-simulation).
+pub fn form_find_under(
+    net: &CableNet,
+    position: Vec3,
+    orientation: Quat,
+    external: &Vector6<f64>,
+) -> Result<Equilibrium, StaticsError> {
+    let load = weight_wrench(&net.cabin, &orientation, &net.spec.gravity) + external;
+    form_find_loaded(net, position, orientation, load)
+}
+
+/// Change of the end tensions of a form-found equilibrium when the external wrench on the cabin
+/// changes and the unstretched lengths follow, so that the pose stays an equilibrium:
+/// `[cable][0 anchor end, 1 cabin end][wrench component]`. Exact: the lengths move by
+/// `−J⁻¹ δW` (J the length Jacobian of the cabin equations), each cable's end tensions with
+/// its length through the shooting sensitivity.
+pub fn tension_wrench_sensitivity(net: &CableNet, eq: &Equilibrium) -> Result<Vec<[[f64; 6]; 2]>, StaticsError> {
+    let n = net.cable_count();
+    let singular = || StaticsError::NoConvergence {
+        residual: eq.residual,
+        iterations: eq.newton_iterations,
+        detail: "singular length Jacobian at the equilibrium".into(),
+    };
+    if n != 6 {
+        return Err(singular());
+    }
+    let elements = net.spec.elements as f64;
+    let mut jac = Matrix6::zeros();
+    for (i, c) in eq.cables.iter().enumerate() {
+        let df = -c.shape.d_last_tension_d_length + net.spec.gravity * (0.5 * net.spec.mass_per_length / elements);
+        let dm = (eq.orientation * net.attachments[i]).cross(&df);
+        for k in 0..3 {
+            jac[(k, i)] = df[k];
+            jac[(k + 3, i)] = dm[k];
+        }
+    }
+    // cabin equations R(L) + δW = 0  ⇒  δL = −J⁻¹ δW
+    let dl_dw = jac.try_inverse().ok_or_else(singular)? * -1.0;
+    Ok(eq
+        .cables
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let t = &c.shape.tension;
+            let d_last = c.shape.d_last_tension_d_length;
+            // T_first = T_last − (n − 1) m g with node mass m = μ L / n
+            let d_first = d_last + net.spec.gravity * (net.spec.mass_per_length * (elements - 1.0) / elements);
+            let rate = |tv: &Vec3, dt: &Vec3| if tv.norm() > 0.0 { tv.normalize().dot(dt) } else { 0.0 };
+            let (ra, rc) = (rate(&t[0], &d_first), rate(&t[t.len() - 1], &d_last));
+            let mut out = [[0.0; 6]; 2];
+            for k in 0..6 {
+                out[0][k] = ra * dl_dw[(i, k)];
+                out[1][k] = rc * dl_dw[(i, k)];
+            }
+            out
+        })
+        .collect())
+}
+
+/// Form finding for the cabin load `load` (its weight and what it carries).
+fn form_find_loaded(
+    net: &CableNet,
+    position: Vec3,
+    orientation: Quat,
+    load: Vector6<f64>,
+) -> Result<Equilibrium, StaticsError> {
     let n = net.cable_count();
     let arms: Vec<Vec3> = net.attachments.iter().map(|a| orientation * a).collect();
     let ends: Vec<Vec3> = arms.iter().map(|d| position + d).collect();
-    let load = weight_wrench(&net.suspended(), &orientation, &net.spec.gravity);
 
     // Straight, massless cables: the linear statics gives tensions, a feasibility check and a
     // first guess. With six cables it is square; otherwise least squares.

@@ -147,8 +147,12 @@ pub struct Variable {
     /// A unit name from [`SI_UNITS`] or [`ModelDescription::extra_units`]; Real variables only.
     pub unit: Option<String>,
     pub description: String,
-    /// Outputs only: names of the inputs the output depends on directly (`None`: on all knowns).
+    /// Outputs only: names of the inputs the output depends on at a communication point in step
+    /// mode (direct feedthrough; `None`: on all knowns). Written to `<ModelStructure><Outputs>`.
     pub depends_on: Option<Vec<String>>,
+    /// Outputs only: names of the inputs and parameters the output depends on in initialization
+    /// mode (`None`: on all knowns). Written to `<ModelStructure><InitialUnknowns>`.
+    pub initial_depends_on: Option<Vec<String>>,
 }
 
 impl Variable {
@@ -187,6 +191,7 @@ impl Variable {
             unit: None,
             description: String::new(),
             depends_on: None,
+            initial_depends_on: None,
         }
     }
 
@@ -210,8 +215,15 @@ impl Variable {
         self
     }
 
+    /// The inputs this output depends on at a communication point in step mode.
     pub fn depends_on<S: AsRef<str>>(mut self, inputs: &[S]) -> Variable {
         self.depends_on = Some(inputs.iter().map(|s| s.as_ref().to_owned()).collect());
+        self
+    }
+
+    /// The inputs and parameters this output depends on in initialization mode.
+    pub fn initially_depends_on<S: AsRef<str>>(mut self, knowns: &[S]) -> Variable {
+        self.initial_depends_on = Some(knowns.iter().map(|s| s.as_ref().to_owned()).collect());
         self
     }
 }
@@ -266,6 +278,10 @@ pub struct Capabilities {
     pub provides_directional_derivative: bool,
     /// `canInterpolateInputs`: the model implements first-order [`crate::export::Model::set_real_input_derivative`].
     pub can_interpolate_inputs: bool,
+    /// The opt-in extension of this workspace: the model implements
+    /// [`crate::export::Model::step_map_derivative`], exported as `feedsimGetStepMapDerivative` and
+    /// announced by `<VendorAnnotations><Tool name="feedsim"><StepMapDerivative/>`.
+    pub provides_step_map_derivative: bool,
 }
 
 /// Everything `modelDescription.xml` says, as the model declares it.
@@ -285,9 +301,42 @@ pub struct ModelDescription {
     pub variables: Vec<Variable>,
 }
 
+impl ModelDescription {
+    /// A Co-Simulation description with this workspace's defaults: model name = identifier,
+    /// default experiment 0 … 100 s at 0.01 s, SI units only.
+    pub fn co_simulation(
+        identifier: &str,
+        guid: &str,
+        description: &str,
+        version: &str,
+        capabilities: Capabilities,
+        variables: Vec<Variable>,
+    ) -> ModelDescription {
+        ModelDescription {
+            model_name: identifier.into(),
+            model_identifier: identifier.into(),
+            guid: guid.into(),
+            description: description.into(),
+            version: version.into(),
+            capabilities,
+            default_experiment: Some(DefaultExperiment {
+                start_time: 0.0,
+                stop_time: 100.0,
+                step_size: 0.01,
+                tolerance: None,
+            }),
+            extra_units: vec![],
+            variables,
+        }
+    }
+}
+
 /// The log categories every exported FMU declares (name, description).
 pub const LOG_CATEGORIES: [(&str, &str); 3] = [
-    ("logError", "Errors: calls in the wrong state, unknown value references, invalid values, model failures"),
+    (
+        "logError",
+        "Errors: calls in the wrong state, unknown value references, invalid values, model failures; and why a step was discarded",
+    ),
     ("logInfo", "Informational messages: instantiation, mode changes"),
     ("logAll", "All of the above"),
 ];
@@ -313,6 +362,8 @@ pub struct VarInfo {
     pub initial: Option<Initial>,
     pub index: usize,
     pub dependencies: Option<Vec<usize>>,
+    /// Resolved initialization-mode dependencies (1-based indices).
+    pub initial_dependencies: Option<Vec<usize>>,
 }
 
 impl VarInfo {
@@ -424,7 +475,13 @@ impl ModelInfo {
                     None => return err(format!("variable `{}`: unit `{unit}` is not defined", v.name)),
                 }
             }
-            vars.push(VarInfo { var: v.clone(), initial, index: pos + 1, dependencies: None });
+            vars.push(VarInfo {
+                var: v.clone(),
+                initial,
+                index: pos + 1,
+                dependencies: None,
+                initial_dependencies: None,
+            });
         }
         if independents > 1 {
             return err("more than one variable has causality `independent`".into());
@@ -439,30 +496,37 @@ impl ModelInfo {
                 ));
             }
         }
-        // Output dependencies: names of inputs → 1-based indices.
+        // Output dependencies: names → 1-based indices. In step mode the knowns are the inputs;
+        // in initialization mode also the parameters (FMI 2.0, 2.2.8).
         for i in 0..vars.len() {
-            let Some(deps) = vars[i].var.depends_on.clone() else { continue };
-            if vars[i].var.causality != Causality::Output {
-                return err(format!("variable `{}`: only outputs may list dependencies", vars[i].var.name));
-            }
-            let mut indices = Vec::with_capacity(deps.len());
-            for name in &deps {
-                match vars.iter().find(|x| &x.var.name == name) {
-                    Some(x) if x.var.causality == Causality::Input => indices.push(x.index),
-                    Some(_) => {
-                        return err(format!(
-                            "output `{}` depends on `{name}`, which is not an input",
-                            vars[i].var.name
-                        ));
-                    }
-                    None => {
-                        return err(format!("output `{}` depends on unknown variable `{name}`", vars[i].var.name));
+            for initial in [false, true] {
+                let v = &vars[i].var;
+                let Some(deps) = (if initial { &v.initial_depends_on } else { &v.depends_on }) else { continue };
+                if v.causality != Causality::Output {
+                    return err(format!("variable `{}`: only outputs may list dependencies", v.name));
+                }
+                let mut indices = Vec::with_capacity(deps.len());
+                for name in deps {
+                    match vars.iter().find(|x| &x.var.name == name) {
+                        Some(x) if x.var.causality == Causality::Input => indices.push(x.index),
+                        Some(x) if initial && x.var.causality == Causality::Parameter => indices.push(x.index),
+                        Some(_) => {
+                            let allowed = if initial { "an input or a parameter" } else { "an input" };
+                            return err(format!("output `{}` depends on `{name}`, which is not {allowed}", v.name));
+                        }
+                        None => {
+                            return err(format!("output `{}` depends on unknown variable `{name}`", v.name));
+                        }
                     }
                 }
+                indices.sort_unstable();
+                indices.dedup();
+                if initial {
+                    vars[i].initial_dependencies = Some(indices);
+                } else {
+                    vars[i].dependencies = Some(indices);
+                }
             }
-            indices.sort_unstable();
-            indices.dedup();
-            vars[i].dependencies = Some(indices);
         }
         Ok(ModelInfo { description, vars, units, by_vr })
     }

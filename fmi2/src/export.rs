@@ -20,13 +20,38 @@ pub struct Resource {
     pub bytes: Vec<u8>,
 }
 
+impl Resource {
+    /// Text files given as (name, text), e.g. the scenes a model ships.
+    pub fn texts(files: &[(&str, &str)]) -> Vec<Resource> {
+        files.iter().map(|(n, t)| Resource { name: (*n).to_owned(), bytes: t.as_bytes().to_vec() }).collect()
+    }
+}
+
+/// What a model's callbacks return on failure: any error (a `thiserror` enum of the model, or
+/// a plain message through `.into()`); the layer logs it with its source chain, the function
+/// and the variable.
+pub type ModelError = Box<dyn std::error::Error + Send + Sync>;
+
+/// How a step ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StepOutcome {
+    /// The model reached `t + h`.
+    Complete,
+    /// The model stopped at `time` (≤ `t + h`) and cannot go on (it has reached its end, e.g. a
+    /// counter that has counted down): `fmi2DoStep` returns `fmi2Discard`,
+    /// `fmi2GetBooleanStatus(fmi2Terminated)` answers true and
+    /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)` answers `time`; the getters show the state
+    /// at `time`.
+    Terminated { time: f64, reason: String },
+}
+
 /// What a model implements. The layer has already checked the value reference (it exists and has
 /// the right type), the causality/variability against the current state, and that Reals are
-/// finite; the model only does physics and its own range checks. Errors are plain messages; the
-/// layer adds the function and variable names.
+/// finite; the model only does physics and its own range checks. The layer adds the function and
+/// variable names to the errors.
 pub trait Model: Sized + Send + 'static {
     /// Static description; `modelDescription.xml` is generated from it.
-    fn description() -> ModelDescription;
+    fn description() -> Result<ModelDescription, ModelError>;
 
     /// Files for the FMU's `resources/` directory (e.g. the default scene).
     fn resources() -> Vec<Resource> {
@@ -35,67 +60,109 @@ pub trait Model: Sized + Send + 'static {
 
     /// A new instance with every variable at its start value. `resources`: the unpacked
     /// `resources/` directory, `None` if the importer gave no location.
-    fn instantiate(resources: Option<&Path>) -> Result<Self, String>;
+    fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError>;
 
-    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String>;
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError>;
     /// `&mut`: outputs may be computed lazily. Must work in initialization mode (calculated
-    /// outputs from the current parameters and inputs).
-    fn get_real(&mut self, vr: u32) -> Result<f64, String>;
-    fn set_integer(&mut self, _vr: u32, _value: i32) -> Result<(), String> {
+    /// outputs from the current parameters and inputs). A non-finite value is reported by the
+    /// layer as an error naming the variable and the time.
+    fn get_real(&mut self, vr: u32) -> Result<f64, ModelError>;
+    fn set_integer(&mut self, _vr: u32, _value: i32) -> Result<(), ModelError> {
         Err("the model has no settable Integer variables".into())
     }
-    fn get_integer(&mut self, _vr: u32) -> Result<i32, String> {
+    fn get_integer(&mut self, _vr: u32) -> Result<i32, ModelError> {
         Err("the model has no Integer variables".into())
     }
-    fn set_boolean(&mut self, _vr: u32, _value: bool) -> Result<(), String> {
+    fn set_boolean(&mut self, _vr: u32, _value: bool) -> Result<(), ModelError> {
         Err("the model has no settable Boolean variables".into())
     }
-    fn get_boolean(&mut self, _vr: u32) -> Result<bool, String> {
+    fn get_boolean(&mut self, _vr: u32) -> Result<bool, ModelError> {
         Err("the model has no Boolean variables".into())
     }
     /// The string is the importer's copy; keep it (e.g. a scene path, relative to `resources/`).
-    fn set_string(&mut self, _vr: u32, _value: &str) -> Result<(), String> {
+    fn set_string(&mut self, _vr: u32, _value: &str) -> Result<(), ModelError> {
         Err("the model has no settable String variables".into())
     }
-    fn get_string(&mut self, _vr: u32) -> Result<String, String> {
+    fn get_string(&mut self, _vr: u32) -> Result<String, ModelError> {
         Err("the model has no String variables".into())
     }
 
-    /// Leaving initialization mode: fixed parameters are final from here on.
-    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String>;
+    /// Leaving initialization mode: fixed parameters are final from here on, and the state must
+    /// be consistent with the inputs held now.
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError>;
 
     /// Advance from `t` to `t + h` with the inputs currently set (and their derivatives, if the
     /// model interpolates inputs). `t` is the importer's communication point, already checked
     /// against the instance's own time.
-    fn do_step(&mut self, t: f64, h: f64) -> Result<(), String>;
+    fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError>;
 
     /// First-order derivative of a Real input at the current communication point (only with
     /// `can_interpolate_inputs`; the layer rejects other orders). Convention of this workspace:
     /// the input is `u(t) + u̇ (τ − t)` during the next `do_step` only; the model clears `u̇`
     /// after that step, so a master that wants extrapolation sets it before every step.
-    fn set_real_input_derivative(&mut self, _vr: u32, _order: i32, _value: f64) -> Result<(), String> {
+    fn set_real_input_derivative(&mut self, _vr: u32, _order: i32, _value: f64) -> Result<(), ModelError> {
         Err("input derivatives are not supported".into())
     }
 
-    /// `out[i] = Σ_j ∂unknowns[i]/∂knowns[j] · seed[j]` (only with `provides_directional_derivative`).
-    /// Unknowns are Real outputs/locals/calculated parameters, knowns Real inputs or parameters;
-    /// parameters with a zero seed are removed by the layer. Models of this workspace return the
-    /// derivatives of the step map: the outputs after the last `do_step` with respect to the
-    /// inputs held during it (before the first step: the direct feedthrough).
+    /// `fmi2GetDirectionalDerivative` as FMI 2.0 defines it (only with
+    /// `provides_directional_derivative`): `out[i] = Σ_j ∂unknowns[i]/∂knowns[j] · seed[j]` at the
+    /// current instant — what `fmi2GetReal` of the unknowns would do if the knowns were changed
+    /// by `fmi2SetReal` now, without a step. Unknowns are Real outputs/locals/calculated
+    /// parameters, knowns Real inputs or parameters; parameters with a zero seed are removed by
+    /// the layer.
     fn directional_derivative(
         &mut self,
         _unknowns: &[u32],
         _knowns: &[u32],
         _seed: &[f64],
         _out: &mut [f64],
-    ) -> Result<(), String> {
+    ) -> Result<(), ModelError> {
         Err("directional derivatives are not provided".into())
     }
 
+    /// The extension `feedsimGetStepMapDerivative` (only with `provides_step_map_derivative`):
+    /// derivatives of the step map, the unknowns after the last `do_step` with respect to the
+    /// input values held during it. Same arguments as [`Model::directional_derivative`].
+    fn step_map_derivative(
+        &mut self,
+        _unknowns: &[u32],
+        _knowns: &[u32],
+        _seed: &[f64],
+        _out: &mut [f64],
+    ) -> Result<(), ModelError> {
+        Err("step-map derivatives are not provided".into())
+    }
+
     /// Append the complete model state to `out` (everything `do_step` and the getters read).
-    fn save_state(&self, out: &mut Vec<u8>);
+    fn save_state(&self, out: &mut Vec<u8>) -> Result<(), ModelError>;
     /// Restore a state written by `save_state` of this model (possibly another instance).
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String>;
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), ModelError>;
+}
+
+/// Model errors as the layer's messages.
+trait Msg<T> {
+    fn msg(self) -> Result<T, String>;
+}
+
+impl<T> Msg<T> for Result<T, ModelError> {
+    fn msg(self) -> Result<T, String> {
+        self.map_err(|e| error_chain(&*e))
+    }
+}
+
+/// An error with its chain of sources, `a: b: c`.
+fn error_chain(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let more = s.to_string();
+        if !text.contains(&more) {
+            text.push_str(": ");
+            text.push_str(&more);
+        }
+        source = s.source();
+    }
+    text
 }
 
 /// The phases of the FMI 2.0 Co-Simulation state machine.
@@ -107,6 +174,9 @@ pub enum Phase {
     Terminated,
     Error,
     Fatal,
+    /// `fmi2DoStep` returned `fmi2Discard` (the model stopped early): values and statuses can be
+    /// read, the state can be set back; no further step.
+    StepFailed,
 }
 
 impl Phase {
@@ -118,23 +188,27 @@ impl Phase {
             Phase::Terminated => "terminated",
             Phase::Error => "error",
             Phase::Fatal => "fatal",
+            Phase::StepFailed => "step failed (discarded)",
         }
     }
     fn code(self) -> u8 {
         self as u8
     }
+    /// The phases a saved state can hold.
     fn from_code(c: u8) -> Option<Phase> {
-        [Phase::Instantiated, Phase::InitializationMode, Phase::StepMode, Phase::Terminated].get(c as usize).copied()
+        [Instantiated, InitializationMode, StepMode, Terminated, StepFailed].into_iter().find(|p| p.code() == c)
     }
 }
 
 use Phase::*;
-const ALL_BUT_FATAL: &[Phase] = &[Instantiated, InitializationMode, StepMode, Terminated, Error];
-const GETTABLE: &[Phase] = &[InitializationMode, StepMode, Terminated, Error];
+const ALL_BUT_FATAL: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, Error];
+const GETTABLE: &[Phase] = &[InitializationMode, StepMode, StepFailed, Terminated, Error];
 const SETTABLE: &[Phase] = &[Instantiated, InitializationMode, StepMode];
-const STATE_OK: &[Phase] = &[Instantiated, InitializationMode, StepMode, Terminated];
+const STATE_OK: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated];
+/// Where the `fmi2Get*Status` functions may be called.
+const STATUS_OK: &[Phase] = &[StepMode, StepFailed, Terminated, Error];
 /// Freeing a saved state touches no model data: allowed even after a fatal error.
-const ANY: &[Phase] = &[Instantiated, InitializationMode, StepMode, Terminated, Error, Fatal];
+const ANY: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, Error, Fatal];
 
 /// Relative tolerance for matching the importer's communication point with the instance's time.
 pub const TIME_RTOL: f64 = 1e-9;
@@ -152,6 +226,8 @@ pub struct Instance<M: Model> {
     time: f64,
     start_time: f64,
     stop_time: Option<f64>,
+    /// The model ended the simulation (a step returned [`StepOutcome::Terminated`]).
+    terminated: bool,
     model: M,
     /// Strings handed out by `fmi2GetString`; valid until the next `fmi2GetString`.
     strings: Vec<CString>,
@@ -169,8 +245,9 @@ impl<M: Model> Instance<M> {
     }
 
     fn log(&self, status: fmi2Status, message: &str) {
-        let category = if status >= fmi2Error { "logError" } else { "logInfo" };
-        let enabled = if status >= fmi2Error { self.log_errors } else { self.log_info };
+        // A discarded step is reported like an error: the importer must learn why the model ended.
+        let category = if status >= fmi2Discard { "logError" } else { "logInfo" };
+        let enabled = if status >= fmi2Discard { self.log_errors } else { self.log_info };
         if enabled {
             log_to(self.logger, self.environment, &self.name, status, category, message);
         }
@@ -307,17 +384,19 @@ struct Snapshot {
 }
 
 impl<M: Model> Instance<M> {
-    fn save_into(&self, out: &mut Vec<u8>) {
+    fn save_into(&self, out: &mut Vec<u8>) -> Result<(), String> {
         out.clear();
         out.extend_from_slice(STATE_MAGIC);
         let mut w = crate::state_bytes::StateWriter::new(out);
         w.str(&self.info.description.guid).u8(self.phase.code());
         w.f64(self.time).f64(self.start_time).f64(self.stop_time.unwrap_or(f64::NAN)).bool(self.stop_time.is_some());
+        w.bool(self.terminated);
         let len_at = out.len();
         out.extend_from_slice(&0u64.to_le_bytes());
-        self.model.save_state(out);
+        self.model.save_state(out).msg()?;
         let model_len = (out.len() - len_at - 8) as u64;
         out[len_at..len_at + 8].copy_from_slice(&model_len.to_le_bytes());
+        Ok(())
     }
 
     /// Parsed layer fields and the model part; checks everything but the model bytes.
@@ -338,19 +417,20 @@ impl<M: Model> Instance<M> {
         let phase = Phase::from_code(code).ok_or_else(|| bad(format!("phase code {code}")))?;
         let (time, start_time, stop) = (r.f64().map_err(bad)?, r.f64().map_err(bad)?, r.f64().map_err(bad)?);
         let has_stop = r.bool().map_err(bad)?;
+        let terminated = r.bool().map_err(bad)?;
         let model_len = r.u64().map_err(bad)?;
         let model = r.rest();
         if model.len() as u64 != model_len {
             return Err(bad(format!("model part is {} bytes, header says {model_len}", model.len())));
         }
-        Ok(SavedLayer { phase, time, start_time, stop_time: has_stop.then_some(stop), model })
+        Ok(SavedLayer { phase, time, start_time, stop_time: has_stop.then_some(stop), terminated, model })
     }
 
     fn restore_from(&mut self, bytes: &[u8]) -> Result<(), String> {
         let saved = self.check_state(bytes)?;
-        self.model.restore_state(saved.model)?;
-        (self.phase, self.time, self.start_time, self.stop_time) =
-            (saved.phase, saved.time, saved.start_time, saved.stop_time);
+        self.model.restore_state(saved.model).msg()?;
+        (self.phase, self.time, self.start_time, self.stop_time, self.terminated) =
+            (saved.phase, saved.time, saved.start_time, saved.stop_time, saved.terminated);
         Ok(())
     }
 }
@@ -361,6 +441,7 @@ struct SavedLayer<'b> {
     time: f64,
     start_time: f64,
     stop_time: Option<f64>,
+    terminated: bool,
     model: &'b [u8],
 }
 
@@ -378,16 +459,20 @@ pub mod entry {
         c"2.0".as_ptr()
     }
 
-    /// The validated description of a model, built once per process by the macro.
+    /// The validated description of a model, built once per process (inside `fmi2Instantiate`'s
+    /// panic guard).
     pub fn model_info<M: Model>() -> Result<ModelInfo, DescriptionError> {
-        ModelInfo::new(M::description())
+        ModelInfo::new(M::description().map_err(|e| DescriptionError(error_chain(&*e)))?)
     }
+
+    /// Where the macro keeps a model's description for the life of the process.
+    pub type InfoCell = std::sync::OnceLock<Result<ModelInfo, DescriptionError>>;
 
     /// # Safety
     /// Pointers are null or valid C strings / a valid callback struct, as the standard requires.
     #[allow(clippy::too_many_arguments)]
     pub unsafe fn instantiate<M: Model>(
-        info: &'static Result<ModelInfo, DescriptionError>,
+        info: &'static InfoCell,
         instance_name: fmi2String,
         fmu_type: fmi2Type,
         guid: fmi2String,
@@ -418,7 +503,7 @@ pub mod entry {
             std::ptr::null_mut()
         };
         let result = catch_unwind(AssertUnwindSafe(|| -> Result<fmi2Component, String> {
-            let info = info.as_ref().map_err(|e| e.to_string())?;
+            let info = info.get_or_init(model_info::<M>).as_ref().map_err(|e| e.to_string())?;
             if instance_name.is_null() {
                 return Err("instanceName is a null pointer".into());
             }
@@ -441,7 +526,7 @@ pub mod entry {
                 unsafe { CStr::from_ptr(resource_location) }.to_string_lossy().into_owned()
             };
             let resources = crate::uri::resource_dir(&location)?;
-            let model = M::instantiate(resources.as_deref())?;
+            let model = M::instantiate(resources.as_deref()).msg()?;
             let inst = Instance {
                 info,
                 name: name.clone(),
@@ -454,6 +539,7 @@ pub mod entry {
                 time: 0.0,
                 start_time: 0.0,
                 stop_time: None,
+                terminated: false,
                 model,
                 strings: Vec::new(),
                 scratch_unknowns: Vec::new(),
@@ -559,7 +645,7 @@ pub mod entry {
     pub unsafe fn exit_initialization_mode<M: Model>(c: fmi2Component) -> fmi2Status {
         unsafe {
             call::<M>(c, "fmi2ExitInitializationMode", &[InitializationMode], |inst| {
-                inst.model.exit_initialization(inst.start_time)?;
+                inst.model.exit_initialization(inst.start_time).msg()?;
                 (inst.phase, inst.time) = (StepMode, inst.start_time);
                 inst.log(fmi2OK, &format!("entered step mode at t = {}", inst.time));
                 Ok(fmi2OK)
@@ -571,7 +657,7 @@ pub mod entry {
     /// `c` is null or a live instance of `M`.
     pub unsafe fn terminate<M: Model>(c: fmi2Component) -> fmi2Status {
         unsafe {
-            call::<M>(c, "fmi2Terminate", &[StepMode], |inst| {
+            call::<M>(c, "fmi2Terminate", &[StepMode, StepFailed], |inst| {
                 inst.phase = Terminated;
                 Ok(fmi2OK)
             })
@@ -583,14 +669,17 @@ pub mod entry {
     pub unsafe fn reset<M: Model>(c: fmi2Component) -> fmi2Status {
         unsafe {
             call::<M>(c, "fmi2Reset", ALL_BUT_FATAL, |inst| {
-                inst.model = M::instantiate(inst.resources.as_deref())?;
-                (inst.phase, inst.time, inst.start_time, inst.stop_time) = (Instantiated, 0.0, 0.0, None);
+                inst.model = M::instantiate(inst.resources.as_deref()).msg()?;
+                (inst.phase, inst.time, inst.start_time, inst.stop_time, inst.terminated) =
+                    (Instantiated, 0.0, 0.0, None, false);
                 Ok(fmi2OK)
             })
         }
     }
 
-    /// Shared body of `fmi2Get{Real,Integer,Boolean}`.
+    /// Shared body of `fmi2Get{Real,Integer,Boolean}`; `invalid` refuses a value the model
+    /// should never report (a non-finite Real).
+    #[allow(clippy::too_many_arguments)]
     unsafe fn get<M: Model, T>(
         c: fmi2Component,
         func: &'static str,
@@ -598,14 +687,19 @@ pub mod entry {
         vr: *const fmi2ValueReference,
         n: usize,
         value: *mut T,
-        read: impl Fn(&mut M, u32) -> Result<T, String>,
+        read: impl Fn(&mut M, u32) -> Result<T, ModelError>,
+        invalid: impl Fn(&T) -> Option<String>,
     ) -> fmi2Status {
         unsafe {
             call::<M>(c, func, GETTABLE, |inst| {
                 let (vrs, out) = (slice(vr, n, "vr")?, slice_mut(value, n, "value")?);
                 for (&r, o) in vrs.iter().zip(out.iter_mut()) {
                     let v = find(inst.info, t, r)?;
-                    *o = read(&mut inst.model, r).map_err(|e| format!("{}: {e}", describe(v)))?;
+                    let x = read(&mut inst.model, r).msg().map_err(|e| format!("{}: {e}", describe(v)))?;
+                    if let Some(why) = invalid(&x) {
+                        return Err(format!("{} = {why} at t = {}", describe(v), inst.time));
+                    }
+                    *o = x;
                 }
                 Ok(fmi2OK)
             })
@@ -622,7 +716,7 @@ pub mod entry {
         n: usize,
         value: *const T,
         invalid: impl Fn(T) -> Option<String>,
-        write: impl Fn(&mut M, u32, T) -> Result<(), String>,
+        write: impl Fn(&mut M, u32, T) -> Result<(), ModelError>,
     ) -> fmi2Status {
         unsafe {
             call::<M>(c, func, SETTABLE, |inst| {
@@ -639,6 +733,7 @@ pub mod entry {
                 }
                 for (&r, &x) in vrs.iter().zip(vals) {
                     write(&mut inst.model, r, x)
+                        .msg()
                         .map_err(|e| format!("{}: {e}", describe(find(inst.info, t, r).expect("checked"))))?;
                 }
                 Ok(fmi2OK)
@@ -653,18 +748,27 @@ pub mod entry {
     /// # Safety
     /// `c` is null or a live instance of `M`; arrays hold `n` elements.
     pub unsafe fn get_real<M: Model>(c: fmi2Component, vr: *const u32, n: usize, value: *mut f64) -> fmi2Status {
-        unsafe { get::<M, f64>(c, "fmi2GetReal", VarType::Real, vr, n, value, |m, r| m.get_real(r)) }
+        unsafe { get::<M, f64>(c, "fmi2GetReal", VarType::Real, vr, n, value, |m, r| m.get_real(r), |x| finite(*x)) }
     }
     /// # Safety
     /// As [`get_real`].
     pub unsafe fn get_integer<M: Model>(c: fmi2Component, vr: *const u32, n: usize, value: *mut i32) -> fmi2Status {
-        unsafe { get::<M, i32>(c, "fmi2GetInteger", VarType::Integer, vr, n, value, |m, r| m.get_integer(r)) }
+        unsafe { get::<M, i32>(c, "fmi2GetInteger", VarType::Integer, vr, n, value, |m, r| m.get_integer(r), |_| None) }
     }
     /// # Safety
     /// As [`get_real`].
     pub unsafe fn get_boolean<M: Model>(c: fmi2Component, vr: *const u32, n: usize, value: *mut i32) -> fmi2Status {
         unsafe {
-            get::<M, i32>(c, "fmi2GetBoolean", VarType::Boolean, vr, n, value, |m, r| m.get_boolean(r).map(i32::from))
+            get::<M, i32>(
+                c,
+                "fmi2GetBoolean",
+                VarType::Boolean,
+                vr,
+                n,
+                value,
+                |m, r| m.get_boolean(r).map(i32::from),
+                |_| None,
+            )
         }
     }
     /// # Safety
@@ -681,7 +785,7 @@ pub mod entry {
                 inst.strings.clear();
                 for &r in vrs {
                     let v = find(inst.info, VarType::String, r)?;
-                    let s = inst.model.get_string(r).map_err(|e| format!("{}: {e}", describe(v)))?;
+                    let s = inst.model.get_string(r).msg().map_err(|e| format!("{}: {e}", describe(v)))?;
                     inst.strings.push(CString::new(s.replace('\0', "")).unwrap_or_default());
                 }
                 for (o, s) in out.iter_mut().zip(&inst.strings) {
@@ -755,12 +859,12 @@ pub mod entry {
                 }
                 if (*state).is_null() {
                     let mut bytes = Vec::new();
-                    inst.save_into(&mut bytes);
+                    inst.save_into(&mut bytes)?;
                     *state = Box::into_raw(Box::new(Snapshot { tag: SNAPSHOT_TAG, bytes })).cast();
                 } else {
                     // Overwrite in place: a rollback loop allocates nothing after the first step.
                     let snap = snapshot_mut(*state)?;
-                    inst.save_into(&mut snap.bytes);
+                    inst.save_into(&mut snap.bytes)?;
                 }
                 Ok(fmi2OK)
             })
@@ -873,6 +977,15 @@ pub mod entry {
         }
     }
 
+    /// Which derivative a call asks for.
+    #[derive(Clone, Copy)]
+    enum Derivative {
+        /// `fmi2GetDirectionalDerivative`: at the current instant.
+        Instant,
+        /// `feedsimGetStepMapDerivative`: of the last step's map.
+        StepMap,
+    }
+
     /// # Safety
     /// `c` is null or a live instance of `M`; arrays hold the given numbers of elements.
     #[allow(clippy::too_many_arguments)]
@@ -885,10 +998,61 @@ pub mod entry {
         dv_known: *const f64,
         dv_unknown: *mut f64,
     ) -> fmi2Status {
+        // SAFETY: forwarded contract.
+        unsafe { derivative::<M>(c, Derivative::Instant, v_unknown, n_unknown, v_known, n_known, dv_known, dv_unknown) }
+    }
+
+    /// `feedsimGetStepMapDerivative`: the signature of `fmi2GetDirectionalDerivative`, the
+    /// derivatives of the last step's map (see [`Model::step_map_derivative`]).
+    ///
+    /// # Safety
+    /// As [`get_directional_derivative`].
+    #[allow(clippy::too_many_arguments)]
+    pub unsafe fn get_step_map_derivative<M: Model>(
+        c: fmi2Component,
+        v_unknown: *const u32,
+        n_unknown: usize,
+        v_known: *const u32,
+        n_known: usize,
+        dv_known: *const f64,
+        dv_unknown: *mut f64,
+    ) -> fmi2Status {
+        // SAFETY: forwarded contract.
+        unsafe { derivative::<M>(c, Derivative::StepMap, v_unknown, n_unknown, v_known, n_known, dv_known, dv_unknown) }
+    }
+
+    /// Shared body of both derivative functions: checks, parameter seeds dropped, result checked.
+    ///
+    /// # Safety
+    /// As [`get_directional_derivative`].
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn derivative<M: Model>(
+        c: fmi2Component,
+        which: Derivative,
+        v_unknown: *const u32,
+        n_unknown: usize,
+        v_known: *const u32,
+        n_known: usize,
+        dv_known: *const f64,
+        dv_unknown: *mut f64,
+    ) -> fmi2Status {
+        let func = match which {
+            Derivative::Instant => "fmi2GetDirectionalDerivative",
+            Derivative::StepMap => "feedsimGetStepMapDerivative",
+        };
+        // SAFETY: `c` as the caller promised; the slices below are built from the importer's
+        // pointers and lengths, which the standard makes the importer's responsibility.
         unsafe {
-            call::<M>(c, "fmi2GetDirectionalDerivative", GETTABLE, |inst| {
-                if !inst.info.description.capabilities.provides_directional_derivative {
-                    return Err("not provided by this FMU (providesDirectionalDerivative = false)".into());
+            call::<M>(c, func, GETTABLE, |inst| {
+                let caps = inst.info.description.capabilities;
+                match which {
+                    Derivative::Instant if !caps.provides_directional_derivative => {
+                        return Err("not provided by this FMU (providesDirectionalDerivative = false)".into());
+                    }
+                    Derivative::StepMap if !caps.provides_step_map_derivative => {
+                        return Err("not provided by this FMU (no StepMapDerivative vendor annotation)".into());
+                    }
+                    _ => {}
                 }
                 let unknowns = slice(v_unknown, n_unknown, "vUnknown_ref")?;
                 let knowns = slice(v_known, n_known, "vKnown_ref")?;
@@ -925,7 +1089,16 @@ pub mod entry {
                             s.push(x);
                         }
                     }
-                    inst.model.directional_derivative(&u, &k, &s, out)
+                    match which {
+                        Derivative::Instant => inst.model.directional_derivative(&u, &k, &s, out),
+                        Derivative::StepMap => inst.model.step_map_derivative(&u, &k, &s, out),
+                    }
+                    .msg()?;
+                    if let Some(i) = out.iter().position(|x| !x.is_finite()) {
+                        let v = find(inst.info, VarType::Real, u[i])?;
+                        return Err(format!("the derivative of {} is {} at t = {}", describe(v), out[i], inst.time));
+                    }
+                    Ok(())
                 })();
                 (inst.scratch_unknowns, inst.scratch_knowns, inst.scratch_seed) = (u, k, s);
                 result.map(|()| fmi2OK)
@@ -964,7 +1137,7 @@ pub mod entry {
                     }
                 }
                 for ((&r, &o), &x) in vrs.iter().zip(orders).zip(vals) {
-                    inst.model.set_real_input_derivative(r, o, x)?;
+                    inst.model.set_real_input_derivative(r, o, x).msg()?;
                 }
                 Ok(fmi2OK)
             })
@@ -1010,9 +1183,22 @@ pub mod entry {
                 {
                     return Err(format!("step to {} goes past stopTime = {stop}", t + h));
                 }
-                inst.model.do_step(t, h).map_err(|e| format!("step from t = {t} with h = {h}: {e}"))?;
-                inst.time = t + h;
-                Ok(fmi2OK)
+                let outcome =
+                    inst.model.do_step(t, h).msg().map_err(|e| format!("step from t = {t} with h = {h}: {e}"))?;
+                match outcome {
+                    StepOutcome::Complete => {
+                        inst.time = t + h;
+                        Ok(fmi2OK)
+                    }
+                    StepOutcome::Terminated { time, reason } => {
+                        if !(time.is_finite() && time >= t - tol && time <= t + h + tol) {
+                            return Err(format!("the model stopped at t = {time}, outside the step [{t}, {}]", t + h));
+                        }
+                        (inst.time, inst.terminated, inst.phase) = (time, true, StepFailed);
+                        inst.log(fmi2Discard, &format!("fmi2DoStep: the model stopped at t = {time}: {reason}"));
+                        Ok(fmi2Discard)
+                    }
+                }
             })
         }
     }
@@ -1036,7 +1222,7 @@ pub mod entry {
         answer: impl Fn(&Instance<M>, fmi2StatusKind) -> Option<T>,
     ) -> fmi2Status {
         unsafe {
-            call::<M>(c, func, &[StepMode, Terminated, Error], |inst| {
+            call::<M>(c, func, STATUS_OK, |inst| {
                 let out = slice_mut(value, 1, "value")?;
                 match answer(inst, kind) {
                     Some(v) => {
@@ -1078,7 +1264,9 @@ pub mod entry {
     /// As [`get_status`].
     pub unsafe fn get_boolean_status<M: Model>(c: fmi2Component, s: fmi2StatusKind, value: *mut i32) -> fmi2Status {
         unsafe {
-            status::<M, i32>(c, "fmi2GetBooleanStatus", s, value, |_, k| (k == fmi2Terminated).then_some(fmi2False))
+            status::<M, i32>(c, "fmi2GetBooleanStatus", s, value, |inst, k| {
+                (k == fmi2Terminated).then_some(if inst.terminated { fmi2True } else { fmi2False })
+            })
         }
     }
     /// # Safety
@@ -1101,8 +1289,7 @@ macro_rules! export_fmu {
             use $crate::export::entry as e;
             use $crate::ffi::*;
             type M = $model;
-            type Info = ::std::result::Result<$crate::description::ModelInfo, $crate::description::DescriptionError>;
-            static INFO: ::std::sync::OnceLock<Info> = ::std::sync::OnceLock::new();
+            static INFO: e::InfoCell = e::InfoCell::new();
 
             #[unsafe(no_mangle)]
             pub extern "C" fn fmi2GetTypesPlatform() -> *const ::std::ffi::c_char {
@@ -1131,8 +1318,8 @@ macro_rules! export_fmu {
                 visible: fmi2Boolean,
                 logging_on: fmi2Boolean,
             ) -> fmi2Component {
-                let info = INFO.get_or_init(e::model_info::<M>);
-                unsafe { e::instantiate::<M>(info, name, kind, guid, resources, functions, visible, logging_on) }
+                // SAFETY: the importer's pointers are passed on under the standard's contract.
+                unsafe { e::instantiate::<M>(&INFO, name, kind, guid, resources, functions, visible, logging_on) }
             }
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
@@ -1286,6 +1473,20 @@ macro_rules! export_fmu {
                 dvu: *mut f64,
             ) -> fmi2Status {
                 unsafe { e::get_directional_derivative::<M>(c, vu, nu, vk, nk, dvk, dvu) }
+            }
+            /// The opt-in extension of this workspace (see `fmi2::export::Model::step_map_derivative`);
+            /// exported always, announced in modelDescription.xml only when the model provides it.
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn feedsimGetStepMapDerivative(
+                c: fmi2Component,
+                vu: *const u32,
+                nu: usize,
+                vk: *const u32,
+                nk: usize,
+                dvk: *const f64,
+                dvu: *mut f64,
+            ) -> fmi2Status {
+                unsafe { e::get_step_map_derivative::<M>(c, vu, nu, vk, nk, dvk, dvu) }
             }
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetRealInputDerivatives(

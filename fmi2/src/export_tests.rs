@@ -3,11 +3,10 @@
 
 use std::ffi::{CString, c_char};
 use std::path::Path;
-use std::sync::OnceLock;
 
 use super::entry as e;
 use super::*;
-use crate::description::{Capabilities, ModelInfo, Variable};
+use crate::description::{Capabilities, Variable};
 use crate::import::{LogMessage, LogSink};
 
 /// `y = 2 u + s`, `s += u h` per step; panics when asked to step with `u = 13`.
@@ -21,14 +20,18 @@ struct Toy {
 const GUID: &str = "{toy}";
 
 impl Model for Toy {
-    fn description() -> ModelDescription {
-        ModelDescription {
+    fn description() -> Result<ModelDescription, ModelError> {
+        Ok(ModelDescription {
             model_name: "toy".into(),
             model_identifier: "toy".into(),
             guid: GUID.into(),
             description: String::new(),
             version: "1".into(),
-            capabilities: Capabilities { provides_directional_derivative: true, can_interpolate_inputs: false },
+            capabilities: Capabilities {
+                provides_directional_derivative: true,
+                can_interpolate_inputs: false,
+                provides_step_map_derivative: false,
+            },
             default_experiment: None,
             extra_units: vec![],
             variables: vec![
@@ -37,49 +40,63 @@ impl Model for Toy {
                 Variable::parameter("p", 2, 1.0, false),
                 Variable::parameter("q", 3, 1.0, true),
             ],
-        }
+        })
     }
-    fn instantiate(_: Option<&Path>) -> Result<Self, String> {
+    fn instantiate(_: Option<&Path>) -> Result<Self, ModelError> {
         Ok(Toy { u: 0.0, s: 0.0, p: 1.0, q: 1.0 })
     }
-    fn set_real(&mut self, vr: u32, v: f64) -> Result<(), String> {
+    fn set_real(&mut self, vr: u32, v: f64) -> Result<(), ModelError> {
         match vr {
             0 => self.u = v,
             2 => self.p = v,
-            3 if v < 0.0 => return Err(format!("{v}: must not be negative")),
+            3 if v < 0.0 => return Err(format!("{v}: must not be negative").into()),
             3 => self.q = v,
             _ => unreachable!(),
         }
         Ok(())
     }
-    fn get_real(&mut self, vr: u32) -> Result<f64, String> {
-        Ok([self.u, 2.0 * self.u + self.s, self.p, self.q][vr as usize])
+    fn get_real(&mut self, vr: u32) -> Result<f64, ModelError> {
+        // p = 7 makes the output NaN: the layer must refuse to report it.
+        let y = if self.p == 7.0 { f64::NAN } else { 2.0 * self.u + self.s };
+        Ok([self.u, y, self.p, self.q][vr as usize])
     }
-    fn exit_initialization(&mut self, _: f64) -> Result<(), String> {
+    fn exit_initialization(&mut self, _: f64) -> Result<(), ModelError> {
         Ok(())
     }
-    fn do_step(&mut self, _: f64, h: f64) -> Result<(), String> {
+    fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {
         assert!(self.u != 13.0, "unlucky input 13 and 100% sure");
+        // u = 99: the model ends half-way through the step.
+        if self.u == 99.0 {
+            self.s += self.u * 0.5 * h;
+            return Ok(StepOutcome::Terminated { time: t + 0.5 * h, reason: "the end".into() });
+        }
         self.s += self.u * h;
-        Ok(())
+        Ok(StepOutcome::Complete)
     }
-    fn directional_derivative(&mut self, _: &[u32], _: &[u32], seed: &[f64], out: &mut [f64]) -> Result<(), String> {
+    fn directional_derivative(
+        &mut self,
+        _: &[u32],
+        _: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ModelError> {
         out[0] = 2.0 * seed.iter().sum::<f64>();
         Ok(())
     }
-    fn save_state(&self, out: &mut Vec<u8>) {
+    fn save_state(&self, out: &mut Vec<u8>) -> Result<(), ModelError> {
         crate::state_bytes::StateWriter::new(out).f64(self.u).f64(self.s).f64(self.p).f64(self.q);
+        Ok(())
     }
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), ModelError> {
         let mut r = crate::state_bytes::StateReader::new(bytes);
         (self.u, self.s, self.p, self.q) = (r.f64()?, r.f64()?, r.f64()?, r.f64()?);
-        r.finish()
+        Ok(r.finish()?)
     }
 }
 
-fn info() -> &'static Result<ModelInfo, DescriptionError> {
-    static INFO: OnceLock<Result<ModelInfo, DescriptionError>> = OnceLock::new();
-    INFO.get_or_init(e::model_info::<Toy>)
+fn info() -> &'static e::InfoCell {
+    static INFO: e::InfoCell = e::InfoCell::new();
+    &INFO
 }
 
 /// An instance with its log sink.
@@ -506,4 +523,64 @@ fn status_queries() {
         assert_eq!(h.inst().phase(), StepMode, "fmi2Discard does not enter the error state");
         assert_eq!(e::cancel_step::<Toy>(h.c), fmi2Error);
     }
+}
+
+#[test]
+fn a_model_that_ends_returns_discard_with_terminated_and_last_successful_time() {
+    let h = Harness::new();
+    h.init();
+    assert_eq!(h.step(0.0, 0.25), fmi2OK);
+    let mut saved: fmi2FMUstate = std::ptr::null_mut();
+    unsafe { assert_eq!(e::get_fmu_state::<Toy>(h.c, &mut saved), fmi2OK) };
+    h.set(0, 99.0);
+    assert_eq!(h.step(0.25, 0.5), fmi2Discard);
+    assert!(h.messages().iter().any(|m| m.status == fmi2Discard && m.text.contains("stopped at t = 0.5")));
+    assert_eq!(h.inst().phase(), StepFailed);
+    let (mut t, mut b) = (0.0, 0);
+    unsafe {
+        assert_eq!(e::get_real_status::<Toy>(h.c, fmi2LastSuccessfulTime, &mut t), fmi2OK);
+        assert_eq!(e::get_boolean_status::<Toy>(h.c, fmi2Terminated, &mut b), fmi2OK);
+    }
+    assert_eq!((t, b), (0.5, fmi2True));
+    // The values at the last successful time can be read; no further step.
+    assert_eq!(h.get(1), 2.0 * 99.0 + 99.0 * 0.25);
+    assert_eq!(h.step(0.5, 0.1), fmi2Error);
+    assert!(h.error().contains("not allowed in state `step failed"));
+    // A state saved before the step brings the instance back.
+    unsafe { assert_eq!(e::set_fmu_state::<Toy>(h.c, saved), fmi2OK) };
+    assert_eq!(h.inst().phase(), StepMode);
+    unsafe {
+        assert_eq!(e::get_boolean_status::<Toy>(h.c, fmi2Terminated, &mut b), fmi2OK);
+        e::free_fmu_state::<Toy>(h.c, &mut saved);
+    }
+    assert_eq!(b, fmi2False);
+    assert_eq!(h.step(0.25, 0.25), fmi2OK);
+    // fmi2Terminate is allowed after a discarded step.
+    h.set(0, 99.0);
+    assert_eq!(h.step(0.5, 0.25), fmi2Discard);
+    assert_eq!(unsafe { e::terminate::<Toy>(h.c) }, fmi2OK);
+}
+
+#[test]
+fn a_non_finite_output_is_an_error_naming_variable_and_time() {
+    let h = Harness::new();
+    h.init();
+    h.step(0.0, 0.5);
+    unsafe { e::reset::<Toy>(h.c) };
+    h.set(2, 7.0);
+    h.init();
+    let (vr, mut v) = (1u32, 0.0);
+    assert_eq!(unsafe { e::get_real::<Toy>(h.c, &vr, 1, &mut v) }, fmi2Error);
+    let e = h.error();
+    assert!(e.contains("`y` (output, continuous) = NaN") && e.contains("at t = 0"), "{e}");
+}
+
+#[test]
+fn the_step_map_extension_is_refused_without_the_capability() {
+    let h = Harness::new();
+    h.init();
+    let (u, k, s, mut out) = (1u32, 0u32, 1.0, 0.0);
+    let status = unsafe { e::get_step_map_derivative::<Toy>(h.c, &u, 1, &k, 1, &s, &mut out) };
+    assert_eq!(status, fmi2Error);
+    assert!(h.error().contains("feedsimGetStepMapDerivative: not provided"));
 }

@@ -15,6 +15,7 @@ pub mod export;
 pub mod ffi;
 pub mod import;
 pub mod package;
+pub mod resources;
 pub mod state_bytes;
 pub mod uri;
 pub mod xml;

@@ -17,7 +17,7 @@ pub const PLATFORM: &str = "linux64";
 /// Write `out_dir/<modelIdentifier>.fmu` for model `M` from its in-process description, its
 /// resources and the cdylib `library` built from it. Returns the archive's path.
 pub fn package_model<M: Model>(out_dir: &Path, library: &Path) -> Result<PathBuf, String> {
-    let description = M::description();
+    let description = M::description().map_err(|e| format!("the model's description: {e}"))?;
     let path = out_dir.join(format!("{}.fmu", description.model_identifier));
     write_fmu(&path, &description, library, &M::resources())?;
     Ok(path)

@@ -6,6 +6,11 @@ use crate::description::{
     BASE_UNIT_NAMES, Causality, DescriptionError, Initial, LOG_CATEGORIES, ModelDescription, ModelInfo, Value,
 };
 
+/// `<VendorAnnotations><Tool name=...>` of this workspace's extensions.
+pub const VENDOR_TOOL: &str = "feedsim";
+/// The element inside the tool's annotation that announces `feedsimGetStepMapDerivative`.
+pub const STEP_MAP_ANNOTATION: &str = "StepMapDerivative";
+
 /// The XML text of `modelDescription.xml` for this description (validated first).
 pub fn model_description_xml(description: &ModelDescription) -> Result<String, DescriptionError> {
     Ok(write_xml(&ModelInfo::new(description.clone())?))
@@ -90,6 +95,12 @@ pub fn write_xml(info: &ModelInfo) -> String {
             real(e.step_size)
         );
     }
+    if caps.provides_step_map_derivative {
+        // Schema order: VendorAnnotations after DefaultExperiment, before ModelVariables.
+        x.push_str("  <VendorAnnotations>\n");
+        let _ = writeln!(x, r#"    <Tool name="{VENDOR_TOOL}"><{STEP_MAP_ANNOTATION}/></Tool>"#);
+        x.push_str("  </VendorAnnotations>\n");
+    }
     x.push_str("  <ModelVariables>\n");
     for v in &info.vars {
         let var = &v.var;
@@ -129,7 +140,7 @@ pub fn write_xml(info: &ModelInfo) -> String {
         x.push_str("    </Outputs>\n");
     }
     // Exactly the outputs with initial approx/calculated and the calculated parameters
-    // (Co-Simulation has no continuous states). Their dependencies are left open: "all knowns".
+    // (Co-Simulation has no continuous states), with their initialization-mode dependencies.
     let initial_unknowns: Vec<_> = info
         .vars
         .iter()
@@ -141,7 +152,7 @@ pub fn write_xml(info: &ModelInfo) -> String {
     if !initial_unknowns.is_empty() {
         x.push_str("    <InitialUnknowns>\n");
         for v in &initial_unknowns {
-            x.push_str(&unknown(v.index, None));
+            x.push_str(&unknown(v.index, v.initial_dependencies.as_deref()));
         }
         x.push_str("    </InitialUnknowns>\n");
     }
@@ -176,7 +187,11 @@ mod tests {
             guid: "{1234}".into(),
             description: "quote \" and 'apostrophe'".into(),
             version: "0.1".into(),
-            capabilities: Capabilities { provides_directional_derivative: true, can_interpolate_inputs: false },
+            capabilities: Capabilities {
+                provides_directional_derivative: true,
+                can_interpolate_inputs: false,
+                provides_step_map_derivative: true,
+            },
             default_experiment: Some(DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 10.0,
@@ -187,7 +202,7 @@ mod tests {
             variables: vec![
                 Variable::parameter("scene", 5, "dir/a&b.toml", false),
                 Variable::real_input("u", 0, 1e-9, "N"),
-                Variable::real_output("y", 1, "m").depends_on(&["u"]),
+                Variable::real_output("y", 1, "m").depends_on(&["u"]).initially_depends_on(&["u", "scene"]),
                 Variable::real_output("z", 2, "m").depends_on::<&str>(&[]),
                 Variable::parameter("k", 3, 2.5, true).unit("N/m"),
             ],
@@ -210,6 +225,7 @@ mod tests {
             "<UnitDefinitions>",
             "<LogCategories>",
             "<DefaultExperiment",
+            "<VendorAnnotations>",
             "<ModelVariables>",
             "<ModelStructure>",
             "<Outputs>",
@@ -227,6 +243,7 @@ mod tests {
         assert!(x.contains(r#"<Unit name="N/m"><BaseUnit kg="1" s="-2"/></Unit>"#));
         assert!(x.contains(r#"<Real unit="N" start="1e-9"/>"#));
         assert!(x.contains(r#"stepSize="0.01""#));
+        assert!(x.contains(r#"<Tool name="feedsim"><StepMapDerivative/></Tool>"#));
     }
 
     #[test]
@@ -236,7 +253,8 @@ mod tests {
         assert!(x.contains(r#"<Unknown index="3" dependencies="2" dependenciesKind="dependent"/>"#), "{x}");
         assert!(x.contains(r#"<Unknown index="4" dependencies="" dependenciesKind=""/>"#));
         let init = &x[x.find("<InitialUnknowns>").unwrap()..];
-        assert!(init.contains(r#"<Unknown index="3"/>"#) && init.contains(r#"<Unknown index="4"/>"#));
+        assert!(init.contains(r#"<Unknown index="3" dependencies="1 2" dependenciesKind="dependent dependent"/>"#));
+        assert!(init.contains(r#"<Unknown index="4"/>"#), "{init}");
         assert!(!init.contains(r#"index="5""#), "parameters are not initial unknowns");
     }
 

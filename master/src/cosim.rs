@@ -191,7 +191,9 @@ impl Coupled {
             inst.enter_initialization_mode()?;
             units.push(Unit {
                 name: f.name.clone(),
-                derivatives: flags.provides_directional_derivative,
+                // IJCSA needs the step map's derivative: the opt-in extension, not FMI 2.0's
+                // instantaneous fmi2GetDirectionalDerivative.
+                derivatives: flags.provides_step_map_derivative,
                 interpolates: flags.can_interpolate_inputs,
                 inst,
                 inputs: Vec::new(),
@@ -292,6 +294,32 @@ impl Coupled {
                 let src = &units[l.0];
                 source[unit.input_offset + j] =
                     src.output_offset + src.outputs.iter().position(|o| *o == l.1).expect("listed");
+            }
+        }
+        // Consistent initial values: connected inputs from the connected outputs, in
+        // initialization mode, until they no longer change (FMI 2.0: the FMUs start from the
+        // inputs they hold at fmi2ExitInitializationMode). A minimal fixed point; the coupling
+        // work replaces it with the master's own initialization.
+        for _ in 0..20 {
+            let mut changed = false;
+            for k in 0..units.len() {
+                let mut values = Vec::with_capacity(units[k].inputs.len());
+                for l in links.iter().filter(|l| l.2 == k) {
+                    let mut y = [0.0];
+                    units[l.0].inst.get_real(&[l.1], &mut y)?;
+                    values.push((l.3, y[0]));
+                }
+                for (vr, y) in values {
+                    let mut u = [0.0];
+                    units[k].inst.get_real(&[vr], &mut u)?;
+                    if u[0] != y {
+                        units[k].inst.set_real(&[vr], &[y])?;
+                        changed = true;
+                    }
+                }
+            }
+            if !changed {
+                break;
             }
         }
         for unit in units.iter_mut() {
@@ -685,8 +713,9 @@ impl Coupled {
         unreachable!("evaluate fails at the iteration limit")
     }
 
-    /// ∂Y/∂U after stepping with `work.guess` (the FMUs' step maps) into `self.dydu`: directional
-    /// derivatives where the FMU provides them, central differences with rollback otherwise.
+    /// ∂Y/∂U after stepping with `work.guess` (the FMUs' step maps) into `self.dydu`: the
+    /// extension `feedsimGetStepMapDerivative` where the FMU offers it, central differences with
+    /// rollback otherwise.
     fn interface_jacobian(&mut self, t: f64, h: f64) -> Result<(), CosimError> {
         let fail =
             |e: fmi2::import::Error, name: &str| CosimError { time: t + h, reason: format!("FMU `{name}`: {e}") };
@@ -701,7 +730,7 @@ impl Coupled {
                     seed.fill(0.0);
                     seed[c] = 1.0;
                     unit.inst
-                        .directional_derivative(&unit.outputs, &unit.inputs, seed, col)
+                        .step_map_derivative(&unit.outputs, &unit.inputs, seed, col)
                         .map_err(|e| fail(e, &unit.name))?;
                     for r in 0..no {
                         dydu[(oo + r, io + c)] = col[r];

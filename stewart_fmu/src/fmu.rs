@@ -2,11 +2,21 @@
 //!
 //! Inputs: the cabin's motion (centre point position, orientation quaternion body to world,
 //! velocity, angular velocity, acceleration, angular acceleration; world frame). Their start
-//! values are the scene's static pose at rest. Outputs at the current time: the wrench the
+//! values are scene C's static pose at rest (an importer running another scene sets them).
+//! Outputs at the current time: the wrench the
 //! platform exerts on the cabin (force; moment about the cabin centre point), the six actuator
 //! forces (tension positive) and the moving platform's pose. The model has no state but time:
 //! `fmi2DoStep` advances the clock and the outputs follow from the inputs at the end of the step
 //! (held, or extrapolated with their first derivatives).
+//!
+//! Every output is a function of the inputs at the same instant (direct feedthrough), so the
+//! standard directional derivative and the step map (extension `feedsimGetStepMapDerivative`)
+//! coincide. Dependencies, exactly: the wrench and the actuator forces on the orientation, the
+//! angular velocity, the acceleration and the angular acceleration (not on the position, nor on
+//! the velocity: uniform gravity and Galilean invariance) — the force component k only on a_k and
+//! α_j (j ≠ k), the moment component k only on a_j (j ≠ k) and α, as the cross products of the
+//! Newton–Euler equations have it; the platform's position component i
+//! on the cabin's position component i and the orientation; its orientation on the cabin's.
 //!
 //! Directional derivatives are exact: the wrench's from the analytic Jacobians; the actuator
 //! forces' from the linearity of the Newton–Euler equations in the cabin's accelerations
@@ -19,14 +29,22 @@ use std::path::{Path, PathBuf};
 use feedcore::rigid::skew;
 use feedcore::scene::{LEGS, Scene, Start};
 use feedcore::{Quat, Vec3};
-use fmi2::export::Model;
+use fmi2::export::{Model, ModelError, StepOutcome};
 use fmi2::state_bytes::{StateReader, StateWriter};
-use fmi2::{Capabilities, DefaultExperiment, ModelDescription, Resource, Variable};
+use fmi2::{Capabilities, ModelDescription, Resource, Variable};
 use nalgebra::{Matrix3x6, Vector6};
 
 use crate::{CabinMotion, Evaluation, Stewart, Wrench, WrenchJacobians};
 
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
+/// Largest scene file the FMU reads.
+pub const SCENE_LIMIT_BYTES: u64 = 1 << 20;
+
+/// The scene file named by a `scene` parameter: inside `resources/` when relative, size-capped,
+/// errors quoting at most an excerpt of the file.
+pub fn load_scene(name: &str, resources: Option<&Path>) -> Result<Scene, fmi2::resources::ResourceError> {
+    fmi2::resources::load_parsed(name, resources, &feedcore::shipped::SCENES, SCENE_LIMIT_BYTES, Scene::from_toml)
+}
 /// Number of Real inputs: r 3, q 4, v 3, ω 3, a 3, α 3.
 pub const INPUTS: usize = 19;
 
@@ -82,13 +100,15 @@ struct Cache {
 pub struct StewartFmu {
     resources: Option<PathBuf>,
     settings: Settings,
-    scene: Option<Scene>,
+    scene: Scene,
     model: Option<Stewart>,
-    built_for: Option<Settings>,
+    /// The settings the model was built for, and whether in step mode (in initialization mode
+    /// the platform rests at its start pose).
+    built_for: Option<(Settings, bool)>,
+    initialized: bool,
     time: f64,
     inputs: [f64; INPUTS],
     rates: [f64; INPUTS],
-    inputs_set: [bool; INPUTS],
     cache: Cache,
 }
 
@@ -121,9 +141,10 @@ fn rotation_of(q: &[f64], dq: &[f64]) -> Vec3 {
 }
 
 impl StewartFmu {
-    fn model(&mut self) -> Result<&Stewart, String> {
-        if self.model.is_none() || self.built_for.as_ref() != Some(&self.settings) {
-            let mut s = self.scene.clone().ok_or("no scene loaded")?;
+    fn model(&mut self) -> Result<&Stewart, ModelError> {
+        let key = (self.settings.clone(), self.initialized);
+        if self.model.is_none() || self.built_for.as_ref() != Some(&key) {
+            let mut s = self.scene.clone();
             let st = &self.settings;
             if st.radius >= 0.0 {
                 s.motion.radius_m = st.radius;
@@ -139,25 +160,24 @@ impl StewartFmu {
                 2 => s.motion.start = Start::Ramp,
                 _ => {}
             }
-            s.validate(&st.scene_name).map_err(|e| e.to_string())?;
-            let rest = rest_inputs(&s);
-            for k in 0..INPUTS {
-                if !self.inputs_set[k] {
-                    self.inputs[k] = rest[k];
-                }
-            }
-            self.model = Some(Stewart::from_scene(&s).map_err(|e| e.to_string())?);
-            self.built_for = Some(self.settings.clone());
+            s.validate(&st.scene_name)?;
+            // Before the start the platform rests at its start pose: the motion (and an abrupt
+            // start's jump) begins at the start time, so that a consistent initialization puts
+            // the cable net in its static equilibrium under the platform's weight.
+            let mut held = s.clone();
+            held.motion.speed_m_s = 0.0;
+            self.model = Some(Stewart::from_scene(if self.initialized { &s } else { &held })?);
+            self.built_for = Some(key);
             self.cache = Cache::default();
         }
         Ok(self.model.as_ref().expect("built"))
     }
 
-    fn cabin(&self) -> Result<CabinMotion, String> {
+    fn cabin(&self) -> Result<CabinMotion, ModelError> {
         let u = &self.inputs;
         let q = nalgebra::Quaternion::new(u[3], u[4], u[5], u[6]);
         if q.norm() < 0.5 {
-            return Err(format!("cabin.q = {:?} is not a rotation (norm {:.3}, expected 1)", &u[3..7], q.norm()));
+            return Err(format!("cabin.q = {:?} is not a rotation (norm {:.3}, expected 1)", &u[3..7], q.norm()).into());
         }
         let v3 = |i: usize| Vec3::new(u[i], u[i + 1], u[i + 2]);
         Ok(CabinMotion {
@@ -170,7 +190,7 @@ impl StewartFmu {
         })
     }
 
-    fn wrench(&mut self) -> Result<(Wrench, WrenchJacobians), String> {
+    fn wrench(&mut self) -> Result<(Wrench, WrenchJacobians), ModelError> {
         if self.cache.wrench.is_none() {
             let t = self.time;
             let cabin = self.cabin()?;
@@ -180,7 +200,7 @@ impl StewartFmu {
         Ok(self.cache.wrench.expect("computed"))
     }
 
-    fn evaluation(&mut self) -> Result<&Evaluation, String> {
+    fn evaluation(&mut self) -> Result<&Evaluation, ModelError> {
         if self.cache.evaluation.is_none() {
             let t = self.time;
             let cabin = self.cabin()?;
@@ -192,7 +212,7 @@ impl StewartFmu {
 
     /// ∂(actuator forces)/∂(a, α, ω) (world frame), exact: the forces are linear in (a, α) and
     /// quadratic in ω, so unit differences (central for ω) give the derivatives exactly.
-    fn actuator_rates(&mut self) -> Result<ActuatorRates, String> {
+    fn actuator_rates(&mut self) -> Result<ActuatorRates, ModelError> {
         if let Some(r) = self.cache.actuator_rates {
             return Ok(r);
         }
@@ -235,9 +255,8 @@ impl StewartFmu {
 }
 
 impl Model for StewartFmu {
-    fn description() -> ModelDescription {
-        let default = Scene::from_toml(feedcore::shipped::embedded(DEFAULT_SCENE).expect("shipped"), DEFAULT_SCENE)
-            .expect("valid");
+    fn description() -> Result<ModelDescription, ModelError> {
+        let default = load_scene(DEFAULT_SCENE, None)?;
         let rest = rest_inputs(&default);
         let inputs = input_names();
         let units = |i: usize| match i {
@@ -261,8 +280,48 @@ impl Model for StewartFmu {
             .enumerate()
             .map(|(i, n)| Variable::real_input(n.clone(), i as u32, rest[i], units(i)).describe(what(i)))
             .collect();
+        // Direct feedthrough, exactly (see the module documentation); in initialization mode
+        // the parameters that shape the platform's motion at the start count as well.
+        let name = |i: usize| inputs[i].as_str();
+        let orientation: Vec<&str> = (3..7).map(name).collect();
+        // q and ω always; the force component k on a_k and on α_j (j ≠ k) (the inertial force
+        // is linear in a + α × ρ), the moment component k on a_j (j ≠ k) (ρ × a) and on α.
+        let (a, alpha) = (13, 16);
+        let rotating: Vec<&str> = (3..7).chain(10..13).map(name).collect();
+        let force = |k: usize| -> Vec<&str> {
+            let mut d = rotating.clone();
+            d.push(name(a + k));
+            d.extend((0..3).filter(|&j| j != k).map(|j| name(alpha + j)));
+            d
+        };
+        let moment = |k: usize| -> Vec<&str> {
+            let mut d = rotating.clone();
+            d.extend((0..3).filter(|&j| j != k).map(|j| name(a + j)));
+            d.extend((0..3).map(|j| name(alpha + j)));
+            d
+        };
+        let all_but_position: Vec<&str> = (3..7).chain(10..19).map(name).collect();
+        // in initialization mode the platform rests at its start pose: speed and start do not count
+        let params = ["scene", "radius"];
+        let deps = |vr: u32| -> Vec<&str> {
+            match vr {
+                vr::FORCE..vr::MOMENT => force((vr - vr::FORCE) as usize),
+                vr::MOMENT..vr::ACTUATOR => moment((vr - vr::MOMENT) as usize),
+                vr::ACTUATOR..vr::PLATFORM_R => all_but_position.clone(),
+                vr::PLATFORM_R..vr::PLATFORM_Q => {
+                    let mut d = vec![inputs[(vr - vr::PLATFORM_R) as usize].as_str()];
+                    d.extend(&orientation);
+                    d
+                }
+                _ => orientation.clone(),
+            }
+        };
         let mut out = |name: String, vr: u32, unit: &str, text: String| {
-            variables.push(Variable::real_output(name, vr, unit).describe(text).depends_on(&inputs));
+            let d = deps(vr);
+            let initially: Vec<&str> = d.iter().copied().chain(params).collect();
+            variables.push(
+                Variable::real_output(name, vr, unit).describe(text).depends_on(&d).initially_depends_on(&initially),
+            );
         };
         for k in 0..3 {
             out(
@@ -326,28 +385,27 @@ impl Model for StewartFmu {
         variables.push(Variable::parameter("scene", vr::SCENE, DEFAULT_SCENE, false).describe(
             "scene file (TOML); relative paths resolve against resources/, which holds lt50m_B.toml and lt50m_C.toml",
         ));
-        ModelDescription {
-            model_name: "stewart_fmu".into(),
-            model_identifier: "stewart_fmu".into(),
-            guid: "{9a47c3e1-52b8-4d0f-a6e3-7c1b2d8f4e95}".into(),
-            description: "Stewart platform (13 rigid bodies) hanging in the feed cabin, platform on a circle; output: its wrench on the cabin".into(),
-            version: env!("CARGO_PKG_VERSION").into(),
-            capabilities: Capabilities { provides_directional_derivative: true, can_interpolate_inputs: true },
-            default_experiment: Some(DefaultExperiment { start_time: 0.0, stop_time: 100.0, step_size: 0.01, tolerance: None }),
-            extra_units: vec![],
+        Ok(ModelDescription::co_simulation(
+            "stewart_fmu",
+            "{9a47c3e1-52b8-4d0f-a6e3-7c1b2d8f4e96}",
+            "Stewart platform (13 rigid bodies) hanging in the feed cabin, platform on a circle; output: its wrench on the cabin",
+            env!("CARGO_PKG_VERSION"),
+            Capabilities {
+                provides_directional_derivative: true,
+                can_interpolate_inputs: true,
+                provides_step_map_derivative: true,
+            },
             variables,
-        }
+        ))
     }
 
     fn resources() -> Vec<Resource> {
-        feedcore::shipped::SCENES
-            .iter()
-            .map(|(n, text)| Resource { name: n.to_string(), bytes: text.as_bytes().to_vec() })
-            .collect()
+        Resource::texts(&feedcore::shipped::SCENES)
     }
 
-    fn instantiate(resources: Option<&Path>) -> Result<Self, String> {
-        let mut m = StewartFmu {
+    fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
+        let scene = load_scene(DEFAULT_SCENE, resources)?;
+        Ok(StewartFmu {
             resources: resources.map(Path::to_owned),
             settings: Settings {
                 scene_name: DEFAULT_SCENE.into(),
@@ -356,39 +414,35 @@ impl Model for StewartFmu {
                 ramp_time: -1.0,
                 start: 0,
             },
-            scene: None,
+            // Inputs start at their declared start values (FMI 2.0): scene C's pose at rest.
+            inputs: rest_inputs(&scene),
+            scene,
             model: None,
             built_for: None,
+            initialized: false,
             time: 0.0,
-            inputs: [0.0; INPUTS],
             rates: [0.0; INPUTS],
-            inputs_set: [false; INPUTS],
             cache: Cache::default(),
-        };
-        let scene = feedcore::shipped::load_scene_parameter(DEFAULT_SCENE, m.resources.as_deref())?;
-        m.inputs = rest_inputs(&scene);
-        m.scene = Some(scene);
-        Ok(m)
+        })
     }
 
-    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
         match vr {
             0..19 => {
                 self.inputs[vr as usize] = value;
-                self.inputs_set[vr as usize] = true;
                 self.cache = Cache::default();
                 return Ok(());
             }
             vr::RADIUS => self.settings.radius = value,
             vr::SPEED => self.settings.speed = value,
             vr::RAMP_TIME => self.settings.ramp_time = value,
-            _ => return Err(format!("value reference {vr} is not a settable Real")),
+            _ => return Err(format!("value reference {vr} is not a settable Real").into()),
         }
         self.settings_changed();
         Ok(())
     }
 
-    fn get_real(&mut self, vr: u32) -> Result<f64, String> {
+    fn get_real(&mut self, vr: u32) -> Result<f64, ModelError> {
         match vr {
             0..19 => Ok(self.inputs[vr as usize]),
             vr::FORCE..vr::ACTUATOR => {
@@ -404,54 +458,55 @@ impl Model for StewartFmu {
             vr::RADIUS => Ok(self.settings.radius),
             vr::SPEED => Ok(self.settings.speed),
             vr::RAMP_TIME => Ok(self.settings.ramp_time),
-            _ => Err(format!("value reference {vr} is not a Real of this model")),
+            _ => Err(format!("value reference {vr} is not a Real of this model").into()),
         }
     }
 
-    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), String> {
+    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), ModelError> {
         if vr != vr::START {
-            return Err(format!("value reference {vr} is not a settable Integer"));
+            return Err(format!("value reference {vr} is not a settable Integer").into());
         }
         if !(0..=2).contains(&value) {
-            return Err(format!("start = {value}: must be 0 (the scene's), 1 (abrupt) or 2 (ramp)"));
+            return Err(format!("start = {value}: must be 0 (the scene's), 1 (abrupt) or 2 (ramp)").into());
         }
         self.settings.start = value;
         self.settings_changed();
         Ok(())
     }
 
-    fn get_integer(&mut self, vr: u32) -> Result<i32, String> {
+    fn get_integer(&mut self, vr: u32) -> Result<i32, ModelError> {
         if vr != vr::START {
-            return Err(format!("value reference {vr} is not an Integer of this model"));
+            return Err(format!("value reference {vr} is not an Integer of this model").into());
         }
         Ok(self.settings.start)
     }
 
-    fn set_string(&mut self, vr: u32, value: &str) -> Result<(), String> {
+    fn set_string(&mut self, vr: u32, value: &str) -> Result<(), ModelError> {
         if vr != vr::SCENE {
-            return Err(format!("value reference {vr} is not a settable String"));
+            return Err(format!("value reference {vr} is not a settable String").into());
         }
-        self.scene = Some(feedcore::shipped::load_scene_parameter(value, self.resources.as_deref())?);
+        self.scene = load_scene(value, self.resources.as_deref())?;
         self.settings.scene_name = value.to_string();
         self.settings_changed();
         Ok(())
     }
 
-    fn get_string(&mut self, vr: u32) -> Result<String, String> {
+    fn get_string(&mut self, vr: u32) -> Result<String, ModelError> {
         if vr != vr::SCENE {
-            return Err(format!("value reference {vr} is not a String of this model"));
+            return Err(format!("value reference {vr} is not a String of this model").into());
         }
         Ok(self.settings.scene_name.clone())
     }
 
-    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
+        self.initialized = true;
         self.model()?;
         self.time = start_time;
         self.cache = Cache::default();
         Ok(())
     }
 
-    fn do_step(&mut self, t: f64, h: f64) -> Result<(), String> {
+    fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {
         self.model()?;
         for k in 0..INPUTS {
             self.inputs[k] += self.rates[k] * h;
@@ -459,13 +514,20 @@ impl Model for StewartFmu {
         self.rates = [0.0; INPUTS]; // input derivatives apply to one step
         self.time = t + h;
         self.cache = Cache::default();
-        // evaluate now, so that a leg leaving its stroke is reported by this step
-        self.wrench().map(|_| ())
+        // evaluate now, so that a leg leaving its stroke, or a non-finite result, is reported
+        // by this step
+        let (w, _) = self.wrench()?;
+        let w = w.to_vector();
+        if let Some(k) = w.iter().position(|x| !x.is_finite()) {
+            let name = if k < 3 { format!("wrench.f[{}]", k + 1) } else { format!("wrench.m[{}]", k - 2) };
+            return Err(format!("`{name}` = {} at t = {}: the cabin inputs are {:?}", w[k], t + h, self.inputs).into());
+        }
+        Ok(StepOutcome::Complete)
     }
 
-    fn set_real_input_derivative(&mut self, vr: u32, _order: i32, value: f64) -> Result<(), String> {
+    fn set_real_input_derivative(&mut self, vr: u32, _order: i32, value: f64) -> Result<(), ModelError> {
         if vr as usize >= INPUTS {
-            return Err(format!("value reference {vr} is not an input"));
+            return Err(format!("value reference {vr} is not an input").into());
         }
         self.rates[vr as usize] = value;
         Ok(())
@@ -477,13 +539,14 @@ impl Model for StewartFmu {
         knowns: &[u32],
         seed: &[f64],
         out: &mut [f64],
-    ) -> Result<(), String> {
+    ) -> Result<(), ModelError> {
         let mut du = [0.0; INPUTS];
         for (k, s) in knowns.iter().zip(seed) {
             if *k as usize >= INPUTS {
                 return Err(format!(
                     "derivatives with respect to value reference {k} are not provided (only the cabin inputs)"
-                ));
+                )
+                .into());
             }
             du[*k as usize] += s;
         }
@@ -529,22 +592,41 @@ impl Model for StewartFmu {
                 vr::ACTUATOR..vr::PLATFORM_R => dact[(*u - vr::ACTUATOR) as usize],
                 vr::PLATFORM_R..vr::PLATFORM_Q => dp[(*u - vr::PLATFORM_R) as usize],
                 vr::PLATFORM_Q..vr::RADIUS => [dq.w, dq.i, dq.j, dq.k][(*u - vr::PLATFORM_Q) as usize],
-                other => return Err(format!("value reference {other} is not an output")),
+                other => return Err(format!("value reference {other} is not an output").into()),
             };
         }
         Ok(())
     }
 
-    fn save_state(&self, out: &mut Vec<u8>) {
-        let mut w = StateWriter::new(out);
-        let s = &self.settings;
-        w.str(&s.scene_name).f64(s.radius).f64(s.speed).f64(s.ramp_time).i32(s.start).f64(self.time);
-        for k in 0..INPUTS {
-            w.f64(self.inputs[k]).f64(self.rates[k]).bool(self.inputs_set[k]);
-        }
+    /// The outputs follow the inputs at the end of the step: the step map's derivative is the
+    /// instantaneous one at the current time.
+    fn step_map_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ModelError> {
+        self.directional_derivative(unknowns, knowns, seed, out)
     }
 
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn save_state(&self, out: &mut Vec<u8>) -> Result<(), ModelError> {
+        let mut w = StateWriter::new(out);
+        let s = &self.settings;
+        w.str(&s.scene_name)
+            .f64(s.radius)
+            .f64(s.speed)
+            .f64(s.ramp_time)
+            .i32(s.start)
+            .f64(self.time)
+            .bool(self.initialized);
+        for k in 0..INPUTS {
+            w.f64(self.inputs[k]).f64(self.rates[k]);
+        }
+        Ok(())
+    }
+
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), ModelError> {
         let mut r = StateReader::new(bytes);
         let settings = Settings {
             scene_name: r.string()?,
@@ -554,28 +636,26 @@ impl Model for StewartFmu {
             start: r.i32()?,
         };
         let time = r.f64()?;
+        let initialized = r.bool()?;
         let mut inputs = [0.0; INPUTS];
         let mut rates = [0.0; INPUTS];
-        let mut set = [false; INPUTS];
         for k in 0..INPUTS {
             inputs[k] = r.f64()?;
             rates[k] = r.f64()?;
-            set[k] = r.bool()?;
         }
         r.finish()?;
         if settings != self.settings {
             if settings.scene_name != self.settings.scene_name {
-                self.scene =
-                    Some(feedcore::shipped::load_scene_parameter(&settings.scene_name, self.resources.as_deref())?);
+                self.scene = load_scene(&settings.scene_name, self.resources.as_deref())?;
             }
             self.settings = settings;
             self.settings_changed();
         }
+        self.initialized = initialized;
         self.model()?;
         self.time = time;
         self.inputs = inputs;
         self.rates = rates;
-        self.inputs_set = set;
         self.cache = Cache::default();
         Ok(())
     }

@@ -36,8 +36,6 @@ def jacobi_with_fmpy():
             value = str(SCENE.resolve()) if value == "@scene" else value
             kind = unit.var[var].type
             unit.set(var, float(value) if kind == "Real" else int(value) if kind == "Integer" else value)
-        for u in units.values():
-            u.fmu.exitInitializationMode()
         # connections: every output `from.prefix*` feeds the input `to.prefix*` of the same name
         links = []
         for c in system["connections"]:
@@ -45,6 +43,20 @@ def jacobi_with_fmpy():
             for v in units[a].md.modelVariables:
                 if v.causality == "output" and v.name.startswith(pa):
                     links.append((a, v.name, b, pb + v.name[len(pa):]))
+        # FMI 2.0: connected inputs from outputs in initialization mode, until nothing changes
+        # (in the order of the master: unit by unit, each from the newest outputs)
+        for _ in range(20):
+            changed = False
+            for name in units:
+                for a, o, b, i in [l for l in links if l[2] == name]:
+                    y = units[a].get_real([o])[0]
+                    if units[b].get_real([i])[0] != y:
+                        units[b].fmu.setReal([units[b].vr[i]], [y])
+                        changed = True
+            if not changed:
+                break
+        for u in units.values():
+            u.fmu.exitInitializationMode()
         cable, stewart = units["cable"], units["stewart"]
         r_names = [f"cabin.r[{k}]" for k in (1, 2, 3)]
         w_names = [f"wrench.{p}[{k}]" for p in ("f", "m") for k in (1, 2, 3)]

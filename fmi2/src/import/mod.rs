@@ -95,6 +95,8 @@ pub enum Capability {
     SerializeState,
     DirectionalDerivative,
     OutputDerivatives,
+    /// This workspace's extension `feedsimGetStepMapDerivative`.
+    StepMapDerivative,
 }
 
 impl Capability {
@@ -107,6 +109,9 @@ impl Capability {
             Capability::SerializeState => "canSerializeFMUstate=\"true\"",
             Capability::DirectionalDerivative => "providesDirectionalDerivative=\"true\"",
             Capability::OutputDerivatives => "maxOutputDerivativeOrder ≥ 1",
+            Capability::StepMapDerivative => {
+                "<VendorAnnotations><Tool name=\"feedsim\"><StepMapDerivative/> (and the symbol feedsimGetStepMapDerivative)"
+            }
         }
     }
 }
@@ -144,6 +149,8 @@ macro_rules! api_table {
         /// The resolved functions. Declared after nothing that outlives it: `lib` keeps them valid.
         struct Api {
             $($field: $ty,)*
+            /// This workspace's extension, if the binary exports it.
+            step_map_derivative: Option<fmi2GetDirectionalDerivativeTYPE>,
             _lib: Library,
         }
 
@@ -154,7 +161,11 @@ macro_rules! api_table {
                 let lib = unsafe { Library::new(path) }.map_err(|e| format!("cannot load the binary: {e}"))?;
                 $(let $field = *unsafe { lib.get::<$ty>($sym) }
                     .map_err(|e| format!("the binary does not export `{}`: {e}", $sym))?;)*
-                Ok(Api { $($field,)* _lib: lib })
+                // SAFETY: the symbol, if present, has the signature of fmi2GetDirectionalDerivative
+                // (the extension's definition); `lib` is kept with the pointer.
+                let step_map_derivative =
+                    unsafe { lib.get::<fmi2GetDirectionalDerivativeTYPE>(b"feedsimGetStepMapDerivative") }.ok().map(|f| *f);
+                Ok(Api { $($field,)* step_map_derivative, _lib: lib })
             }
         }
     };
@@ -272,6 +283,9 @@ impl Fmu {
         if platform != "default" {
             return Err(err(&binary, format!("fmi2GetTypesPlatform returned `{platform}`, expected `default`")));
         }
+        let mut description = description;
+        // The extension counts only where it is both announced and exported.
+        description.flags.provides_step_map_derivative &= api.step_map_derivative.is_some();
         Ok(Fmu { inner: Arc::new(Loaded { api, description, root: root.to_owned(), _unpacked: unpacked }) })
     }
 
@@ -311,6 +325,7 @@ impl Fmu {
             Capability::SerializeState => f.can_serialize_fmu_state,
             Capability::DirectionalDerivative => f.provides_directional_derivative,
             Capability::OutputDerivatives => f.max_output_derivative_order >= 1,
+            Capability::StepMapDerivative => f.provides_step_map_derivative,
         };
         if has { Ok(()) } else { Err(Error::Capability { fmu: self.name().to_owned(), capability }) }
     }
@@ -762,6 +777,38 @@ impl Instance {
             )
         };
         self.check("fmi2GetDirectionalDerivative", s)
+    }
+
+    /// The extension `feedsimGetStepMapDerivative`: `out = J · seed` with `J` the derivative of
+    /// the last step's map (unknowns after the last `do_step` with respect to the knowns held
+    /// during it). Requires [`Capability::StepMapDerivative`].
+    pub fn step_map_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), Error> {
+        self.fmu.require(Capability::StepMapDerivative)?;
+        same_len("step_map_derivative (knowns)", knowns.len(), seed.len())?;
+        same_len("step_map_derivative (unknowns)", unknowns.len(), out.len())?;
+        let f = self.api().step_map_derivative.ok_or_else(|| Error::Capability {
+            fmu: self.fmu.name().to_owned(),
+            capability: Capability::StepMapDerivative,
+        })?;
+        // SAFETY: a live component; every array holds the length passed with it (checked above).
+        let s = unsafe {
+            f(
+                self.component,
+                unknowns.as_ptr(),
+                unknowns.len(),
+                knowns.as_ptr(),
+                knowns.len(),
+                seed.as_ptr(),
+                out.as_mut_ptr(),
+            )
+        };
+        self.check("feedsimGetStepMapDerivative", s)
     }
 
     /// Input derivatives of the given orders at the current communication point.

@@ -16,6 +16,10 @@ pub struct CoSimulationFlags {
     pub can_get_and_set_fmu_state: bool,
     pub can_serialize_fmu_state: bool,
     pub provides_directional_derivative: bool,
+    /// This workspace's opt-in extension: `<VendorAnnotations><Tool name="feedsim">
+    /// <StepMapDerivative/>` is present and (once the binary is loaded) it exports
+    /// `feedsimGetStepMapDerivative`.
+    pub provides_step_map_derivative: bool,
 }
 
 /// One `<ScalarVariable>`.
@@ -113,6 +117,11 @@ pub fn parse_model_description(text: &str) -> Result<FmuDescription, String> {
         can_get_and_set_fmu_state: flag("canGetAndSetFMUstate")?,
         can_serialize_fmu_state: flag("canSerializeFMUstate")?,
         provides_directional_derivative: flag("providesDirectionalDerivative")?,
+        provides_step_map_derivative: child("VendorAnnotations").is_some_and(|va| {
+            va.children()
+                .filter(|t| t.has_tag_name("Tool") && t.attribute("name") == Some(crate::xml::VENDOR_TOOL))
+                .any(|t| t.children().any(|c| c.has_tag_name(crate::xml::STEP_MAP_ANNOTATION)))
+        }),
     };
     let real_attr = |n: Node, a: &str| -> Result<Option<f64>, String> {
         n.attribute(a)
@@ -261,6 +270,17 @@ mod tests {
         assert_eq!(d.variables[2].var_type, VarType::Integer);
         assert_eq!(d.variables[2].causality, Causality::Local);
         assert_eq!(d.outputs, vec![(1, Some(vec![0]))]);
+        assert!(!d.flags.provides_step_map_derivative);
+        let annotated = MINIMAL.replace(
+            "<ModelVariables>",
+            r#"<VendorAnnotations><Tool name="other"/><Tool name="feedsim"><StepMapDerivative/></Tool></VendorAnnotations><ModelVariables>"#,
+        );
+        assert!(parse_model_description(&annotated).unwrap().flags.provides_step_map_derivative);
+        let other_tool = MINIMAL.replace(
+            "<ModelVariables>",
+            r#"<VendorAnnotations><Tool name="x"><StepMapDerivative/></Tool></VendorAnnotations><ModelVariables>"#,
+        );
+        assert!(!parse_model_description(&other_tool).unwrap().flags.provides_step_map_derivative);
     }
 
     #[test]

@@ -12,7 +12,7 @@
 
 use std::path::{Path, PathBuf};
 
-use fmi2::export::Model;
+use fmi2::export::{Model, ModelError, StepOutcome};
 use fmi2::state_bytes::{StateReader, StateWriter};
 use fmi2::{Capabilities, DefaultExperiment, ModelDescription, Resource, Variable};
 
@@ -33,6 +33,8 @@ pub mod vr {
     pub const SUBSTEPS: u32 = 0;
     /// Integer output.
     pub const STEPS: u32 = 1;
+    /// Integer.
+    pub const MAX_STEPS: u32 = 2;
     /// Boolean.
     pub const GRAVITY: u32 = 0;
     /// String.
@@ -52,6 +54,7 @@ pub struct Oscillator {
     x0: f64,
     v0: f64,
     substeps: i32,
+    max_steps: i32,
     gravity: bool,
     force: f64,
     force_rate: f64,
@@ -118,20 +121,64 @@ impl Oscillator {
         let (x, v) = self.state();
         Ok((self.force + self.weight(m) - self.c * v - self.k * x) / m)
     }
+
+    /// `∂(x, v, a)/∂F · seed`: at the current instant (`step_map` false: only the acceleration
+    /// responds, through 1/m) or of the last step's map (zero before the first step).
+    fn derivative(
+        &mut self,
+        step_map: bool,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ModelError> {
+        let m = self.mass()?;
+        let [sx, sv] = if step_map { self.sens } else { [0.0, 0.0] };
+        for &kn in knowns {
+            if kn != vr::F {
+                return Err(
+                    format!("derivatives with respect to value reference {kn} are not provided (only F)").into()
+                );
+            }
+        }
+        let df: f64 = seed.iter().sum(); // every known is F
+        for (o, &u) in out.iter_mut().zip(unknowns) {
+            *o = df
+                * match u {
+                    vr::X => sx,
+                    vr::V => sv,
+                    vr::A => (1.0 - self.c * sv - self.k * sx) / m,
+                    _ => return Err(format!("no derivative for value reference {u}").into()),
+                };
+        }
+        Ok(())
+    }
 }
 
 impl Model for Oscillator {
-    fn description() -> ModelDescription {
+    fn description() -> Result<ModelDescription, ModelError> {
         let mut variables = vec![
             Variable::real_input("F", vr::F, 0.0, "N").describe("force on the mass"),
-            Variable::real_output("x", vr::X, "m").describe("position").depends_on::<&str>(&[]),
-            Variable::real_output("v", vr::V, "m/s").describe("velocity").depends_on::<&str>(&[]),
-            Variable::real_output("a", vr::A, "m/s2").describe("acceleration").depends_on(&["F"]),
+            Variable::real_output("x", vr::X, "m")
+                .describe("position")
+                .depends_on::<&str>(&[])
+                .initially_depends_on(&["x0"]),
+            Variable::real_output("v", vr::V, "m/s")
+                .describe("velocity")
+                .depends_on::<&str>(&[])
+                .initially_depends_on(&["v0"]),
+            Variable::real_output("a", vr::A, "m/s2")
+                .describe("acceleration")
+                .depends_on(&["F"])
+                .initially_depends_on(&["F", "k", "c", "x0", "v0", "gravity", "config"]),
             Variable::parameter("k", vr::K, 40.0, true).unit("N/m").describe("spring stiffness"),
             Variable::parameter("c", vr::C, 0.8, true).unit("N.s/m").describe("damping coefficient"),
             Variable::parameter("x0", vr::X0, 0.1, false).unit("m").describe("initial position"),
             Variable::parameter("v0", vr::V0, 0.0, false).unit("m/s").describe("initial velocity"),
             Variable::parameter("substeps", vr::SUBSTEPS, 1, false).describe("integrator steps per communication step"),
+            Variable::parameter("max_steps", vr::MAX_STEPS, 0, false).describe(
+                "communication steps after which fmi2DoStep returns fmi2Discard (the model has ended); 0: no end",
+            ),
             Variable::parameter("gravity", vr::GRAVITY, false, false).describe("add the weight m g in −x"),
             Variable::parameter("config", vr::CONFIG, DEFAULT_CONFIG, false)
                 .describe("configuration file (mass_kg); relative paths resolve against resources/"),
@@ -145,15 +192,20 @@ impl Model for Oscillator {
                 fmi2::Variability::Discrete,
             )
             .describe("communication steps taken")
-            .depends_on::<&str>(&[]),
+            .depends_on::<&str>(&[])
+            .initially_depends_on::<&str>(&[]),
         );
-        ModelDescription {
+        Ok(ModelDescription {
             model_name: "fmi2 test oscillator".into(),
             model_identifier: "oscillator".into(),
-            guid: "{6f1c2a8e-3b7d-4c59-9e21-0a4d8b7f5c31}".into(),
+            guid: "{6f1c2a8e-3b7d-4c59-9e21-0a4d8b7f5c32}".into(),
             description: "Damped mass-spring oscillator, trapezoidal rule; test model of the fmi2 layer".into(),
             version: env!("CARGO_PKG_VERSION").into(),
-            capabilities: Capabilities { provides_directional_derivative: true, can_interpolate_inputs: true },
+            capabilities: Capabilities {
+                provides_directional_derivative: true,
+                can_interpolate_inputs: true,
+                provides_step_map_derivative: true,
+            },
             default_experiment: Some(DefaultExperiment {
                 start_time: 0.0,
                 stop_time: 5.0,
@@ -162,14 +214,14 @@ impl Model for Oscillator {
             }),
             extra_units: vec![],
             variables,
-        }
+        })
     }
 
     fn resources() -> Vec<Resource> {
         vec![Resource { name: DEFAULT_CONFIG.into(), bytes: include_bytes!("../resources/oscillator.txt").to_vec() }]
     }
 
-    fn instantiate(resources: Option<&Path>) -> Result<Self, String> {
+    fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
         let mut m = Oscillator {
             resources: resources.map(Path::to_owned),
             config: DEFAULT_CONFIG.into(),
@@ -179,6 +231,7 @@ impl Model for Oscillator {
             x0: 0.1,
             v0: 0.0,
             substeps: 1,
+            max_steps: 0,
             gravity: false,
             force: 0.0,
             force_rate: 0.0,
@@ -196,21 +249,21 @@ impl Model for Oscillator {
         Ok(m)
     }
 
-    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
         match vr {
             vr::F => self.force = value,
             vr::K if value > 0.0 => self.k = value,
             vr::C if value >= 0.0 => self.c = value,
-            vr::K => return Err(format!("{value}: must be positive")),
-            vr::C => return Err(format!("{value}: must not be negative")),
+            vr::K => return Err(format!("{value}: must be positive").into()),
+            vr::C => return Err(format!("{value}: must not be negative").into()),
             vr::X0 => self.x0 = value,
             vr::V0 => self.v0 = value,
-            _ => return Err(format!("value reference {vr} is not settable")),
+            _ => return Err(format!("value reference {vr} is not settable").into()),
         }
         Ok(())
     }
 
-    fn get_real(&mut self, vr: u32) -> Result<f64, String> {
+    fn get_real(&mut self, vr: u32) -> Result<f64, ModelError> {
         let (x, v) = self.state();
         Ok(match vr {
             vr::F => self.force,
@@ -221,45 +274,48 @@ impl Model for Oscillator {
             vr::C => self.c,
             vr::X0 => self.x0,
             vr::V0 => self.v0,
-            _ => return Err(format!("unknown value reference {vr}")),
+            _ => return Err(format!("unknown value reference {vr}").into()),
         })
     }
 
-    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), String> {
+    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), ModelError> {
         match vr {
             vr::SUBSTEPS if (1..=10_000).contains(&value) => self.substeps = value,
-            vr::SUBSTEPS => return Err(format!("{value}: must be in 1..=10000")),
-            _ => return Err(format!("value reference {vr} is not settable")),
+            vr::SUBSTEPS => return Err(format!("{value}: must be in 1..=10000").into()),
+            vr::MAX_STEPS if value >= 0 => self.max_steps = value,
+            vr::MAX_STEPS => return Err(format!("{value}: must not be negative").into()),
+            _ => return Err(format!("value reference {vr} is not settable").into()),
         }
         Ok(())
     }
 
-    fn get_integer(&mut self, vr: u32) -> Result<i32, String> {
+    fn get_integer(&mut self, vr: u32) -> Result<i32, ModelError> {
         match vr {
             vr::SUBSTEPS => Ok(self.substeps),
             vr::STEPS => Ok(self.steps),
-            _ => Err(format!("unknown value reference {vr}")),
+            vr::MAX_STEPS => Ok(self.max_steps),
+            _ => Err(format!("unknown value reference {vr}").into()),
         }
     }
 
-    fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), String> {
+    fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), ModelError> {
         match vr {
             vr::GRAVITY => self.gravity = value,
-            _ => return Err(format!("value reference {vr} is not settable")),
+            _ => return Err(format!("value reference {vr} is not settable").into()),
         }
         Ok(())
     }
 
-    fn get_boolean(&mut self, vr: u32) -> Result<bool, String> {
+    fn get_boolean(&mut self, vr: u32) -> Result<bool, ModelError> {
         match vr {
             vr::GRAVITY => Ok(self.gravity),
-            _ => Err(format!("unknown value reference {vr}")),
+            _ => Err(format!("unknown value reference {vr}").into()),
         }
     }
 
-    fn set_string(&mut self, vr: u32, value: &str) -> Result<(), String> {
+    fn set_string(&mut self, vr: u32, value: &str) -> Result<(), ModelError> {
         if vr != vr::CONFIG {
-            return Err(format!("value reference {vr} is not settable"));
+            return Err(format!("value reference {vr} is not settable").into());
         }
         // Read at once, so that a missing or malformed file is reported by fmi2SetString.
         let mass = read_config(&self.config_path(value)?)?;
@@ -267,21 +323,24 @@ impl Model for Oscillator {
         Ok(())
     }
 
-    fn get_string(&mut self, vr: u32) -> Result<String, String> {
+    fn get_string(&mut self, vr: u32) -> Result<String, ModelError> {
         match vr {
             vr::CONFIG => Ok(self.config.clone()),
-            _ => Err(format!("unknown value reference {vr}")),
+            _ => Err(format!("unknown value reference {vr}").into()),
         }
     }
 
-    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
+    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), ModelError> {
         self.mass()?;
         (self.x, self.v, self.initialized) = (self.x0, self.v0, true);
         Ok(())
     }
 
-    fn do_step(&mut self, _t: f64, h: f64) -> Result<(), String> {
+    fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {
         let m = self.mass()?;
+        if self.max_steps > 0 && self.steps >= self.max_steps {
+            return Ok(StepOutcome::Terminated { time: t, reason: format!("max_steps = {} reached", self.max_steps) });
+        }
         let hs = h / f64::from(self.substeps);
         let (k, c) = (self.k / m, self.c / m);
         // (I − hs/2 A) y⁺ = (I + hs/2 A) y + hs/(2m) (f⁻ + f⁺) e₂ with A = [[0, 1], [−k/m, −c/m]].
@@ -301,64 +360,59 @@ impl Model for Oscillator {
             s = [s0, s1];
         }
         if !(x.is_finite() && v.is_finite()) {
-            return Err(format!("the state became non-finite (x = {x}, v = {v})"));
+            return Err(format!("the state became non-finite (x = {x}, v = {v})").into());
         }
         (self.x, self.v, self.sens) = (x, v, s);
         self.force_rate = 0.0; // derivatives apply to one step; set them again for the next
         self.steps += 1;
-        Ok(())
+        Ok(StepOutcome::Complete)
     }
 
-    fn set_real_input_derivative(&mut self, vr: u32, _order: i32, value: f64) -> Result<(), String> {
+    fn set_real_input_derivative(&mut self, vr: u32, _order: i32, value: f64) -> Result<(), ModelError> {
         match vr {
             vr::F => self.force_rate = value,
-            _ => return Err(format!("value reference {vr} is not an input")),
+            _ => return Err(format!("value reference {vr} is not an input").into()),
         }
         Ok(())
     }
 
+    /// At an instant only the acceleration responds to the force: ∂a/∂F = 1/m.
     fn directional_derivative(
         &mut self,
         unknowns: &[u32],
         knowns: &[u32],
         seed: &[f64],
         out: &mut [f64],
-    ) -> Result<(), String> {
-        let m = self.mass()?;
-        let [sx, sv] = self.sens;
-        for &kn in knowns {
-            if kn != vr::F {
-                return Err(format!("derivatives with respect to value reference {kn} are not provided (only F)"));
-            }
-        }
-        let df: f64 = seed.iter().sum(); // every known is F
-        for (o, &u) in out.iter_mut().zip(unknowns) {
-            *o = df
-                * match u {
-                    vr::X => sx,
-                    vr::V => sv,
-                    vr::A => (1.0 - self.c * sv - self.k * sx) / m,
-                    _ => return Err(format!("no derivative for value reference {u}")),
-                };
-        }
-        Ok(())
+    ) -> Result<(), ModelError> {
+        self.derivative(false, unknowns, knowns, seed, out)
     }
 
-    fn save_state(&self, out: &mut Vec<u8>) {
+    fn step_map_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), ModelError> {
+        self.derivative(true, unknowns, knowns, seed, out)
+    }
+
+    fn save_state(&self, out: &mut Vec<u8>) -> Result<(), ModelError> {
         let mut w = StateWriter::new(out);
         w.str(&self.config).bool(self.mass.is_some()).f64(self.mass.unwrap_or(0.0));
         w.f64(self.k).f64(self.c).f64(self.x0).f64(self.v0).i32(self.substeps).bool(self.gravity);
         w.f64(self.force).f64(self.force_rate).bool(self.initialized).f64(self.x).f64(self.v);
-        w.f64(self.sens[0]).f64(self.sens[1]).i32(self.steps);
+        w.f64(self.sens[0]).f64(self.sens[1]).i32(self.steps).i32(self.max_steps);
+        Ok(())
     }
 
-    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), ModelError> {
         let mut r = StateReader::new(bytes);
         let config = r.string()?;
         let (has_mass, mass) = (r.bool()?, r.f64()?);
         let (k, c, x0, v0, substeps, gravity) = (r.f64()?, r.f64()?, r.f64()?, r.f64()?, r.i32()?, r.bool()?);
         let (force, force_rate, initialized, x, v) = (r.f64()?, r.f64()?, r.bool()?, r.f64()?, r.f64()?);
-        let (s0, s1, steps) = (r.f64()?, r.f64()?, r.i32()?);
+        let (s0, s1, steps, max_steps) = (r.f64()?, r.f64()?, r.i32()?, r.i32()?);
         r.finish()?;
         *self = Oscillator {
             resources: self.resources.take(),
@@ -369,6 +423,7 @@ impl Model for Oscillator {
             x0,
             v0,
             substeps,
+            max_steps,
             gravity,
             force,
             force_rate,
@@ -397,8 +452,8 @@ mod tests {
 
     #[test]
     fn description_is_valid() {
-        let info = fmi2::ModelInfo::new(Oscillator::description()).unwrap();
-        assert_eq!(info.vars.len(), 12);
+        let info = fmi2::ModelInfo::new(Oscillator::description().unwrap()).unwrap();
+        assert_eq!(info.vars.len(), 13);
     }
 
     #[test]
@@ -441,7 +496,7 @@ mod tests {
         m.set_integer(vr::SUBSTEPS, 3).unwrap();
         m.do_step(0.0, 0.05).unwrap();
         let mut saved = Vec::new();
-        m.save_state(&mut saved);
+        m.save_state(&mut saved).unwrap();
         let outputs = |m: &mut Oscillator, f: f64| {
             m.restore_state(&saved).unwrap();
             m.set_real(vr::F, f).unwrap();
@@ -452,7 +507,7 @@ mod tests {
         let (p, q) = (outputs(&mut m, 1.0 + d), outputs(&mut m, 1.0 - d));
         outputs(&mut m, 1.0);
         let mut jac = [0.0; 3];
-        m.directional_derivative(&[vr::X, vr::V, vr::A], &[vr::F], &[1.0], &mut jac).unwrap();
+        m.step_map_derivative(&[vr::X, vr::V, vr::A], &[vr::F], &[1.0], &mut jac).unwrap();
         for i in 0..3 {
             let fd = (p[i] - q[i]) / (2.0 * d);
             assert!((fd - jac[i]).abs() <= 1e-9 * jac[i].abs().max(1e-3), "output {i}: fd {fd} vs {}", jac[i]);
@@ -472,8 +527,8 @@ mod tests {
         assert!(read_config(&bad).unwrap_err().contains("missing"));
         assert!(read_config(&dir.join("none.txt")).unwrap_err().contains("cannot read config file"));
         let mut m = Oscillator::instantiate(None).unwrap();
-        assert!(m.set_string(vr::CONFIG, "oscillator.txt").unwrap_err().contains("no resource location"));
-        assert!(m.get_real(vr::A).unwrap_err().contains("no configuration loaded"));
+        assert!(m.set_string(vr::CONFIG, "oscillator.txt").unwrap_err().to_string().contains("no resource location"));
+        assert!(m.get_real(vr::A).unwrap_err().to_string().contains("no configuration loaded"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

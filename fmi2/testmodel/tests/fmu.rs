@@ -47,14 +47,15 @@ fn archive_layout_and_description() {
     assert!(root.join("resources/oscillator.txt").is_file());
     let d = f.description();
     assert_eq!(d.model_identifier, "oscillator");
-    assert_eq!(d.guid, Oscillator::description().guid);
-    assert_eq!(d.variables.len(), 12);
+    assert_eq!(d.guid, Oscillator::description().unwrap().guid);
+    assert_eq!(d.variables.len(), 13);
     for cap in [
         Capability::VariableStepSize,
         Capability::InterpolateInputs,
         Capability::GetSetState,
         Capability::SerializeState,
         Capability::DirectionalDerivative,
+        Capability::StepMapDerivative,
     ] {
         f.require(cap).unwrap();
     }
@@ -152,8 +153,57 @@ fn serialized_state_round_trips_into_another_instance() {
     assert!(e.to_string().contains("not a state of this FMU"), "{e}");
 }
 
+/// The standard derivative at a communication point: fmi2GetReal after fmi2SetReal, no step.
+/// Only the acceleration responds to the force (as `<Outputs>` declares), through 1/m.
 #[test]
-fn directional_derivatives_match_central_differences_with_rollback() {
+fn directional_derivatives_are_those_of_the_current_instant() {
+    let f = fmu();
+    let mut i = ready(&f, "instant");
+    run(&mut i, 0.0, 0.01, 25);
+    let u = force(0.25);
+    let at = |i: &mut Instance, du: f64| {
+        i.set_real(&[vr::F], &[u + du]).unwrap();
+        outputs(i)
+    };
+    let d = 1e-3;
+    let (p, m) = (at(&mut i, d), at(&mut i, -d));
+    at(&mut i, 0.0);
+    let mut jac = [0.0; 3];
+    i.directional_derivative(&OUTPUTS, &[vr::F], &[1.0], &mut jac).unwrap();
+    for k in 0..3 {
+        let fd = (p[k] - m[k]) / (2.0 * d);
+        assert!((fd - jac[k]).abs() <= 1e-9 * jac[k].abs().max(1.0), "output {k}: fd {fd}, exact {}", jac[k]);
+    }
+    assert_eq!((jac[0], jac[1]), (0.0, 0.0));
+    assert!((jac[2] - 0.5).abs() < 1e-15, "1/m with m = 2 kg: {}", jac[2]);
+    // The declared structure says the same.
+    let deps: Vec<_> = f.description().outputs.iter().map(|(_, d)| d.clone().unwrap()).collect();
+    assert_eq!(deps[..3], [vec![], vec![], vec![0]]);
+}
+
+/// A model that ends: fmi2Discard, fmi2Terminated true, fmi2LastSuccessfulTime at the end.
+#[test]
+fn a_model_that_ends_is_reported_through_the_importer() {
+    let f = fmu();
+    let mut i = f.instantiate("end", false).unwrap();
+    i.setup_experiment(None, 0.0, None).unwrap();
+    i.enter_initialization_mode().unwrap();
+    i.set_integer(&[vr::MAX_STEPS], &[3]).unwrap();
+    i.exit_initialization_mode().unwrap();
+    run(&mut i, 0.0, 0.01, 3);
+    let e = i.do_step(0.03, 0.01).unwrap_err();
+    assert_eq!(e.status(), Some(Status::Discard), "{e}");
+    assert!(e.to_string().contains("max_steps = 3 reached"), "{e}");
+    assert!(i.terminated().unwrap());
+    assert!((i.last_successful_time().unwrap() - 0.03).abs() < 1e-15);
+    let mut steps = [0];
+    i.get_integer(&[vr::STEPS], &mut steps).unwrap();
+    assert_eq!(steps, [3]);
+    i.terminate().unwrap();
+}
+
+#[test]
+fn step_map_derivatives_match_central_differences_with_rollback() {
     let f = fmu();
     let mut i = ready(&f, "dd");
     i.set_integer(&[], &[]).unwrap();
@@ -171,7 +221,8 @@ fn directional_derivatives_match_central_differences_with_rollback() {
     let (p, m) = (at(&mut i, d), at(&mut i, -d));
     at(&mut i, 0.0);
     let mut jac = [0.0; 3];
-    i.directional_derivative(&OUTPUTS, &[vr::F], &[1.0], &mut jac).unwrap();
+    assert!(f.description().flags.provides_step_map_derivative);
+    i.step_map_derivative(&OUTPUTS, &[vr::F], &[1.0], &mut jac).unwrap();
     for k in 0..3 {
         let fd = (p[k] - m[k]) / (2.0 * d);
         // The step map is linear in F: central differences are exact up to rounding.
@@ -179,8 +230,8 @@ fn directional_derivatives_match_central_differences_with_rollback() {
     }
     assert!(jac[0] > 0.0 && jac[2] > 0.0);
     // Parameters among the knowns: zero seeds are fine, a non-zero seed is refused clearly.
-    i.directional_derivative(&[vr::X], &[vr::F, vr::K], &[1.0, 0.0], &mut jac[..1]).unwrap();
-    let e = i.directional_derivative(&[vr::X], &[vr::K], &[1.0], &mut jac[..1]).unwrap_err();
+    i.step_map_derivative(&[vr::X], &[vr::F, vr::K], &[1.0, 0.0], &mut jac[..1]).unwrap();
+    let e = i.step_map_derivative(&[vr::X], &[vr::K], &[1.0], &mut jac[..1]).unwrap_err();
     assert!(e.to_string().contains("derivatives with respect to value reference 4 are not provided"), "{e}");
 }
 
@@ -310,7 +361,7 @@ fn malformed_archives_are_clear_errors() {
     let e = Fmu::load(&dir.join("absent.fmu")).unwrap_err();
     assert!(e.to_string().contains("absent.fmu: cannot open"), "{e}");
     // A zip without a binary, and one with a broken description.
-    let d = Oscillator::description();
+    let d = Oscillator::description().unwrap();
     let no_lib = dir.join("no_lib.fmu");
     let missing = dir.join("missing.so");
     let e = fmi2::package::write_fmu(&no_lib, &d, &missing, &[]).unwrap_err();
@@ -336,7 +387,7 @@ fn a_wrong_guid_is_refused_at_instantiation() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(dir.join("binaries/linux64")).unwrap();
     std::fs::copy(f.root().join("binaries/linux64/oscillator.so"), dir.join("binaries/linux64/oscillator.so")).unwrap();
-    let mut d = Oscillator::description();
+    let mut d = Oscillator::description().unwrap();
     d.guid = "{another-build}".into();
     std::fs::write(dir.join("modelDescription.xml"), fmi2::xml::model_description_xml(&d).unwrap()).unwrap();
     let g = Fmu::load_unpacked(&dir).unwrap();

@@ -81,7 +81,10 @@ fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathB
         .collect::<Result<_, _>>()?;
     let wrench = |r: &[f64]| Vector6::from_iterator(cols.iter().map(|&c| r[c]));
     let model = CableCabin::from_scene(scene)?;
-    let mut dy = model.dynamics_with(Payload::External, rows[0][0], &wrench(&rows[0]))?;
+    // As the FMU: at rest at the target pose under the first wrench (form-found for it).
+    let w0 = wrench(&rows[0]);
+    let under = if w0 == model.static_payload_wrench() { None } else { Some(model.under_wrench(&w0)?) };
+    let mut dy = under.as_ref().unwrap_or(&model).dynamics_with(Payload::External, rows[0][0], &w0)?;
     let mut f = std::io::BufWriter::new(std::fs::File::create(out)?);
     let axes = |p: &str, n: usize| (1..=n).map(|k| format!("{p}[{k}]")).collect::<Vec<_>>();
     let mut cols_out = vec!["time".to_string()];

@@ -1,0 +1,161 @@
+//! Files a model reads through a String parameter (e.g. a scene): where they may come from and
+//! how much of them may reach a log.
+//!
+//! A relative name resolves inside the FMU's `resources/` directory and nowhere else (no `..`
+//! escape, no symbolic link out of it); an absolute name is the importer's explicit choice. A
+//! name the FMU ships is also found without a resource location. Files are read up to a size
+//! limit, and an error quotes at most a short, escaped excerpt of what was read.
+
+use std::io::Read;
+use std::path::{Component, Path, PathBuf};
+
+/// Why a resource could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ResourceError {
+    #[error("`{name}` leaves the FMU's resources/ directory (relative names must stay inside it)")]
+    Outside { name: String },
+    #[error("`{name}` is relative but the FMU was given no resource location")]
+    NoLocation { name: String },
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{path}: larger than {limit} bytes; not a file this FMU reads")]
+    TooLarge { path: PathBuf, limit: u64 },
+    #[error("{path}: not UTF-8 text")]
+    NotText { path: PathBuf },
+    #[error("{origin}: {message}")]
+    Invalid { origin: String, message: String },
+}
+
+/// Text of the resource `name`: relative names inside `resources` (or one of `shipped`, the
+/// copies compiled into the binary, when there is no such file or no location), absolute names
+/// as given. Returns the text and where it came from (for messages).
+pub fn read_text(
+    name: &str,
+    resources: Option<&Path>,
+    shipped: &[(&str, &str)],
+    limit: u64,
+) -> Result<(String, String), ResourceError> {
+    let embedded = shipped.iter().find(|(n, _)| *n == name).map(|(_, t)| *t);
+    let path = Path::new(name);
+    let file = if path.is_absolute() {
+        Some(path.to_owned())
+    } else {
+        if path.components().any(|c| !matches!(c, Component::Normal(_))) {
+            return Err(ResourceError::Outside { name: name.to_owned() });
+        }
+        match resources {
+            Some(dir) => Some(dir.join(path)).filter(|p| p.exists() || embedded.is_none()),
+            None if embedded.is_some() => None,
+            None => return Err(ResourceError::NoLocation { name: name.to_owned() }),
+        }
+    };
+    let Some(file) = file else {
+        return Ok((embedded.unwrap_or_default().to_owned(), format!("{name} (shipped)")));
+    };
+    if !path.is_absolute()
+        && let Some(dir) = resources
+    {
+        // A symbolic link may still point out of resources/: compare the real paths.
+        let io = |source| ResourceError::Io { path: file.clone(), source };
+        let (real_dir, real_file) = (dir.canonicalize().map_err(io)?, file.canonicalize().map_err(io)?);
+        if !real_file.starts_with(&real_dir) {
+            return Err(ResourceError::Outside { name: name.to_owned() });
+        }
+    }
+    let io = |source| ResourceError::Io { path: file.clone(), source };
+    let f = std::fs::File::open(&file).map_err(io)?;
+    if !f.metadata().map_err(io)?.is_file() {
+        return Err(io(std::io::Error::other("not a regular file")));
+    }
+    let mut bytes = Vec::new();
+    f.take(limit + 1).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > limit {
+        return Err(ResourceError::TooLarge { path: file, limit });
+    }
+    let text = String::from_utf8(bytes).map_err(|_| ResourceError::NotText { path: file.clone() })?;
+    Ok((text, file.display().to_string()))
+}
+
+/// The resource `name` (see [`read_text`]) parsed by `parse(text, origin)`; a parse error is
+/// reported as a short escaped excerpt, so a log never shows more of a file than that.
+pub fn load_parsed<T, E: std::fmt::Display>(
+    name: &str,
+    resources: Option<&Path>,
+    shipped: &[(&str, &str)],
+    limit: u64,
+    parse: impl FnOnce(&str, &str) -> Result<T, E>,
+) -> Result<T, ResourceError> {
+    let (text, origin) = read_text(name, resources, shipped, limit)?;
+    parse(&text, &origin).map_err(|e| ResourceError::Invalid { origin, message: excerpt(&e.to_string(), 300) })
+}
+
+/// A message about a file's contents, cut to `max` characters, every control character
+/// escaped: what a log may show of a file the FMU was pointed at.
+pub fn excerpt(message: &str, max: usize) -> String {
+    let mut out = String::new();
+    for (i, c) in message.chars().enumerate() {
+        if i == max {
+            out.push('…');
+            break;
+        }
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dir(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("fmi2-res-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(d.join("resources/sub")).unwrap();
+        std::fs::write(d.join("secret.txt"), "root:x:0:0\n").unwrap();
+        std::fs::write(d.join("resources/sub/a.txt"), "a").unwrap();
+        d
+    }
+
+    #[test]
+    fn relative_names_stay_inside_resources() {
+        let d = dir("inside");
+        let res = d.join("resources");
+        assert_eq!(read_text("sub/a.txt", Some(&res), &[], 10).unwrap().0, "a");
+        for bad in ["../secret.txt", "sub/../../secret.txt", "./sub/a.txt"] {
+            let e = read_text(bad, Some(&res), &[], 100).unwrap_err();
+            assert!(matches!(e, ResourceError::Outside { .. }), "{bad}: {e}");
+            assert!(!e.to_string().contains("root:x"), "{e}");
+        }
+        std::os::unix::fs::symlink(d.join("secret.txt"), res.join("link.txt")).unwrap();
+        let e = read_text("link.txt", Some(&res), &[], 100).unwrap_err();
+        assert!(matches!(e, ResourceError::Outside { .. }), "{e}");
+        // an absolute name is the importer's explicit choice
+        assert_eq!(read_text(d.join("secret.txt").to_str().unwrap(), None, &[], 100).unwrap().0, "root:x:0:0\n");
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn shipped_copies_size_limit_and_missing_files() {
+        let d = dir("limits");
+        let res = d.join("resources");
+        let shipped = [("s.toml", "x = 1")];
+        assert_eq!(read_text("s.toml", None, &shipped, 100).unwrap().0, "x = 1");
+        assert_eq!(read_text("s.toml", Some(&res), &shipped, 100).unwrap().1, "s.toml (shipped)");
+        assert!(matches!(read_text("t.toml", None, &shipped, 100), Err(ResourceError::NoLocation { .. })));
+        let e = read_text("none.toml", Some(&res), &shipped, 100).unwrap_err();
+        assert!(e.to_string().contains("none.toml"), "{e}");
+        std::fs::write(res.join("big.txt"), vec![b'x'; 101]).unwrap();
+        assert!(matches!(read_text("big.txt", Some(&res), &[], 100), Err(ResourceError::TooLarge { .. })));
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn excerpts_are_short_and_escaped() {
+        assert_eq!(excerpt("a\nb\u{1b}[31m", 100), "a\\nb\\u{1b}[31m");
+        assert_eq!(excerpt(&"y".repeat(500), 10), format!("{}…", "y".repeat(10)));
+    }
+}

@@ -1,0 +1,193 @@
+"""FMI 2.0 as written, seen through fmpy: derivatives and dependencies at a communication point,
+initialization with the inputs the importer gives, and misuse through the C ABI."""
+
+import math
+
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+
+from conftest import Slave, fmu_path, DIST
+import fmpy
+from fmpy import read_model_description
+
+SCENES = ["lt50m_C.toml", "lt50m_B.toml"]
+
+
+def open_fmu(name, directory, instance=None):
+    fmpy.extract(str(DIST / f"{name}.fmu"), directory)
+    return Slave(directory, read_model_description(directory), name=instance or name)
+
+
+def dependencies(md, initial):
+    """{output name: set of known names} from <Outputs> or <InitialUnknowns>."""
+    unknowns = md.initialUnknowns if initial else md.outputs
+    return {u.variable.name: {d.name for d in (u.dependencies or [])} for u in unknowns}
+
+
+def static_wrench(stewart_dir, scene):
+    """The platform's wrench at the scene's pose at rest (from the Stewart FMU in
+    initialization mode, the importer's way)."""
+    s = Slave(stewart_dir, read_model_description(stewart_dir), name="probe")
+    s.fmu.setupExperiment(startTime=0.0)
+    s.fmu.enterInitializationMode()
+    s.set("scene", scene)
+    names = [f"wrench.{p}[{k}]" for p in ("f", "m") for k in (1, 2, 3)]
+    w = s.get_real(names)
+    s.free()
+    return w
+
+
+CASES = {
+    # name: (inputs, input perturbations, relative tolerance of the declared pairs)
+    "cable_fmu": ([f"wrench.{p}[{k}]" for p in ("f", "m") for k in (1, 2, 3)], [2.0] * 3 + [1.0] * 3, 1e-4),
+    "stewart_fmu": (
+        [f"cabin.{p}[{k}]" for p, n in (("r", 3), ("q", 4), ("v", 3), ("w", 3), ("a", 3), ("alpha", 3)) for k in range(1, n + 1)],
+        [1e-5] * 19,
+        1e-6,
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_derivatives_and_dependencies_at_a_communication_point(name, tmp_path):
+    """Every declared and every undeclared output/input pair, at B and C, in initialization
+    and step mode: fmi2GetDirectionalDerivative equals central differences of fmi2GetReal after
+    fmi2SetReal (no step); an undeclared pair does not move."""
+    inputs, deltas, rtol = CASES[name]
+    stewart_dir = str(tmp_path / "probe")
+    fmpy.extract(str(DIST / "stewart_fmu.fmu"), stewart_dir)
+    for scene in SCENES:
+        for initial in (True, False):
+            s = open_fmu(name, str(tmp_path / f"{scene}-{initial}"))
+            deps = dependencies(s.md, initial)
+            outputs = list(deps)
+            s.fmu.setupExperiment(startTime=0.0)
+            s.fmu.enterInitializationMode()
+            s.set("scene", scene)
+            if name == "cable_fmu":
+                s.fmu.setReal([s.vr[i] for i in inputs], static_wrench(stewart_dir, scene))
+            if not initial:
+                s.fmu.exitInitializationMode()
+                for k in range(10):
+                    s.fmu.doStep(currentCommunicationPoint=0.01 * k, communicationStepSize=0.01)
+            out_vrs = [s.vr[o] for o in outputs]
+            for name_in, delta in zip(inputs, deltas):
+                vr = s.vr[name_in]
+                u0 = s.fmu.getReal([vr])[0]
+                s.fmu.setReal([vr], [u0 + delta])
+                p = np.array(s.fmu.getReal(out_vrs))
+                s.fmu.setReal([vr], [u0 - delta])
+                q = np.array(s.fmu.getReal(out_vrs))
+                s.fmu.setReal([vr], [u0])
+                y = np.array(s.fmu.getReal(out_vrs))
+                d = np.array(s.fmu.getDirectionalDerivative(out_vrs, [vr], [1.0]))
+                fd = (p - q) / (2 * delta)
+                scale = max(np.abs(d).max(), 1e-3)
+                for r, o in enumerate(outputs):
+                    what = f"{scene} {'init' if initial else 'step'}: d {o} / d {name_in}"
+                    if name_in in deps[o]:
+                        assert abs(fd[r] - d[r]) <= rtol * max(scale, 1.0 if name == "stewart_fmu" else scale), (
+                            f"{what}: fd {fd[r]:e}, exact {d[r]:e}")
+                    else:
+                        assert abs(p[r] - q[r]) <= 1e-13 * max(abs(y[r]), 1.0), f"{what}: undeclared, moves by {fd[r]:e}"
+                        assert d[r] == 0.0, f"{what}: undeclared, derivative {d[r]:e}"
+            s.free()
+
+
+def connect_in_initialization(cable, stewart):
+    """The importer's part: connected inputs from connected outputs in initialization mode,
+    until nothing changes; returns the passes it took."""
+    to_stewart = [f"cabin.{p}[{k}]" for p, n in (("r", 3), ("q", 4), ("v", 3), ("w", 3), ("a", 3), ("alpha", 3)) for k in range(1, n + 1)]
+    to_cable = [f"wrench.{p}[{k}]" for p in ("f", "m") for k in (1, 2, 3)]
+    for passes in range(1, 20):
+        changed = False
+        for src, dst, names in ((stewart, cable, to_cable), (cable, stewart, to_stewart)):
+            y = src.get_real(names)
+            if y != dst.get_real(names):
+                dst.fmu.setReal([dst.vr[n] for n in names], y)
+                changed = True
+        if not changed:
+            return passes, to_stewart, to_cable
+    raise AssertionError("initialization did not settle")
+
+
+def test_scene_b_starts_at_rest_under_a_standard_importer(tmp_path):
+    """fmpy drives both FMUs at scene B with the platform held still: inputs set from outputs
+    in initialization mode (iterated), then a fixed-point iteration with rollback per step
+    (Jacobi alone is unstable here: the platform's added mass). Drift over 10 s ≤ 1e-6 m."""
+    cable = open_fmu("cable_fmu", str(tmp_path / "cable"), "cable")
+    stewart = open_fmu("stewart_fmu", str(tmp_path / "stewart"), "stewart")
+    for u in (cable, stewart):
+        u.fmu.setupExperiment(startTime=0.0)
+        u.fmu.enterInitializationMode()
+        u.set("scene", "lt50m_B.toml")
+    stewart.set("speed", 0.0)
+    passes, to_stewart, to_cable = connect_in_initialization(cable, stewart)
+    assert passes <= 3
+    for u in (cable, stewart):
+        u.fmu.exitInitializationMode()
+    r_names = [f"cabin.r[{k}]" for k in (1, 2, 3)]
+    r0 = np.array(cable.get_real(r_names))
+    assert np.abs(r0 - [-2.82, 8.89, 16.1]).max() < 1e-12, "the target pose of B"
+    h, drift, t = 0.01, 0.0, 0.0
+    states = [cable.fmu.getFMUstate(), stewart.fmu.getFMUstate()]
+    for _ in range(1000):
+        states = [cable.fmu.getFMUstate(), stewart.fmu.getFMUstate()]
+        for it in range(50):
+            w = stewart.get_real(to_cable) if it == 0 else w_new
+            cable.fmu.setReal([cable.vr[n] for n in to_cable], w)
+            cable.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+            stewart.fmu.setReal([stewart.vr[n] for n in to_stewart], cable.get_real(to_stewart))
+            stewart.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+            w_new = stewart.get_real(to_cable)
+            if max(abs(a - b) for a, b in zip(w, w_new)) <= 1e-9 * 2000.0:
+                break
+            w_new = [0.5 * (a + b) for a, b in zip(w, w_new)]
+            cable.fmu.setFMUstate(states[0])
+            stewart.fmu.setFMUstate(states[1])
+        else:
+            raise AssertionError(f"no convergence at t = {t}")
+        for st, u in zip(states, (cable, stewart)):
+            u.fmu.freeFMUstate(st)
+        t += h
+        drift = max(drift, np.abs(np.array(cable.get_real(r_names)) - r0).max())
+    print(f"scene B, platform held still: drift over 10 s {drift:.2e} m")
+    assert drift <= 1e-6
+    cable.free()
+    stewart.free()
+
+
+def expect_error(slave, call, *fragments):
+    with pytest.raises(FMICallException) as e:
+        call()
+    assert e.value.status == 3, e.value
+    text = " ".join(slave.errors())
+    for f in fragments:
+        assert f in text, f"`{f}` not in the FMU log: {slave.messages}"
+
+
+def test_misuse_through_the_c_abi_fails_cleanly(tmp_path):
+    """Too many elements (never an abort of this process), a scene path leaving resources/, a
+    wrench of 1e300 and a NaN input derivative: fmi2Error with the reason, the process alive."""
+    d = str(tmp_path / "cable")
+    fmpy.extract(str(DIST / "cable_fmu.fmu"), d)
+    md = read_model_description(d)
+    for n in (2000, 2**31 - 1):
+        s = Slave(d, md, name=f"big{n}")
+        s.fmu.setupExperiment(startTime=0.0)
+        s.fmu.enterInitializationMode()
+        expect_error(s, lambda: s.set("elements_per_cable", n), "elements_per_cable", f"{n} elements per cable would need about")
+        s.free()
+    s = Slave(d, md, name="escape")
+    (tmp_path / "secret.toml").write_text('password = "hunter2"\n')
+    expect_error(s, lambda: s.set("scene", "../../secret.toml"), "leaves the FMU's resources/ directory")
+    assert not any("hunter2" in m for _, _, m in s.messages)
+    s.free()
+    s = Slave(d, md, name="huge").initialize()
+    s.fmu.setReal([s.vr["wrench.f[3]"]], [1e300])
+    expect_error(s, lambda: s.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.01), "t = 0.01")
+    s.free()
+    s = Slave(d, md, name="rate").initialize()
+    expect_error(s, lambda: s.fmu.setRealInputDerivatives([s.vr["wrench.f[1]"]], [1], [math.inf]), "not a finite number")
+    s.free()
