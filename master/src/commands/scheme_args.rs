@@ -94,7 +94,7 @@ pub(crate) struct SchemeOptions {
     /// Interface tolerance of iterating schemes: every |U − C·Y| ≤ tol · s, with s the largest
     /// start value (at least 1) among the inputs of the same FMU and unit (e.g. the weight for
     /// forces).
-    #[arg(long, default_value_t = 1e-8, value_parser = positive)]
+    #[arg(long, default_value = "1e-8", value_parser = positive)]
     pub(crate) tol: f64,
     /// Iteration limit per macro step of iterating schemes (exceeding it stops the run).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
