@@ -8,7 +8,7 @@
 //!   (y), both logarithmic, coloured by category (stable, unstable, …) and annotated.
 //!
 //! Lines with more points than the plot has pixel columns are decimated per column, keeping
-//! each column's first, last, lowest and highest point ([`decimate_columns`]): a 10⁴-step run
+//! each column's first, last, lowest and highest point (see `decimate_columns`): a 10⁴-step run
 //! stays small on disk and still shows every peak. Non-finite points leave a gap.
 
 use plotters::coord::Shift;
@@ -26,7 +26,7 @@ pub const PALETTE: [RGBColor; 7] = [
     RGBColor(0, 0, 0),       // black
 ];
 
-/// Cell colours of the stability map's categories, in the order of [`Verdict`]-like lists:
+/// Cell colours of the stability map's categories, in this order:
 /// stable (sky blue), unstable (vermillion), not converged (orange), infeasible (light grey).
 pub const CATEGORY_COLORS: [RGBColor; 4] =
     [RGBColor(86, 180, 233), RGBColor(213, 94, 0), RGBColor(230, 159, 0), RGBColor(215, 215, 215)];
@@ -51,7 +51,7 @@ impl<E: std::error::Error + Send + Sync> From<DrawingAreaErrorKind<E>> for PlotE
 /// The points of a line thinned to what `columns` pixel columns over `[x0, x1]` can show: per
 /// column the first, lowest, highest and last point, in their original order. Returns the
 /// line's finite stretches (a non-finite point ends one).
-pub fn decimate_columns(x: &[f64], y: &[f64], (x0, x1): (f64, f64), columns: usize) -> Vec<Vec<(f64, f64)>> {
+fn decimate_columns(x: &[f64], y: &[f64], (x0, x1): (f64, f64), columns: usize) -> Vec<Vec<(f64, f64)>> {
     let columns = columns.max(1);
     let width = x1 - x0;
     let column = |v: f64| {

@@ -385,10 +385,6 @@ impl<'a> Run<'a> {
         Ok(Run { scene, scene_file, method, plan, every })
     }
 
-    pub fn plan(&self) -> &Plan {
-        &self.plan
-    }
-
     /// Runs it; `quiet`: no progress bar.
     pub fn execute(&self, quiet: bool) -> Result<Trace, RunError> {
         let (scene, plan, method) = (self.scene, self.plan, self.method);
