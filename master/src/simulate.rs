@@ -2,7 +2,7 @@
 //! displacement and rotation from the static equilibrium and the Stewart wrench, sampled at the
 //! scene's output interval, and a [`Summary`] (peaks, iterations, residuals) taken at every
 //! step. Methods: the monolithic eq. (7) model, a co-simulation scheme on the FMUs, the
-//! decoupled model of the paper's ref. [3] (the Stewart FMU with its cabin held at the static
+//! decoupled model of the paper's ref. \[3\] (the Stewart FMU with its cabin held at the static
 //! pose, its wrench applied to the cable FMU), or the cable–cabin model alone.
 //!
 //! A run is checked whole before its first step ([`Run::prepare`]): the steps reach the end
@@ -532,7 +532,7 @@ fn vec6(v: &nalgebra::Vector6<f64>) -> [f64; 6] {
 }
 
 /// Writes `scene` (a variant of the one read from `scene_file`) to a private file, with the FMU
-/// paths of its [system] made absolute, so that the FMUs read this variant; returns the variant
+/// paths of its `[system]` made absolute, so that the FMUs read this variant; returns the variant
 /// and its file.
 pub fn write_variant(scene: &Scene, scene_file: &Path, tag: &str) -> std::io::Result<(Scene, std::path::PathBuf)> {
     let mut s = scene.clone();
