@@ -142,10 +142,12 @@ pub(crate) struct SchemeOptions {
     pub(crate) iqn_reuse: usize,
     /// QR filter limit of `iqn-ils` in [0, 1): a history column keeping less than this
     /// fraction of its norm after orthogonalization against newer ones is deleted.
-    #[arg(long, default_value_t = IqnOptions::default().filter, value_parser = below_one)]
+    #[arg(long, default_value_t = IqnOptions::default().filter, value_parser = below_one,
+          allow_negative_numbers = true)]
     pub(crate) iqn_filter: f64,
     /// Relaxation of the first update of `iqn-ils`, while there is no history, in (0, 1].
-    #[arg(long, default_value_t = IqnOptions::default().initial_relaxation, value_parser = factor)]
+    #[arg(long, default_value_t = IqnOptions::default().initial_relaxation, value_parser = factor,
+          allow_negative_numbers = true)]
     pub(crate) iqn_relaxation: f64,
     /// Adaptive macro step (iterative, ijcsa, iqn-ils): a local error estimate of the coupled
     /// quantities (predictor against corrector), rejected steps rolled back. The steps are
@@ -155,16 +157,16 @@ pub(crate) struct SchemeOptions {
     pub(crate) adaptive: bool,
     /// Relative tolerance of the adaptive step, in (0, 1): error per step ≤ rtol × how far each
     /// coupled quantity has moved from its initial value.
-    #[arg(long, default_value = "1e-3", value_parser = tolerance)]
+    #[arg(long, default_value = "1e-3", value_parser = tolerance, allow_negative_numbers = true)]
     pub(crate) rtol: f64,
     /// Absolute tolerance of the adaptive step, as a fraction of each coupled quantity's scale.
-    #[arg(long, default_value = "1e-6", value_parser = positive)]
+    #[arg(long, default_value = "1e-6", value_parser = positive, allow_negative_numbers = true)]
     pub(crate) atol: f64,
     /// Smallest step of the adaptive step (s).
-    #[arg(long, default_value = "1e-5", value_parser = positive)]
+    #[arg(long, default_value = "1e-5", value_parser = positive, allow_negative_numbers = true)]
     pub(crate) h_min: f64,
     /// Largest step of the adaptive step (s).
-    #[arg(long, default_value = "0.1", value_parser = positive)]
+    #[arg(long, default_value = "0.1", value_parser = positive, allow_negative_numbers = true)]
     pub(crate) h_max: f64,
 }
 

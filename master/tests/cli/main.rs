@@ -3,6 +3,7 @@
 //! tests of every module share the cores).
 //!
 //! * `run`, `analyses`, `stewart`, `package`: what each command prints and writes;
+//! * `adaptive`: the adaptive macro step through `run`, `compare` and `bench`;
 //! * `plots`: the SVG figures read back;
 //! * `misuse`: careless and hostile use of the command line;
 //! * `mutants`: every scene key set to hostile values, each outcome classified;
@@ -14,6 +15,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod adaptive;
 mod analyses;
 mod cosim;
 mod misuse;

@@ -273,3 +273,34 @@ fn stability_reports_a_missing_fmu_as_an_error() {
     assert!(!dir.join("stability.csv").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The adaptive step's options: --dt refused with it (the step is chosen), a scheme that does
+/// not iterate refused, the step range and the tolerances checked, the step cap checked up front
+/// at the largest step and enforced while the run goes.
+#[test]
+fn the_adaptive_step_is_checked_too() {
+    let (_, scene) = common::scene("lt50m_C.toml", "misuse-adaptive", |_| {});
+    let run = |extra: &[&str]| {
+        let mut args = vec!["run", "--scene", s(&scene), "--quiet", "--adaptive"];
+        args.extend_from_slice(extra);
+        master(&args)
+    };
+    refused(&run(&["--scheme", "ijcsa", "--dt", "0.01"]), &["--dt", "adaptive step chooses"]);
+    for scheme in ["jacobi", "gauss-seidel", "monolithic", "decoupled", "cable"] {
+        refused(&run(&["--scheme", scheme]), &["--adaptive", &format!("`{scheme}`")]);
+    }
+    refused(&run(&["--scheme", "ijcsa", "--h-min", "0.2", "--h-max", "0.1"]), &["--h-min 0.2", "--h-max 0.1"]);
+    for (flag, value) in [("--rtol", "0"), ("--rtol", "1"), ("--atol", "-1"), ("--h-min", "nan"), ("--h-max", "inf")] {
+        let out = run(&["--scheme", "ijcsa", flag, value]);
+        assert_eq!(out.status.code(), Some(2), "{flag} {value}: a usage error");
+        assert!(String::from_utf8_lossy(&out.stderr).contains(flag), "{flag} {value}");
+    }
+    refused(
+        &run(&["--scheme", "ijcsa", "--h-max", "1e-6", "--h-min", "1e-7"]),
+        &["even at the largest step --h-max", "cap of 1000000 steps"],
+    );
+    refused(
+        &run(&["--scheme", "iqn-ils", "--t-end", "1", "--max-steps", "20"]),
+        &["stopped at t = ", "cap of 20 steps", "--max-steps"],
+    );
+}
