@@ -58,7 +58,7 @@ pub enum PlanError {
 }
 
 /// A number for a message: 9 significant digits, exponent form when very large or small.
-fn num(x: f64) -> String {
+pub fn num(x: f64) -> String {
     if x != 0.0 && !(1e-4..1e7).contains(&x.abs()) {
         format!("{x:.4e}")
     } else {

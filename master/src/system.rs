@@ -283,6 +283,7 @@ impl<'a> SystemRun<'a> {
         let mut controller =
             self.adaptive.map(|a| a.controller()).transpose().map_err(|reason| RunError::Refused { method, reason })?;
         let tolerances = self.adaptive.map(|a| a.tolerances);
+        // the step and the sampling after it both reach the system
         let cell = std::cell::RefCell::new(c);
         let totals = drive(
             &self.schedule,

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use feedcore::scene::Scene;
+use master::limits::num;
 use master::plot::{History, time_history};
 use master::simulate::{Run, Trace};
 use serde_json::json;
@@ -105,11 +106,11 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let run = Run::prepare(&scene, scene_file, method, dt, t_end, &caps().run).with_context(|| {
         let from =
             |flag: bool, given: &str, key: &str| if flag { given.to_string() } else { format!("the scene's {key}") };
-        let end = format!("end time {t_end} s from {}", from(args.t_end.is_some(), "--t-end", "solver.t_end_s"));
+        let end = format!("end time {} s from {}", num(t_end), from(args.t_end.is_some(), "--t-end", "solver.t_end_s"));
         if args.options.adaptive {
-            format!("adaptive steps within [{}, {}] s, {end}", args.options.h_min, args.options.h_max)
+            format!("adaptive steps within [{}, {}] s, {end}", num(args.options.h_min), num(args.options.h_max))
         } else {
-            format!("h = {dt} s from {}, {end}", from(args.dt.is_some(), "--dt", "solver.dt_s"))
+            format!("h = {} s from {}, {end}", num(dt), from(args.dt.is_some(), "--dt", "solver.dt_s"))
         }
     })?;
     let mut outputs = Outputs::new(run_inputs(scene_file, &scene));

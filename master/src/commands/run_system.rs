@@ -7,6 +7,7 @@ use std::io::{IsTerminal, Write};
 use std::path::Path;
 
 use anyhow::{Context, bail};
+use master::limits::num;
 use master::plot::{Line, PALETTE, Panel, stacked};
 use master::simulate::Method;
 use master::system::{RealHistory, Sinks, SystemRun};
@@ -48,12 +49,13 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
         let from = if args.t_end.is_some() { "--t-end" } else { "the DefaultExperiment" };
         match adaptive {
             Some(a) => format!(
-                "{}: adaptive steps within [{}, {}] s, end time {t_end} s from {from}",
+                "{}: adaptive steps within [{}, {}] s, end time {} s from {from}",
                 file.display(),
-                a.h_min,
-                a.h_max
+                num(a.h_min),
+                num(a.h_max),
+                num(t_end)
             ),
-            None => format!("{}: h = {dt} s, end time {t_end} s from {from}", file.display()),
+            None => format!("{}: h = {} s, end time {} s from {from}", file.display(), num(dt), num(t_end)),
         }
     })?;
     let inputs = std::iter::once(file.to_owned()).chain(loaded.spec.components.iter().map(|c| c.source.clone()));
