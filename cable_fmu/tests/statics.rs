@@ -76,26 +76,85 @@ fn fe_cable_converges_to_the_elastic_catenary_at_any_sag() {
     }
 }
 
-#[test]
-fn form_finding_at_c_and_b() {
-    for name in ["lt50m_C.toml", "lt50m_B.toml"] {
-        let s = scene(name);
-        let net = CableNet::from_scene(&s);
-        let eq = form_find(&net, s.target_position(), s.target_orientation()).unwrap();
-        eprintln!("{name}: residual {:.2e}, {} iterations", eq.residual, eq.newton_iterations);
-        for (i, c) in eq.cables.iter().enumerate() {
-            eprintln!(
-                "  cable {}: L0 {:.6} m, anchor {:.1} N, cabin {:.1} N, {:?}, lowest z {:.3}",
-                i + 1,
-                c.unstretched_length,
-                c.tension_anchor,
-                c.tension_cabin,
-                c.state,
-                c.lowest_point_z
-            );
+/// Checks an equilibrium against the scene by a separate assembly of the forces: every cable
+/// ends on its anchor and on its attachment at the target pose, every element is stretched
+/// (pulls), every free node balances its element forces and its weight, and the cabin (with the
+/// platform locked at its start and the cable end nodes it carries) balances the cable pulls and
+/// its weight, in force and in moment about the centre point. Returns the unstretched lengths and
+/// the cabin-end tensions.
+fn check_equilibrium(s: &Scene) -> (Vec<f64>, Vec<f64>) {
+    let net = CableNet::from_scene(s);
+    let (p, q) = (s.target_position(), s.target_orientation());
+    let eq = form_find(&net, p, q).unwrap();
+    let g = Vec3::new(0.0, 0.0, -s.gravity_m_s2);
+    let mu = s.cables.area_m2 * s.cables.density_kg_m3;
+    let k = s.cables.elements;
+    let geometry = s.stewart_geometry();
+    let body = s.cabin_mass_properties().combined(&geometry.locked_mass_properties(&geometry.start_center));
+    let weight = body.mass * s.gravity_m_s2;
+    let (mut force, mut moment) = (g * body.mass, (q * body.com).cross(&(g * body.mass)));
+    for (i, c) in eq.cables.iter().enumerate() {
+        let (nodes, t) = (&c.shape.nodes, &c.shape.tension);
+        assert_eq!((nodes.len(), t.len()), (k + 1, k));
+        let attach = p + q * s.attachments_body()[i];
+        assert!((nodes[0] - s.anchors()[i]).norm() < 1e-9, "cable {i} starts on its anchor");
+        assert!((nodes[k] - attach).norm() < 1e-9, "cable {i} ends on its attachment");
+        let element = c.unstretched_length / k as f64;
+        for j in 0..k {
+            let chord = nodes[j + 1] - nodes[j];
+            assert!(chord.norm() > element, "cable {i}, element {j} is stretched");
+            assert!(t[j].dot(&chord) > 0.0 && t[j].cross(&chord).norm() < 1e-9 * t[j].norm() * chord.norm());
         }
-        let _ = CableState::Taut;
+        for j in 1..k {
+            let balance = t[j] - t[j - 1] + g * (mu * element);
+            assert!(balance.norm() < 1e-8 * t[j].norm(), "cable {i}, node {j}: {balance:?}");
+        }
+        assert_eq!((c.tension_anchor, c.tension_cabin), (t[0].norm(), t[k - 1].norm()));
+        // the last element pulls the cabin back along itself; the end node's half element
+        // weighs on the cabin
+        let pull = -t[k - 1] + g * (0.5 * mu * element);
+        force += pull;
+        moment += (attach - p).cross(&pull);
     }
+    assert!(force.norm() < 1e-6 * weight, "cabin force balance: {force:?} N against a weight of {weight} N");
+    assert!(moment.norm() < 1e-6 * weight, "cabin moment balance: {moment:?} N·m");
+    let lengths = eq.cables.iter().map(|c| c.unstretched_length).collect();
+    (lengths, eq.cables.iter().map(|c| c.tension_cabin).collect())
+}
+
+#[test]
+fn form_finding_at_c_and_b_balances_every_node_and_the_cabin() {
+    let (_, c) = check_equilibrium(&scene("lt50m_C.toml"));
+    let (_, b) = check_equilibrium(&scene("lt50m_B.toml"));
+    // lt50m.md: at C every cable pulls several kN; at B cable 4 is nearly slack (~0.2 kN)
+    assert!(c.iter().all(|t| *t > 1000.0), "{c:?}");
+    assert!((b[4] - 200.0).abs() < 50.0 && b.iter().enumerate().all(|(i, t)| i == 4 || *t > 1000.0), "{b:?}");
+    let sb = scene("lt50m_B.toml");
+    let eq = form_find(&CableNet::from_scene(&sb), sb.target_position(), sb.target_orientation()).unwrap();
+    let states: Vec<CableState> = eq.cables.iter().map(|c| c.state).collect();
+    assert_eq!(states[4], CableState::NearlySlack);
+    assert!(states.iter().enumerate().all(|(i, s)| i == 4 || *s == CableState::Taut), "{states:?}");
+}
+
+/// At C with the platform held at its circle's centre (motion radius 0) the suspended weight
+/// acts on the cabin axis, and the net is symmetric under the 120° turns and the mirror plane at
+/// 50° of azimuth (anchors at 50° ± 30°, attachments at 50° ± 20°): all six cables come out alike.
+#[test]
+fn form_finding_at_c_is_symmetric() {
+    let mut s = scene("lt50m_C.toml");
+    s.motion.radius_m = 0.0;
+    let (lengths, tensions) = check_equilibrium(&s);
+    for i in 1..6 {
+        assert!((lengths[i] - lengths[0]).abs() < 1e-9 * lengths[0], "{lengths:?}");
+        assert!((tensions[i] - tensions[0]).abs() < 1e-6 * tensions[0], "{tensions:?}");
+    }
+    // and the six vertical pulls carry the cabin, the platform and the six end nodes
+    let geometry = s.stewart_geometry();
+    let mass = s.cabin.mass_kg + geometry.total_mass();
+    let eq = form_find(&CableNet::from_scene(&s), s.target_position(), s.target_orientation()).unwrap();
+    let end_nodes = 6.0 * 0.5 * s.cables.area_m2 * s.cables.density_kg_m3 * lengths[0] / s.cables.elements as f64;
+    let lift: f64 = eq.cables.iter().map(|c| c.shape.tension[s.cables.elements - 1].z.abs()).sum();
+    assert!((lift - (mass + end_nodes) * s.gravity_m_s2).abs() < 1e-6 * lift, "{lift}");
 }
 
 /// A pose outside the towers' reach needs a cable to push: reported as infeasible, naming it.

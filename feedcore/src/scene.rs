@@ -5,7 +5,7 @@
 //! and the value. Geometry comes out through accessors ([`Scene::anchors`], ...) so that the
 //! models never re-derive it differently.
 
-use std::fmt;
+use std::io::Read;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -14,25 +14,46 @@ use crate::rigid::MassProperties;
 use crate::{Mat3, Quat, Vec3};
 
 /// A rejected scene: which file, which key, which value, and why.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{}", self.render())]
 pub struct SceneError {
     pub file: String,
     pub key: String,
     pub value: String,
     pub reason: String,
+    /// Why the file could not be read as a scene at all (before any key was looked at).
+    pub kind: SceneErrorKind,
 }
 
-impl fmt::Display for SceneError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+/// What kind of problem a [`SceneError`] is, for callers that react differently (e.g. the CLI
+/// names its override flag for a file that is too large).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneErrorKind {
+    /// The file could not be opened or read, or is not a regular file.
+    Unreadable,
+    /// The file is larger than the limit it was read with.
+    TooLarge { limit: u64 },
+    /// Not TOML, or not the scene's layout (unknown, missing, mistyped or mis-sized keys).
+    Syntax,
+    /// A value outside its physical or numerical range.
+    Invalid,
+}
+
+impl SceneError {
+    fn render(&self) -> String {
         if self.key.is_empty() {
-            write!(f, "{}: {}", self.file, self.reason)
+            format!("{}: {}", self.file, self.reason)
+        } else if self.value.is_empty() {
+            format!("{}: `{}`: {}", self.file, self.key, self.reason)
         } else {
-            write!(f, "{}: `{}` = {}: {}", self.file, self.key, self.value, self.reason)
+            format!("{}: `{}` = {}: {}", self.file, self.key, self.value, self.reason)
         }
     }
-}
 
-impl std::error::Error for SceneError {}
+    fn unreadable(file: &str, kind: SceneErrorKind, reason: String) -> SceneError {
+        SceneError { file: file.to_string(), key: String::new(), value: String::new(), reason, kind }
+    }
+}
 
 /// Points on a horizontal circle: `(r cos φ, r sin φ, z)` for each angle φ (degrees).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -79,8 +100,10 @@ impl Cables {
 pub struct Cabin {
     pub mass_kg: f64,
     /// Centre of mass in the body frame (from the cabin centre point).
+    #[serde(deserialize_with = "exact::array")]
     pub center_of_mass_m: [f64; 3],
     /// Inertia about the centre of mass, body frame (rows).
+    #[serde(deserialize_with = "exact::matrix")]
     pub inertia_kg_m2: [[f64; 3]; 3],
     /// Cable attachment points in the body frame; cable i ends at attachment i.
     pub attachments: Ring,
@@ -91,10 +114,11 @@ pub struct Cabin {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Pose {
+    #[serde(deserialize_with = "exact::array")]
     pub position_m: [f64; 3],
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "exact::option", skip_serializing_if = "Option::is_none")]
     pub orientation_wxyz: Option<[f64; 4]>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "exact::option", skip_serializing_if = "Option::is_none")]
     pub rotation_axis: Option<[f64; 3]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rotation_angle_deg: Option<f64>,
@@ -117,9 +141,11 @@ pub struct LegPart {
 pub struct Platform {
     pub mass_kg: f64,
     /// Inertia about the centre of mass, platform frame (rows).
+    #[serde(deserialize_with = "exact::matrix")]
     pub inertia_kg_m2: [[f64; 3]; 3],
     /// Centre of the circle motion, in the cabin frame. The platform frame is parallel to the
     /// cabin frame and its origin is the platform's centre of mass.
+    #[serde(deserialize_with = "exact::array")]
     pub nominal_center_m: [f64; 3],
 }
 
@@ -162,9 +188,9 @@ pub struct Damping {
     pub ratio: f64,
     /// Natural modes (1-based) of the cable–cabin system at the static equilibrium whose
     /// frequencies the Rayleigh coefficients are fitted at. Give this or `fit_frequencies_hz`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "exact::option", skip_serializing_if = "Option::is_none")]
     pub fit_modes: Option<[usize; 2]>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "exact::option", skip_serializing_if = "Option::is_none")]
     pub fit_frequencies_hz: Option<[f64; 2]>,
 }
 
@@ -224,7 +250,9 @@ pub struct Outputs {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Disturbance {
+    #[serde(deserialize_with = "exact::array")]
     pub force_amplitude_n: [f64; 3],
+    #[serde(deserialize_with = "exact::array")]
     pub moment_amplitude_nm: [f64; 3],
     pub frequency_hz: f64,
 }
@@ -298,32 +326,89 @@ pub struct Scene {
     pub disturbance: Option<Disturbance>,
 }
 
+/// Largest scene file read by default (the reference scenes have about 5 kB).
+pub const MAX_SCENE_BYTES: u64 = 1 << 20;
+/// Longest excerpt of the scene text quoted in an error, in characters.
+const EXCERPT_CHARS: usize = 40;
+/// Longest parser message quoted in an error, in characters (a message may quote a value).
+const MESSAGE_CHARS: usize = 160;
+/// Range of `solver.newton_tol` (a correction relative to the step's displacement scale). Below
+/// 1e-14 Newton stalls on round-off (the residual of the cable net carries ~1e-16 relative
+/// error times its condition); above 1e-6 the converged motion moves by more than the agreement
+/// of the coupling schemes the tool compares (at C over 10 s: 1e-6 moves the peak by 3e-5 mm,
+/// 1e-5 by 6e-4 mm, 1e-3 stops the run).
+pub const NEWTON_TOL_RANGE: (f64, f64) = (1e-14, 1e-6);
+/// Largest `solver.newton_max_iter`: Newton converges in 2–4 iterations here; a step that needs
+/// hundreds will not converge, and a huge limit only delays the error.
+pub const NEWTON_MAX_ITER: usize = 1000;
+
 /// Tolerance on the norm of a unit quaternion or a unit axis given in a scene.
 const UNIT_TOLERANCE: f64 = 1e-6;
 /// Number of legs of a Stewart platform.
 pub const LEGS: usize = 6;
 
 impl Scene {
-    /// Reads and validates a scene file.
+    /// Reads and validates a scene file of at most [`MAX_SCENE_BYTES`].
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        Scene::load_limited(path, MAX_SCENE_BYTES)
+    }
+
+    /// Reads and validates a scene file of at most `max_bytes`. Only regular files are read (a
+    /// FIFO would block, a device never end), and never more than `max_bytes + 1` bytes of them.
+    pub fn load_limited(path: impl AsRef<Path>, max_bytes: u64) -> Result<Scene, SceneError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
-            file: file.clone(),
-            key: String::new(),
-            value: String::new(),
-            reason: format!("cannot read the scene file: {e}"),
+        let unreadable = |reason: String| SceneError::unreadable(&file, SceneErrorKind::Unreadable, reason);
+        let meta = std::fs::metadata(path).map_err(|e| unreadable(format!("cannot read the scene file: {e}")))?;
+        if !meta.is_file() {
+            return Err(unreadable(
+                "not a regular file (a directory, device or pipe); give the path of a scene file (TOML)".into(),
+            ));
+        }
+        let too_large = |size: String| {
+            SceneError::unreadable(
+                &file,
+                SceneErrorKind::TooLarge { limit: max_bytes },
+                format!("the file has {size} bytes, more than the limit of {max_bytes} bytes for a scene file"),
+            )
+        };
+        if meta.len() > max_bytes {
+            return Err(too_large(meta.len().to_string()));
+        }
+        let mut bytes = Vec::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(max_bytes.saturating_add(1)).read_to_end(&mut bytes))
+            .map_err(|e| unreadable(format!("cannot read the scene file: {e}")))?;
+        if bytes.len() as u64 > max_bytes {
+            return Err(too_large(format!("more than {max_bytes}")));
+        }
+        let text = String::from_utf8(bytes).map_err(|e| {
+            SceneError::unreadable(
+                &file,
+                SceneErrorKind::Syntax,
+                format!(
+                    "not UTF-8 text (invalid byte at offset {}); a scene is a TOML file",
+                    e.utf8_error().valid_up_to()
+                ),
+            )
         })?;
         Scene::from_toml(&text, &file)
     }
 
-    /// Parses and validates scene text; `file` names the source in error messages.
+    /// Parses and validates scene text; `file` names the source in error messages. Errors quote
+    /// at most a short, escaped excerpt of the text, never a whole line.
     pub fn from_toml(text: &str, file: &str) -> Result<Scene, SceneError> {
-        let scene: Scene = toml::from_str(text).map_err(|e| SceneError {
+        let syntax = |e: &toml::de::Error, key: String| SceneError {
             file: file.to_string(),
-            key: String::new(),
+            key,
             value: String::new(),
-            reason: format!("not a valid scene: {}", e.to_string().trim_end()),
+            reason: describe_toml_error(text, e),
+            kind: SceneErrorKind::Syntax,
+        };
+        let de = toml::Deserializer::parse(text).map_err(|e| syntax(&e, String::new()))?;
+        let scene: Scene = serde_path_to_error::deserialize(de).map_err(|e| {
+            let key = e.path().to_string();
+            syntax(e.inner(), if key == "." { String::new() } else { key })
         })?;
         scene.validate(file)?;
         Ok(scene)
@@ -367,7 +452,7 @@ impl Scene {
             if (a - attach).norm() < 1e-6 {
                 return Err(c.err(
                     &format!("anchors.angle_deg[{i}]"),
-                    &self.anchors.angle_deg[i].to_string(),
+                    &show(self.anchors.angle_deg[i]),
                     &format!(
                         "anchor {} coincides with its attachment point at the target pose {:?}",
                         i + 1,
@@ -390,8 +475,11 @@ impl Scene {
             if part.com_from_joint_m > part.length_m {
                 return Err(c.err(
                     &format!("{name}.com_from_joint_m"),
-                    &part.com_from_joint_m.to_string(),
-                    "the centre of mass lies beyond the end of the part",
+                    &show(part.com_from_joint_m),
+                    &format!(
+                        "the centre of mass lies beyond the end of the part ({name}.length_m = {})",
+                        part.length_m
+                    ),
                 ));
             }
             c.positive(&format!("{name}.inertia_transverse_kg_m2"), part.inertia_transverse_kg_m2)?;
@@ -408,7 +496,7 @@ impl Scene {
 
         c.finite_nonneg("damping.ratio", self.damping.ratio)?;
         if self.damping.ratio >= 1.0 {
-            return Err(c.err("damping.ratio", &self.damping.ratio.to_string(), "a damping ratio must be below 1"));
+            return Err(c.err("damping.ratio", &show(self.damping.ratio), "a damping ratio must be below 1"));
         }
         match (&self.damping.fit_modes, &self.damping.fit_frequencies_hz) {
             (Some(m), None) => {
@@ -437,11 +525,26 @@ impl Scene {
         c.positive("solver.dt_s", self.solver.dt_s)?;
         c.positive("solver.t_end_s", self.solver.t_end_s)?;
         if !(0.0..=1.0).contains(&self.solver.rho_inf) {
-            return Err(c.err("solver.rho_inf", &self.solver.rho_inf.to_string(), "must lie in [0, 1]"));
+            return Err(c.err("solver.rho_inf", &show(self.solver.rho_inf), "must lie in [0, 1]"));
         }
         c.positive("solver.newton_tol", self.solver.newton_tol)?;
-        if self.solver.newton_max_iter < 1 {
-            return Err(c.err("solver.newton_max_iter", "0", "at least one Newton iteration is needed"));
+        let (lo, hi) = NEWTON_TOL_RANGE;
+        if !(lo..=hi).contains(&self.solver.newton_tol) {
+            return Err(c.err(
+                "solver.newton_tol",
+                &show(self.solver.newton_tol),
+                &format!(
+                    "must lie in [{lo:e}, {hi:e}]: below, Newton stalls on round-off; above, the result drifts by \
+                     more than the coupling schemes differ (1e-10 is the reference scenes' value)"
+                ),
+            ));
+        }
+        if !(1..=NEWTON_MAX_ITER).contains(&self.solver.newton_max_iter) {
+            return Err(c.err(
+                "solver.newton_max_iter",
+                &self.solver.newton_max_iter.to_string(),
+                &format!("must lie in [1, {NEWTON_MAX_ITER}] (Newton converges in 2–4 iterations here)"),
+            ));
         }
         c.positive("outputs.sample_interval_s", self.outputs.sample_interval_s)?;
         if let Some(d) = &self.disturbance {
@@ -470,7 +573,7 @@ impl Scene {
             let known = |key: &str, text: &str| -> Result<(), SceneError> {
                 match text.split_once('.') {
                     Some((fmu, rest)) if names.contains(&fmu) && !rest.is_empty() => Ok(()),
-                    _ => Err(c.err(key, text, &format!("must be `fmu.name` with fmu one of {names:?}"))),
+                    _ => Err(c.err(key, text, &format!("must be `fmu.name` with fmu one of system.fmus {names:?}"))),
                 }
             };
             for (i, k) in sys.connections.iter().enumerate() {
@@ -501,7 +604,7 @@ impl Scene {
             (None, Some(axis), Some(angle)) => {
                 c.vector("pose.rotation_axis", axis)?;
                 if !angle.is_finite() {
-                    return Err(c.err("pose.rotation_angle_deg", &angle.to_string(), "must be finite"));
+                    return Err(c.err("pose.rotation_angle_deg", &show(*angle), "must be finite"));
                 }
                 let a = Vec3::from(*axis);
                 let norm = a.norm();
@@ -573,21 +676,22 @@ impl Check<'_> {
             key: key.to_string(),
             value: value.to_string(),
             reason: reason.to_string(),
+            kind: SceneErrorKind::Invalid,
         }
     }
 
     fn finite(&self, key: &str, x: f64) -> Result<(), SceneError> {
-        if x.is_finite() { Ok(()) } else { Err(self.err(key, &x.to_string(), "must be a finite number")) }
+        if x.is_finite() { Ok(()) } else { Err(self.err(key, &show(x), "must be a finite number")) }
     }
 
     fn positive(&self, key: &str, x: f64) -> Result<(), SceneError> {
         self.finite(key, x)?;
-        if x > 0.0 { Ok(()) } else { Err(self.err(key, &x.to_string(), "must be positive")) }
+        if x > 0.0 { Ok(()) } else { Err(self.err(key, &show(x), "must be positive")) }
     }
 
     fn finite_nonneg(&self, key: &str, x: f64) -> Result<(), SceneError> {
         self.finite(key, x)?;
-        if x >= 0.0 { Ok(()) } else { Err(self.err(key, &x.to_string(), "must not be negative")) }
+        if x >= 0.0 { Ok(()) } else { Err(self.err(key, &show(x), "must not be negative")) }
     }
 
     fn vector(&self, key: &str, v: &[f64]) -> Result<(), SceneError> {
@@ -642,5 +746,91 @@ impl Check<'_> {
             ));
         }
         Ok(())
+    }
+}
+
+/// A number as a message shows it: short, in exponent form when very large or small (1e300,
+/// not three hundred digits).
+fn show(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-5..1e9).contains(&x.abs()) { format!("{x:e}") } else { x.to_string() }
+}
+
+/// `text` cut to at most `max` characters and escaped (control characters, quotes), with an
+/// ellipsis when cut: safe to print whatever the file holds.
+fn excerpt(text: &str, max: usize) -> String {
+    let mut out: String = text.chars().take(max).collect::<String>().escape_debug().collect();
+    if text.chars().nth(max).is_some() {
+        out.push('…');
+    }
+    out
+}
+
+/// A parser error as `line L, column C: message (at `excerpt`)`.
+fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
+    let message = excerpt(e.message().trim_end(), MESSAGE_CHARS);
+    let Some(span) = e.span() else { return format!("not a valid scene: {message}") };
+    let start = span.start.min(text.len());
+    let start = (0..=start).rev().find(|&i| text.is_char_boundary(i)).unwrap_or(0);
+    let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[..start].matches('\n').count() + 1;
+    let column = text[line_start..start].chars().count() + 1;
+    // from a little before the error to the end of its line, at most EXCERPT_CHARS characters
+    let before = text[line_start..start]
+        .char_indices()
+        .rev()
+        .nth(EXCERPT_CHARS / 2 - 1)
+        .map_or(line_start, |(i, _)| line_start + i);
+    let rest = &text[before..];
+    let rest = &rest[..rest.find('\n').unwrap_or(rest.len())];
+    format!("not a valid scene: line {line}, column {column}: {message} (at `{}`)", excerpt(rest, EXCERPT_CHARS))
+}
+
+/// Fixed-size arrays that refuse any other length (serde's own arrays ignore extra values).
+mod exact {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    struct Expected(usize);
+
+    impl serde::de::Expected for Expected {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "exactly {} values", self.0)
+        }
+    }
+
+    pub(super) fn array<'de, D, T, const N: usize>(d: D) -> Result<[T; N], D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        let v: Vec<T> = Vec::deserialize(d)?;
+        let len = v.len();
+        v.try_into().map_err(|_| D::Error::invalid_length(len, &Expected(N)))
+    }
+
+    pub(super) fn option<'de, D, T, const N: usize>(d: D) -> Result<Option<[T; N]>, D::Error>
+    where
+        D: Deserializer<'de>,
+        T: Deserialize<'de>,
+    {
+        array(d).map(Some)
+    }
+
+    pub(super) fn matrix<'de, D: Deserializer<'de>>(d: D) -> Result<[[f64; 3]; 3], D::Error> {
+        let rows: Vec<Vec<f64>> = Vec::deserialize(d)?;
+        if rows.len() != 3 {
+            return Err(D::Error::invalid_length(rows.len(), &"exactly 3 rows of 3 values"));
+        }
+        let mut m = [[0.0; 3]; 3];
+        for (i, row) in rows.iter().enumerate() {
+            if row.len() != 3 {
+                return Err(D::Error::custom(format_args!(
+                    "row {} has {} values, expected exactly 3",
+                    i + 1,
+                    row.len()
+                )));
+            }
+            m[i].copy_from_slice(row);
+        }
+        Ok(m)
     }
 }

@@ -159,3 +159,115 @@ fn scene_round_trips_through_toml() {
     let again = Scene::from_toml(&s.to_toml(), "round trip").unwrap();
     assert_eq!(s, again);
 }
+
+/// Arrays longer or shorter than their key needs are refused, naming the key (serde's own
+/// fixed-size arrays would drop the extra values silently).
+#[test]
+fn arrays_of_the_wrong_length_are_refused_by_key() {
+    let long: String = (0..1000).map(|i| format!("{i}.0")).collect::<Vec<_>>().join(", ");
+    let cases = [
+        ("position_m = [0.0, 0.0, 9.8]", "position_m = [0.0, 0.0, 9.8, 1.0]".to_string(), "pose.position_m"),
+        ("position_m = [0.0, 0.0, 9.8]", "position_m = [0.0, 0.0]".to_string(), "pose.position_m"),
+        ("position_m = [0.0, 0.0, 9.8]", format!("position_m = [{long}]"), "pose.position_m"),
+        (
+            "orientation_wxyz = [1.0, 0.0, 0.0, 0.0]",
+            "orientation_wxyz = [1.0, 0.0, 0.0, 0.0, 0.0]".to_string(),
+            "pose.orientation_wxyz",
+        ),
+        ("fit_modes = [1, 6]", "fit_modes = [1, 6, 7]".to_string(), "damping.fit_modes"),
+        (
+            "inertia_kg_m2 = [[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, 360.0]]",
+            "inertia_kg_m2 = [[266.4, 0.0, 0.0, 1.0], [0.0, 266.4, 0.0], [0.0, 0.0, 360.0]]".to_string(),
+            "cabin.inertia_kg_m2",
+        ),
+        (
+            "inertia_kg_m2 = [[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, 360.0]]",
+            "inertia_kg_m2 = [[266.4, 0.0, 0.0], [0.0, 266.4, 0.0], [0.0, 0.0, 360.0], [1.0, 1.0, 1.0]]".to_string(),
+            "cabin.inertia_kg_m2",
+        ),
+        (
+            "nominal_center_m = [0.0, 0.0, -1.8]",
+            "nominal_center_m = [0.0, 0.0, -1.8, 0.0]".to_string(),
+            "stewart.platform.nominal_center_m",
+        ),
+    ];
+    for (from, to, key) in cases {
+        let e = rejected(from, &to);
+        let msg = e.to_string();
+        assert_eq!(e.key, key, "{msg}");
+        assert!(msg.contains("exactly 3") || msg.contains("exactly 4") || msg.contains("exactly 2"), "{msg}");
+        assert!(msg.len() < 400, "the error quotes a short excerpt only: {} chars", msg.len());
+    }
+}
+
+/// A parser error quotes a short, escaped excerpt of the offending line, not the line.
+#[test]
+fn parser_errors_quote_a_short_escaped_excerpt() {
+    let original = text("lt50m_C.toml");
+    let junk = format!("junk = \"{}", "x".repeat(1 << 20));
+    let e =
+        Scene::from_toml(&original.replace("elements = 20", &format!("elements = 20\n{junk}")), "j.toml").unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.len() < 400 && msg.contains("line 20"), "{} chars", msg.len());
+    let e =
+        Scene::from_toml(&original.replace("elements = 20", "elements = 20\njunk = \"\x1b[31m"), "j.toml").unwrap_err();
+    let msg = e.to_string();
+    assert!(!msg.contains('\x1b'), "control characters are escaped: {msg}");
+    assert!(msg.contains("line 20") && msg.contains("\\u{1b}"), "{msg}");
+    // a value quoted in a type error is cut too
+    let long = "y".repeat(10_000);
+    let e =
+        Scene::from_toml(&original.replace("mass_kg = 720.0", &format!("mass_kg = \"{long}\"")), "t.toml").unwrap_err();
+    assert_eq!(e.key, "cabin.mass_kg");
+    assert!(e.to_string().len() < 400, "{e}");
+    // a duplicate key is named
+    let e = Scene::from_toml(&original.replace("mass_kg = 720.0", "mass_kg = 720.0\nmass_kg = 720.0"), "d.toml")
+        .unwrap_err();
+    assert!(e.to_string().contains("mass_kg"), "{e}");
+}
+
+/// Newton tolerances outside [1e-14, 1e-6] and iteration limits outside [1, 1000] are refused.
+#[test]
+fn solver_settings_outside_their_range_are_refused() {
+    for (to, key) in [
+        ("newton_tol = 0.1", "solver.newton_tol"),
+        ("newton_tol = 1e300", "solver.newton_tol"),
+        ("newton_tol = 1e-5", "solver.newton_tol"),
+        ("newton_tol = 1e-16", "solver.newton_tol"),
+    ] {
+        let e = rejected("newton_tol = 1e-10", to);
+        assert_eq!(e.key, key);
+        assert!(e.to_string().contains("1e-14") && e.to_string().contains("1e-6"), "{e}");
+    }
+    for to in ["newton_tol = 1e-14", "newton_tol = 1e-6"] {
+        let edited = text("lt50m_C.toml").replace("newton_tol = 1e-10", to);
+        Scene::from_toml(&edited, "ok.toml").unwrap();
+    }
+    let e = rejected("newton_max_iter = 25", "newton_max_iter = 1000000000");
+    assert_eq!(e.key, "solver.newton_max_iter");
+}
+
+/// Only regular files are read, and never more than the limit: a device, a FIFO, a directory
+/// or a large file is refused without reading it.
+#[test]
+fn only_regular_files_of_bounded_size_are_read() {
+    use feedcore::scene::SceneErrorKind;
+    let e = Scene::load("/dev/zero").unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::Unreadable);
+    assert!(e.to_string().contains("/dev/zero") && e.to_string().contains("not a regular file"), "{e}");
+    let dir = std::env::temp_dir().join(format!("scene-files-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    assert!(Scene::load(&dir).unwrap_err().to_string().contains("not a regular file"));
+    let fifo = dir.join("fifo.toml");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    let e = Scene::load(&fifo).unwrap_err();
+    assert!(e.to_string().contains("not a regular file"), "{e}");
+    let big = dir.join("big.toml");
+    std::fs::write(&big, text("lt50m_C.toml")).unwrap();
+    let e = Scene::load_limited(&big, 1000).unwrap_err();
+    assert_eq!(e.kind, SceneErrorKind::TooLarge { limit: 1000 });
+    assert!(e.to_string().contains("limit of 1000 bytes"), "{e}");
+    Scene::load_limited(&big, 1 << 20).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -2,16 +2,21 @@
 //!
 //! * [`cosim`]: the co-simulation crate, re-exported (systems, schemes, IQN, step control, SSP);
 //! * [`monolithic`]: the paper's eq. (7) for the whole system, the accuracy reference;
-//! * [`plot`]: SVG figures (time histories like the paper's Figs. 4–5, log–log work–precision);
+//! * [`limits`]: what a run may cost (steps, memory), checked before anything is built;
+//! * [`plot`]: SVG figures (time histories like the paper's Figs. 4–5, log–log work–precision,
+//!   stability maps);
 //! * [`simulate`]: one run of a method (monolithic, a co-simulation scheme, decoupled) as a trace;
+//! * [`stepping`]: the step loop of every run (fixed or adaptive steps, caps, totals);
 //! * [`system`]: the scene's `[system]` as a system description, and runs of any FMU system;
 //! * [`progress`]: a progress bar for long runs on a terminal;
 //! * [`table`]: plain-text tables.
 
 pub use cosim;
+pub mod limits;
 pub mod monolithic;
 pub mod plot;
 pub mod progress;
 pub mod simulate;
+pub mod stepping;
 pub mod system;
 pub mod table;

@@ -1,11 +1,12 @@
 //! `master`: the command-line tool of the feed-positioning co-simulation toolkit.
 //!
 //! Every subcommand lives in its own module under `commands/`; this file only parses the
-//! command line and reports errors.
+//! command line, sets the global caps and reports errors with their whole chain of causes.
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use master::limits::{Limits, MAX_STEPS};
 
 mod commands;
 
@@ -21,6 +22,24 @@ mod commands;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    #[command(flatten)]
+    caps: CapFlags,
+}
+
+/// Caps that keep a mistyped number from running for days or exhausting memory; each can be
+/// raised when the work is meant.
+#[derive(clap::Args)]
+struct CapFlags {
+    /// Most macro steps one run may take.
+    #[arg(long, global = true, default_value_t = MAX_STEPS, value_name = "N")]
+    max_steps: u64,
+    /// Memory one run may take, MB [default: what the machine has available]. The need is
+    /// estimated from the scene before anything is built.
+    #[arg(long, global = true, value_name = "MB")]
+    max_memory_mb: Option<u64>,
+    /// Largest scene file read, bytes.
+    #[arg(long, global = true, default_value_t = feedcore::scene::MAX_SCENE_BYTES, value_name = "BYTES")]
+    max_scene_bytes: u64,
 }
 
 #[derive(Subcommand)]
@@ -52,6 +71,13 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    commands::set_caps(commands::Caps {
+        run: Limits {
+            max_steps: cli.caps.max_steps,
+            max_memory_bytes: cli.caps.max_memory_mb.map(|mb| mb.saturating_mul(1_000_000)),
+        },
+        scene_bytes: cli.caps.max_scene_bytes,
+    });
     let result = match cli.command {
         Command::Statics(args) => commands::statics::run(&args),
         Command::Modes(args) => commands::modes::run(&args),
@@ -62,14 +88,23 @@ fn main() -> ExitCode {
         Command::Stability(args) => commands::stability::run(&args),
         Command::Stress(args) => commands::stress::run(&args),
         Command::ExportSsp(args) => commands::export_ssp::run(&args),
-        Command::Package(args) => commands::package::run(&args),
-        Command::Replay(args) => commands::replay::run(&args),
+        Command::Package(args) => commands::boxed(commands::package::run(&args)),
+        Command::Replay(args) => commands::boxed(commands::replay::run(&args)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // The reader of our output went away (`master statics | head -1`): nothing to report.
+        Err(e) if broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
+            for cause in e.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
             ExitCode::FAILURE
         }
     }
+}
+
+fn broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
 }

@@ -1,485 +1,619 @@
-//! SVG figures written by hand, without a plotting stack.
+//! The master's figures as SVG, drawn with plotters:
 //!
-//! A [`Figure`] holds one or more [`Panel`]s laid out in rows (stacked vertically by default,
-//! optionally in several columns, optionally sharing the x axis). A panel has a title, axis
-//! labels, a linear or log10 [`Scale`] per axis, 1-2-5 (linear) or decade (log) ticks with grid
-//! lines, a legend, and any number of [`Series`] (lines, optionally with markers, or scatter),
-//! reference lines, and at most one categorical [`Grid`] (heat map, e.g. a stability map).
+//! * [`time_history`]: cabin-centre displacement X, Y, Z in three stacked panels over time, one
+//!   line per run (like the paper's Figs. 4–5); [`stacked`]: any time histories so (e.g. the
+//!   outputs of a system, a panel per component);
+//! * [`work_precision`]: wall time against error on log–log axes, one line with markers per
+//!   scheme, and a dashed reference line (e.g. 1 % of the peak);
+//! * [`stability_map`]: one panel per scheme, cells over the macro step (x) and a mass factor
+//!   (y), both logarithmic, coloured by category (stable, unstable, …) and annotated.
 //!
-//! ```no_run
-//! use master::plot::{Figure, Scale};
-//! let t: Vec<f64> = (0..10_001).map(|i| i as f64 * 0.01).collect();
-//! let dx: Vec<f64> = t.iter().map(|t| 0.75 * (0.2 * t).sin()).collect();
-//! let mut fig = Figure::new(900, 300);
-//! fig.panel(|p| p.title("Cabin centre").x_label("t [s]").y_label("Δx [mm]").line("dx", &t, &dx));
-//! fig.write_svg("/tmp/dx.svg").unwrap();
-//! ```
-//!
-//! Data handling, documented once here:
-//! * Points with a NaN or infinite coordinate are skipped: the line has a gap there.
-//! * Automatic ranges cover all finite data with 4 % padding on each side (log axes: widened to
-//!   whole decades when the data span a decade or more, see [`ticks::log_auto_range`]); a panel with a grid is fitted to the
-//!   grid's cells exactly. Constant data get ±10 % around the value (±1 around zero), no data
-//!   [0, 1]: never a division by zero. A fixed range ([`Panel::x_range`]) clips the data.
-//! * On a log axis a value ≤ 0 is an error ([`PlotError::NonPositiveOnLog`]) naming the panel,
-//!   series, index and value; such values are not dropped silently.
-//! * Lines with more points than about two per pixel column are decimated per column keeping
-//!   the first, last, lowest and highest point (see [`path::decimate_columns`]), so a 10⁴-point
-//!   run stays small on disk and still shows every peak.
+//! Lines with more points than the plot has pixel columns are decimated per column, keeping
+//! each column's first, last, lowest and highest point (see `decimate_columns`): a 10⁴-step run
+//! stays small on disk and still shows every peak. Non-finite points leave a gap.
 
-use std::fmt;
-use std::io;
-use std::path::Path;
+use plotters::coord::Shift;
+use plotters::prelude::*;
 
-pub mod path;
-mod render;
-pub mod style;
-mod svg;
-pub mod ticks;
+/// Colours of the series, in order: Okabe & Ito's set, which stays distinct under the common
+/// forms of colour blindness (yellow left out: it vanishes on white).
+pub const PALETTE: [RGBColor; 7] = [
+    RGBColor(0, 114, 178),   // blue
+    RGBColor(213, 94, 0),    // vermillion
+    RGBColor(0, 158, 115),   // bluish green
+    RGBColor(204, 121, 167), // reddish purple
+    RGBColor(230, 159, 0),   // orange
+    RGBColor(86, 180, 233),  // sky blue
+    RGBColor(0, 0, 0),       // black
+];
 
-pub use style::{Color, Dash, Marker, PALETTE};
+/// Cell colours of the stability map's categories, in this order:
+/// stable (sky blue), unstable (vermillion), not converged (orange), infeasible (light grey).
+pub const CATEGORY_COLORS: [RGBColor; 4] =
+    [RGBColor(86, 180, 233), RGBColor(213, 94, 0), RGBColor(230, 159, 0), RGBColor(215, 215, 215)];
 
-/// How data values map to an axis.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Scale {
-    #[default]
-    Linear,
-    /// Base-10 logarithmic; only positive values can be shown.
-    Log10,
-}
+const FONT: &str = "sans-serif";
 
-/// Where a panel's legend goes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Legend {
-    /// Inside the plot, in the corner where it covers the least of the drawn lines; outside on
-    /// the right for a panel with a grid (a heat map has no empty corner).
-    #[default]
-    Auto,
-    TopLeft,
-    TopRight,
-    BottomLeft,
-    BottomRight,
-    /// Outside the plot area, to its right (the plot narrows to make room).
-    Right,
-    Hidden,
-}
-
-/// Which axis of a panel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Axis {
-    X,
-    Y,
-}
-
-impl fmt::Display for Axis {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Axis::X => "x",
-            Axis::Y => "y",
-        })
-    }
-}
-
-/// Why a figure cannot be drawn. Every variant names the panel (0-based, with its title) and
-/// the offending series, axis and value, so that the message alone locates the problem.
-#[derive(Clone, Debug, PartialEq)]
+/// A figure that could not be drawn.
+#[derive(Debug, thiserror::Error)]
 pub enum PlotError {
-    /// The figure has no panels.
-    Empty,
-    /// Width or height too small to lay out anything (or zero).
-    TooSmall { width: u32, height: u32 },
-    /// `x` and `y` of a series have different lengths.
-    LengthMismatch { panel: String, series: String, x_len: usize, y_len: usize },
-    /// A value ≤ 0 on a log axis.
-    NonPositiveOnLog { panel: String, series: String, axis: Axis, index: usize, value: f64 },
-    /// A fixed range that is empty, reversed, not finite, or not positive on a log axis.
-    BadRange { panel: String, axis: Axis, min: f64, max: f64 },
-    /// Data whose extent cannot be drawn: values beyond about ±1e307 (the span overflows) or a
-    /// span below 1e-290.
-    DataRange { panel: String, axis: Axis, min: f64, max: f64 },
-    /// Panels that share the x axis but disagree on its scale.
-    SharedScaleMismatch { panel: String },
-    /// A grid whose centres are not finite and strictly monotone, or whose cell refers to a
-    /// missing row, column or category.
-    BadGrid { panel: String, reason: String },
+    #[error("drawing the figure: {0}")]
+    Draw(String),
+    #[error("{0}")]
+    Data(String),
 }
 
-impl fmt::Display for PlotError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            PlotError::Empty => write!(f, "figure has no panels"),
-            PlotError::TooSmall { width, height } => {
-                write!(f, "figure size {width}×{height} px is too small (at least 120×80 px per panel)")
+impl<E: std::error::Error + Send + Sync> From<DrawingAreaErrorKind<E>> for PlotError {
+    fn from(e: DrawingAreaErrorKind<E>) -> Self {
+        PlotError::Draw(e.to_string())
+    }
+}
+
+/// The points of a line thinned to what `columns` pixel columns over `[x0, x1]` can show: per
+/// column the first, lowest, highest and last point, in their original order. Returns the
+/// line's finite stretches (a non-finite point ends one).
+fn decimate_columns(x: &[f64], y: &[f64], (x0, x1): (f64, f64), columns: usize) -> Vec<Vec<(f64, f64)>> {
+    let columns = columns.max(1);
+    let width = x1 - x0;
+    let column = |v: f64| {
+        if width > 0.0 {
+            (((v - x0) / width * columns as f64).floor().clamp(0.0, columns as f64 - 1.0)) as i64
+        } else {
+            0
+        }
+    };
+    let mut segments = Vec::new();
+    let mut current: Vec<(f64, f64)> = Vec::new();
+    // indices into `current` of the open column's first, lowest, highest, last point
+    let mut open: Option<(i64, [(f64, f64); 4])> = None;
+    let flush = |open: &mut Option<(i64, [(f64, f64); 4])>, out: &mut Vec<(f64, f64)>| {
+        if let Some((_, pts)) = open.take() {
+            let [first, low, high, last] = pts;
+            let mut keep = [first, low, high, last];
+            keep.sort_by(|a, b| a.0.total_cmp(&b.0));
+            for p in keep {
+                if out.last() != Some(&p) {
+                    out.push(p);
+                }
             }
-            PlotError::LengthMismatch { panel, series, x_len, y_len } => {
-                write!(f, "{panel}, series \"{series}\": x has {x_len} values but y has {y_len}")
+        }
+    };
+    for (&xi, &yi) in x.iter().zip(y) {
+        if !(xi.is_finite() && yi.is_finite()) {
+            flush(&mut open, &mut current);
+            if !current.is_empty() {
+                segments.push(std::mem::take(&mut current));
             }
-            PlotError::NonPositiveOnLog { panel, series, axis, index, value } => write!(
-                f,
-                "{panel}, series \"{series}\": {axis}[{index}] = {value} cannot be shown on the logarithmic {axis} axis \
-                 (values must be > 0; remove such points or use a linear axis)"
-            ),
-            PlotError::BadRange { panel, axis, min, max } => {
-                write!(f, "{panel}: {axis} range [{min}, {max}] is not a finite interval with min < max")?;
-                write!(f, " (and min > 0 on a logarithmic axis)")
+            continue;
+        }
+        let c = column(xi);
+        let p = (xi, yi);
+        match &mut open {
+            Some((oc, pts)) if *oc == c => {
+                if yi < pts[1].1 {
+                    pts[1] = p;
+                }
+                if yi > pts[2].1 {
+                    pts[2] = p;
+                }
+                pts[3] = p;
             }
-            PlotError::DataRange { panel, axis, min, max } => write!(
-                f,
-                "{panel}: the {axis} data span [{min}, {max}] cannot be drawn (too wide to subtract, or narrower than \
-                 1e-290); fix the {axis} range"
-            ),
-            PlotError::SharedScaleMismatch { panel } => {
-                write!(f, "{panel}: its x scale differs from the first panel's, but the figure shares the x axis")
+            _ => {
+                flush(&mut open, &mut current);
+                open = Some((c, [p; 4]));
             }
-            PlotError::BadGrid { panel, reason } => write!(f, "{panel}, grid: {reason}"),
         }
     }
+    flush(&mut open, &mut current);
+    if !current.is_empty() {
+        segments.push(current);
+    }
+    segments
 }
 
-impl std::error::Error for PlotError {}
-
-/// Line or markers-only.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum SeriesKind {
-    Line,
-    Scatter,
+/// Range of finite values with 4 % padding each side; constant data get ±10 % (±1 around 0),
+/// no data [0, 1].
+fn padded_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) =
+        values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    if lo > hi {
+        return (0.0, 1.0);
+    }
+    if hi - lo <= 1e-12 * hi.abs().max(lo.abs()) {
+        let d = if lo == 0.0 { 1.0 } else { 0.1 * lo.abs() };
+        return (lo - d, hi + d);
+    }
+    let pad = 0.04 * (hi - lo);
+    (lo - pad, hi + pad)
 }
 
-/// Marker choice of a series.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum MarkerChoice {
-    /// Lines: none. Scatter: the next shape of [`Marker::CYCLE`].
-    Default,
-    /// The next shape of [`Marker::CYCLE`] (counted over the panel's series).
-    Auto,
-    Fixed(Marker),
-    Off,
+/// Whole decades around the positive finite values (at least one decade), for a log axis.
+fn decade_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    if lo > hi {
+        return (0.1, 1.0);
+    }
+    let (a, b) = (lo.log10().floor(), hi.log10().ceil());
+    let b = if b > a { b } else { a + 1.0 };
+    // a hair wider, so that the end decades get their ticks despite round-off
+    (10f64.powf(a) * (1.0 - 1e-9), 10f64.powf(b) * (1.0 + 1e-9))
 }
 
-/// One data series: a polyline (optionally with markers) or a scatter of markers.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Series {
-    name: String,
-    x: Vec<f64>,
-    y: Vec<f64>,
-    kind: SeriesKind,
-    color: Option<Color>,
-    width: f64,
-    dash: Dash,
-    marker: MarkerChoice,
-    marker_size: f64,
+fn draw_error<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotError {
+    e.into()
 }
 
-impl Series {
-    /// A line through `(x[i], y[i])`; an empty name keeps it out of the legend.
-    pub fn line(name: &str, x: &[f64], y: &[f64]) -> Self {
-        Self {
-            name: name.to_owned(),
-            x: x.to_vec(),
-            y: y.to_vec(),
-            kind: SeriesKind::Line,
-            color: None,
-            width: 1.5,
-            dash: Dash::Solid,
-            marker: MarkerChoice::Default,
-            marker_size: 7.0,
+/// One run's displacement history: its name, the sample times (s) and the displacement (mm).
+pub struct History<'a> {
+    pub name: &'a str,
+    pub t: &'a [f64],
+    pub disp_mm: &'a [[f64; 3]],
+}
+
+/// The cabin-centre displacement X, Y, Z as three stacked panels sharing the time axis.
+pub fn time_history(title: &str, runs: &[History<'_>]) -> Result<String, PlotError> {
+    let panels: Vec<Panel> = ["X", "Y", "Z"]
+        .iter()
+        .enumerate()
+        .map(|(k, axis)| Panel {
+            y_label: format!("{axis} displacement (mm)"),
+            // one legend, in the top panel
+            legend: k == 0,
+            lines: runs
+                .iter()
+                .map(|r| Line { name: r.name, t: r.t, y: r.disp_mm.iter().map(|d| d[k]).collect() })
+                .collect(),
+        })
+        .collect();
+    stacked(title, &panels, 260)
+}
+
+/// One time history of a panel.
+pub struct Line<'a> {
+    pub name: &'a str,
+    pub t: &'a [f64],
+    pub y: Vec<f64>,
+}
+
+/// One of the stacked panels: its lines, the label of its value axis, whether it shows a legend.
+pub struct Panel<'a> {
+    pub y_label: String,
+    pub legend: bool,
+    pub lines: Vec<Line<'a>>,
+}
+
+/// Any time histories as stacked panels sharing the time axis (e.g. every output of each
+/// component of a system, a panel per component), `panel_height` pixels each.
+pub fn stacked(title: &str, panels: &[Panel<'_>], panel_height: u32) -> Result<String, PlotError> {
+    for line in panels.iter().flat_map(|p| &p.lines) {
+        if line.t.len() != line.y.len() {
+            return Err(PlotError::Data(format!(
+                "line `{}`: {} times but {} values",
+                line.name,
+                line.t.len(),
+                line.y.len()
+            )));
         }
     }
-
-    /// Markers at `(x[i], y[i])`, no line.
-    pub fn scatter(name: &str, x: &[f64], y: &[f64]) -> Self {
-        Self { kind: SeriesKind::Scatter, ..Self::line(name, x, y) }
+    let n = panels.len().max(1);
+    let (w, h) = (900u32, panel_height.saturating_mul(n as u32));
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_error)?;
+        let root = root.titled(title, (FONT, 20)).map_err(draw_error)?;
+        // time runs edge to edge: from the first to the last sample
+        let (t0, t1) = panels
+            .iter()
+            .flat_map(|p| &p.lines)
+            .flat_map(|l| l.t.iter().copied().filter(|v| v.is_finite()))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+        let x_range = if t1 > t0 { (t0, t1) } else { padded_range([t0, t1].into_iter()) };
+        let areas = root.split_evenly((n, 1));
+        for (k, (area, panel)) in areas.iter().zip(panels).enumerate() {
+            let last = k + 1 == panels.len();
+            let y_range = padded_range(panel.lines.iter().flat_map(|l| l.y.iter().copied()));
+            let mut chart = ChartBuilder::on(area)
+                .margin_left(10)
+                .margin_right(20)
+                .margin_top(6)
+                .x_label_area_size(if last { 40 } else { 24 })
+                .y_label_area_size(70)
+                .build_cartesian_2d(x_range.0..x_range.1, y_range.0..y_range.1)
+                .map_err(draw_error)?;
+            let mut mesh = chart.configure_mesh();
+            mesh.y_desc(panel.y_label.as_str())
+                .label_style((FONT, 13))
+                .axis_desc_style((FONT, 15))
+                .light_line_style(RGBColor(248, 248, 248))
+                .bold_line_style(RGBColor(215, 215, 215));
+            if last {
+                mesh.x_desc("time (s)");
+            }
+            mesh.draw().map_err(draw_error)?;
+            let columns = chart.plotting_area().dim_in_pixel().0 as usize;
+            for (i, line) in panel.lines.iter().enumerate() {
+                let color = PALETTE[i % PALETTE.len()];
+                let segments = decimate_columns(line.t, &line.y, x_range, columns);
+                let style = color.stroke_width(2);
+                let mut labelled = !panel.legend;
+                for seg in segments.into_iter().chain(std::iter::once(Vec::new())) {
+                    if seg.is_empty() && labelled {
+                        continue;
+                    }
+                    let drawn = chart.draw_series(LineSeries::new(seg, style)).map_err(draw_error)?;
+                    if !labelled {
+                        drawn.label(line.name).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
+                        labelled = true;
+                    }
+                }
+            }
+            if panel.legend && !panel.lines.is_empty() {
+                chart
+                    .configure_series_labels()
+                    .position(SeriesLabelPosition::UpperRight)
+                    .label_font((FONT, 13))
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(RGBColor(160, 160, 160))
+                    .draw()
+                    .map_err(draw_error)?;
+            }
+        }
+        root.present().map_err(draw_error)?;
     }
-
-    /// Colour instead of the panel's next palette colour.
-    pub fn color(mut self, color: Color) -> Self {
-        self.color = Some(color);
-        self
-    }
-
-    /// Line width in pixels (default 1.5).
-    pub fn width(mut self, px: f64) -> Self {
-        self.width = if px.is_finite() && px > 0.0 { px } else { 1.5 };
-        self
-    }
-
-    pub fn dash(mut self, dash: Dash) -> Self {
-        self.dash = dash;
-        self
-    }
-
-    /// Markers of this shape at every point (lines too).
-    pub fn marker(mut self, marker: Marker) -> Self {
-        self.marker = MarkerChoice::Fixed(marker);
-        self
-    }
-
-    /// Markers at every point, shape picked from [`Marker::CYCLE`] by the series' position.
-    pub fn auto_marker(mut self) -> Self {
-        self.marker = MarkerChoice::Auto;
-        self
-    }
-
-    /// No markers (also for scatter series, which then draw nothing but their legend entry).
-    pub fn no_marker(mut self) -> Self {
-        self.marker = MarkerChoice::Off;
-        self
-    }
-
-    /// Marker size in pixels (bounding box, default 7).
-    pub fn marker_size(mut self, px: f64) -> Self {
-        self.marker_size = if px.is_finite() && px > 0.0 { px } else { 7.0 };
-        self
-    }
+    Ok(svg)
 }
 
-/// A categorical heat map over cells centred at `x[i]`, `y[j]` (e.g. macro step × mass ratio
-/// coloured stable/unstable), each cell optionally annotated with text.
-///
-/// Cell edges lie halfway between neighbouring centres in axis coordinates (geometric means on
-/// a log axis); the outer cells are as wide as their neighbours. Cells never set stay blank.
-/// Unless the panel sets its own ticks, the grid's axes get one tick per centre.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Grid {
-    x: Vec<f64>,
-    y: Vec<f64>,
-    categories: Vec<(String, Color)>,
-    cells: Vec<GridCell>,
+/// One scheme of a work–precision plot: (wall time s, error) points in the order of the steps.
+pub struct Precision<'a> {
+    pub name: &'a str,
+    pub points: Vec<(f64, f64)>,
 }
 
-#[derive(Clone, Debug, PartialEq)]
-struct GridCell {
-    ix: usize,
-    iy: usize,
-    category: usize,
-    text: String,
-}
-
-impl Grid {
-    pub fn new(x_centres: &[f64], y_centres: &[f64]) -> Self {
-        Self { x: x_centres.to_vec(), y: y_centres.to_vec(), categories: Vec::new(), cells: Vec::new() }
-    }
-
-    /// Adds a category (legend entry and cell colour); categories are numbered 0, 1, … in the
-    /// order they are added.
-    pub fn category(mut self, name: &str, color: Color) -> Self {
-        self.categories.push((name.to_owned(), color));
-        self
-    }
-
-    /// Colours cell (`ix`, `iy`) with `category` and writes `text` in it (empty for none).
-    /// Indices are checked when the figure is drawn.
-    pub fn set(&mut self, ix: usize, iy: usize, category: usize, text: &str) -> &mut Self {
-        self.cells.push(GridCell { ix, iy, category, text: text.to_owned() });
-        self
-    }
-}
-
-/// Tick placement of one axis.
-#[derive(Clone, Debug, PartialEq, Default)]
-enum TickChoice {
-    #[default]
-    Auto,
-    /// At these values, labelled with the value.
-    At(Vec<f64>),
-    /// At these values with these labels.
-    Labelled(Vec<(f64, String)>),
-}
-
-/// A horizontal or vertical reference line across the plot (e.g. "1 % of peak").
-#[derive(Clone, Debug, PartialEq)]
-struct RefLine {
-    axis: Axis,
-    value: f64,
-    label: String,
-}
-
-/// Settings of one axis of a panel.
-#[derive(Clone, Debug, PartialEq, Default)]
-struct AxisSpec {
-    label: String,
-    scale: Scale,
-    range: Option<(f64, f64)>,
-    ticks: TickChoice,
-}
-
-/// One plot area with its axes, series and legend. Built through [`Figure::panel`].
-#[derive(Clone, Debug, PartialEq, Default)]
-pub struct Panel {
-    title: String,
-    x: AxisSpec,
-    y: AxisSpec,
-    legend: Legend,
-    series: Vec<Series>,
-    grid: Option<Grid>,
-    ref_lines: Vec<RefLine>,
-}
-
-impl Panel {
-    pub fn title(&mut self, title: &str) -> &mut Self {
-        self.title = title.to_owned();
-        self
-    }
-
-    /// x-axis label, units included (e.g. `"t [s]"`).
-    pub fn x_label(&mut self, label: &str) -> &mut Self {
-        self.x.label = label.to_owned();
-        self
-    }
-
-    /// y-axis label, units included (e.g. `"Δy [mm]"`).
-    pub fn y_label(&mut self, label: &str) -> &mut Self {
-        self.y.label = label.to_owned();
-        self
-    }
-
-    pub fn x_scale(&mut self, scale: Scale) -> &mut Self {
-        self.x.scale = scale;
-        self
-    }
-
-    pub fn y_scale(&mut self, scale: Scale) -> &mut Self {
-        self.y.scale = scale;
-        self
-    }
-
-    /// Fixes the x range (no padding); data outside is clipped.
-    pub fn x_range(&mut self, min: f64, max: f64) -> &mut Self {
-        self.x.range = Some((min, max));
-        self
-    }
-
-    /// Fixes the y range (no padding); data outside is clipped.
-    pub fn y_range(&mut self, min: f64, max: f64) -> &mut Self {
-        self.y.range = Some((min, max));
-        self
-    }
-
-    /// x ticks at exactly these values (labelled with the value; those outside the range are
-    /// dropped).
-    pub fn x_ticks(&mut self, values: &[f64]) -> &mut Self {
-        self.x.ticks = TickChoice::At(values.to_vec());
-        self
-    }
-
-    /// y ticks at exactly these values.
-    pub fn y_ticks(&mut self, values: &[f64]) -> &mut Self {
-        self.y.ticks = TickChoice::At(values.to_vec());
-        self
-    }
-
-    /// x ticks at these values with these labels.
-    pub fn x_tick_labels(&mut self, ticks: &[(f64, &str)]) -> &mut Self {
-        self.x.ticks = TickChoice::Labelled(ticks.iter().map(|&(v, s)| (v, s.to_owned())).collect());
-        self
-    }
-
-    /// y ticks at these values with these labels.
-    pub fn y_tick_labels(&mut self, ticks: &[(f64, &str)]) -> &mut Self {
-        self.y.ticks = TickChoice::Labelled(ticks.iter().map(|&(v, s)| (v, s.to_owned())).collect());
-        self
-    }
-
-    pub fn legend(&mut self, legend: Legend) -> &mut Self {
-        self.legend = legend;
-        self
-    }
-
-    /// Adds a line series with default style.
-    pub fn line(&mut self, name: &str, x: &[f64], y: &[f64]) -> &mut Self {
-        self.add(Series::line(name, x, y))
-    }
-
-    /// Adds a scatter series with default style.
-    pub fn scatter(&mut self, name: &str, x: &[f64], y: &[f64]) -> &mut Self {
-        self.add(Series::scatter(name, x, y))
-    }
-
-    /// Adds a styled series.
-    pub fn add(&mut self, series: Series) -> &mut Self {
-        self.series.push(series);
-        self
-    }
-
-    /// Sets the panel's heat-map grid (one per panel; a second call replaces the first).
-    pub fn grid(&mut self, grid: Grid) -> &mut Self {
-        self.grid = Some(grid);
-        self
-    }
-
-    /// A dashed horizontal reference line at `y`, labelled at its right end.
-    pub fn hline(&mut self, y: f64, label: &str) -> &mut Self {
-        self.ref_lines.push(RefLine { axis: Axis::Y, value: y, label: label.to_owned() });
-        self
-    }
-
-    /// A dashed vertical reference line at `x`, labelled at its top.
-    pub fn vline(&mut self, x: f64, label: &str) -> &mut Self {
-        self.ref_lines.push(RefLine { axis: Axis::X, value: x, label: label.to_owned() });
-        self
-    }
-}
-
-/// A figure: panels in rows (and optionally columns), written as one standalone SVG.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Figure {
-    width: u32,
-    height: u32,
-    title: String,
-    share_x: bool,
-    columns: usize,
-    panels: Vec<Panel>,
-}
-
-impl Figure {
-    /// An empty figure of `width_px` × `height_px` pixels.
-    pub fn new(width_px: u32, height_px: u32) -> Self {
-        Self {
-            width: width_px,
-            height: height_px,
-            title: String::new(),
-            share_x: false,
-            columns: 1,
-            panels: Vec::new(),
+/// Wall time against error on log–log axes; `reference`: a dashed horizontal line at this error
+/// with its label. Points with a non-positive or non-finite coordinate cannot be shown on a log
+/// axis and are refused.
+pub fn work_precision(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    schemes: &[Precision<'_>],
+    reference: Option<(f64, &str)>,
+) -> Result<String, PlotError> {
+    for s in schemes {
+        if let Some(p) = s.points.iter().find(|p| !(p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite())) {
+            return Err(PlotError::Data(format!(
+                "scheme `{}`: the point ({}, {}) cannot be shown on logarithmic axes (values must be positive)",
+                s.name, p.0, p.1
+            )));
         }
     }
+    let xs = || schemes.iter().flat_map(|s| s.points.iter().map(|p| p.0));
+    let ys = || schemes.iter().flat_map(|s| s.points.iter().map(|p| p.1)).chain(reference.map(|r| r.0));
+    let (x0, x1) = decade_range(xs());
+    let (y0, y1) = decade_range(ys());
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_error)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, (FONT, 18))
+            .margin(14)
+            .x_label_area_size(45)
+            .y_label_area_size(80)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(draw_error)?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .label_style((FONT, 13))
+            .axis_desc_style((FONT, 15))
+            .x_label_formatter(&|v| format!("{v:e}"))
+            .y_label_formatter(&|v| format!("{v:e}"))
+            .light_line_style(RGBColor(248, 248, 248))
+            .bold_line_style(RGBColor(215, 215, 215))
+            .draw()
+            .map_err(draw_error)?;
+        for (i, s) in schemes.iter().enumerate() {
+            let color = PALETTE[i % PALETTE.len()];
+            let style = color.stroke_width(2);
+            chart.draw_series(LineSeries::new(s.points.iter().copied(), style)).map_err(draw_error)?;
+            // a marker shape per scheme, so that they stay apart in black-and-white print too
+            let points = s.points.iter().copied();
+            match i % 5 {
+                0 => chart.draw_series(points.map(|p| Circle::new(p, 4, color.filled()))),
+                1 => chart.draw_series(points.map(|p| TriangleMarker::new(p, 5, color.filled()))),
+                2 => chart.draw_series(points.map(|p| Cross::new(p, 4, color.stroke_width(2)))),
+                3 => chart.draw_series(
+                    points.map(|p| EmptyElement::at(p) + Rectangle::new([(-4, -4), (4, 4)], color.filled())),
+                ),
+                _ => chart.draw_series(points.map(|p| Circle::new(p, 4, color.stroke_width(2)))),
+            }
+            .map_err(draw_error)?;
+        }
+        let grey = RGBColor(90, 90, 90);
+        if let Some((y, _)) = reference {
+            chart
+                .draw_series(DashedLineSeries::new(vec![(x0, y), (x1, y)], 8, 5, grey.stroke_width(1)))
+                .map_err(draw_error)?;
+        }
+        // the legend, top right inside the plot: a line and the scheme's marker per entry
+        let (xr, yr) = chart.plotting_area().get_pixel_range();
+        let mut entries: Vec<(String, RGBColor, Option<usize>)> = schemes
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let name = if s.points.is_empty() { format!("{} (no result)", s.name) } else { s.name.to_string() };
+                (name, PALETTE[i % PALETTE.len()], Some(i))
+            })
+            .collect();
+        if let Some((_, label)) = reference {
+            entries.push((label.to_string(), grey, None));
+        }
+        let width = 60 + 8 * entries.iter().map(|e| e.0.chars().count()).max().unwrap_or(0) as i32;
+        let (left, top) = (xr.end - width - 10, yr.start + 10);
+        let frame = [(left, top), (xr.end - 10, top + 10 + 20 * entries.len() as i32)];
+        root.draw(&Rectangle::new(frame, WHITE.mix(0.9).filled())).map_err(draw_error)?;
+        root.draw(&Rectangle::new(frame, RGBColor(160, 160, 160).stroke_width(1))).map_err(draw_error)?;
+        for (k, (name, color, mark)) in entries.iter().enumerate() {
+            let y = top + 15 + 20 * k as i32;
+            let (a, b) = ((left + 8, y), (left + 36, y));
+            match mark {
+                Some(_) => root.draw(&PathElement::new(vec![a, b], color.stroke_width(2))),
+                None => root
+                    .draw(&PathElement::new(vec![a, (left + 16, y)], color.stroke_width(1)))
+                    .and_then(|_| root.draw(&PathElement::new(vec![(left + 22, y), b], color.stroke_width(1)))),
+            }
+            .map_err(draw_error)?;
+            let c = (left + 22, y);
+            match mark.map(|i| i % 5) {
+                Some(0) => root.draw(&Circle::new(c, 4, color.filled())),
+                Some(1) => root.draw(&TriangleMarker::new(c, 5, color.filled())),
+                Some(2) => root.draw(&Cross::new(c, 4, color.stroke_width(2))),
+                Some(3) => root.draw(&Rectangle::new([(c.0 - 4, c.1 - 4), (c.0 + 4, c.1 + 4)], color.filled())),
+                Some(_) => root.draw(&Circle::new(c, 4, color.stroke_width(2))),
+                None => Ok(()),
+            }
+            .map_err(draw_error)?;
+            let font = TextStyle::from((FONT, 13).into_font()).pos(plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Left,
+                plotters::style::text_anchor::VPos::Center,
+            ));
+            root.draw(&Text::new(name.clone(), (left + 44, y), font)).map_err(draw_error)?;
+        }
+        root.present().map_err(draw_error)?;
+    }
+    Ok(svg)
+}
 
-    /// Title above all panels.
-    pub fn title(&mut self, title: &str) -> &mut Self {
-        self.title = title.to_owned();
-        self
+/// One cell of a stability map: column `ix` (x centre), row `iy` (y centre), its category and
+/// a short text (e.g. iterations per step; empty for none).
+pub struct Cell {
+    pub ix: usize,
+    pub iy: usize,
+    pub category: usize,
+    pub text: String,
+}
+
+/// One panel of a stability map.
+pub struct MapPanel<'a> {
+    pub title: &'a str,
+    pub cells: Vec<Cell>,
+}
+
+/// Cell edges around increasing positive centres, in log10: halfway between neighbours, the
+/// outer cells as wide as their neighbours (one decade for a single centre).
+fn log_edges(centres: &[f64]) -> Vec<f64> {
+    let l: Vec<f64> = centres.iter().map(|c| c.log10()).collect();
+    if l.len() == 1 {
+        return vec![l[0] - 0.5, l[0] + 0.5];
+    }
+    let mut e = vec![l[0] - 0.5 * (l[1] - l[0])];
+    e.extend(l.windows(2).map(|w| 0.5 * (w[0] + w[1])));
+    e.push(l[l.len() - 1] + 0.5 * (l[l.len() - 1] - l[l.len() - 2]));
+    e
+}
+
+/// A linear axis (here over log10 values) with ticks exactly at given points: the cell centres
+/// of a map.
+#[derive(Clone)]
+struct KeyedAxis {
+    lo: f64,
+    hi: f64,
+    keys: Vec<f64>,
+}
+
+impl plotters::coord::ranged1d::Ranged for KeyedAxis {
+    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
+        let f = (v - self.lo) / (self.hi - self.lo);
+        limit.0 + (f * f64::from(limit.1 - limit.0)).round() as i32
     }
 
-    /// Panels share one x range; only the bottom panel of each column shows x tick labels and
-    /// the x label (taken from the first panel that has one).
-    pub fn share_x(&mut self, share: bool) -> &mut Self {
-        self.share_x = share;
-        self
+    fn key_points<Hint: plotters::coord::ranged1d::KeyPointHint>(&self, _hint: Hint) -> Vec<f64> {
+        self.keys.clone()
     }
 
-    /// Lays the panels out row by row in `n` columns (default 1: stacked vertically).
-    pub fn columns(&mut self, n: usize) -> &mut Self {
-        self.columns = n.max(1);
-        self
+    fn range(&self) -> std::ops::Range<f64> {
+        self.lo..self.hi
+    }
+}
+
+/// A tick label for 10^v: the value in plain decimals.
+fn decimal_label(v: f64) -> String {
+    let x = 10f64.powf(v);
+    let s = format!("{x:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    s.to_string()
+}
+
+/// Panels (two per row) of categorical cells over `x` (e.g. the macro step) and `y` (e.g. the
+/// mass factor), both logarithmic; a legend of the categories on the right.
+pub fn stability_map(
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    x: &[f64],
+    y: &[f64],
+    categories: &[(&str, RGBColor)],
+    panels: &[MapPanel<'_>],
+) -> Result<String, PlotError> {
+    for (what, c) in [("x", x), ("y", y)] {
+        if c.is_empty() || c.iter().any(|v| !(*v > 0.0 && v.is_finite())) {
+            return Err(PlotError::Data(format!("stability map: the {what} centres must be positive and finite")));
+        }
+    }
+    let sorted = |c: &[f64]| {
+        let mut v = c.to_vec();
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        v
+    };
+    let (xs, ys) = (sorted(x), sorted(y));
+    for p in panels {
+        if let Some(c) = p.cells.iter().find(|c| c.ix >= x.len() || c.iy >= y.len() || c.category >= categories.len()) {
+            return Err(PlotError::Data(format!(
+                "stability map `{}`: cell ({}, {}) of category {} is outside the grid",
+                p.title, c.ix, c.iy, c.category
+            )));
+        }
+    }
+    let rows = panels.len().div_ceil(2).max(1) as u32;
+    let (w, h) = (1100u32, 330 * rows + 60);
+    let legend_w = 170u32;
+    let (xe, ye) = (log_edges(&xs), log_edges(&ys));
+    let position = |sorted: &[f64], v: f64| sorted.iter().position(|s| *s == v).expect("a centre");
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_error)?;
+        let root = root.titled(title, (FONT, 18)).map_err(draw_error)?;
+        let (maps, legend) = root.split_horizontally(w - legend_w);
+        draw_legend(&legend, categories)?;
+        let areas = maps.split_evenly((rows as usize, 2));
+        for (p, area) in panels.iter().zip(areas.iter()) {
+            let x_keys: Vec<f64> = xs.iter().map(|v| v.log10()).collect();
+            let y_keys: Vec<f64> = ys.iter().map(|v| v.log10()).collect();
+            let mut chart = ChartBuilder::on(area)
+                .caption(p.title, (FONT, 15))
+                .margin(8)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(
+                    KeyedAxis { lo: xe[0], hi: xe[xe.len() - 1], keys: x_keys },
+                    KeyedAxis { lo: ye[0], hi: ye[ye.len() - 1], keys: y_keys },
+                )
+                .map_err(draw_error)?;
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_desc(x_label)
+                .y_desc(y_label)
+                .label_style((FONT, 12))
+                .axis_desc_style((FONT, 13))
+                .x_label_formatter(&|v| decimal_label(*v))
+                .y_label_formatter(&|v| decimal_label(*v))
+                .draw()
+                .map_err(draw_error)?;
+            for c in &p.cells {
+                let (i, j) = (position(&xs, x[c.ix]), position(&ys, y[c.iy]));
+                let color = categories[c.category].1;
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(xe[i], ye[j]), (xe[i + 1], ye[j + 1])],
+                        color.filled(),
+                    )))
+                    .map_err(draw_error)?;
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(xe[i], ye[j]), (xe[i + 1], ye[j + 1])],
+                        WHITE.stroke_width(1),
+                    )))
+                    .map_err(draw_error)?;
+                if !c.text.is_empty() {
+                    let centre = (0.5 * (xe[i] + xe[i + 1]), 0.5 * (ye[j] + ye[j + 1]));
+                    let text_color = contrasting_text(color);
+                    let style = TextStyle::from((FONT, 12).into_font()).color(&text_color).pos(
+                        plotters::style::text_anchor::Pos::new(
+                            plotters::style::text_anchor::HPos::Center,
+                            plotters::style::text_anchor::VPos::Center,
+                        ),
+                    );
+                    chart.draw_series(std::iter::once(Text::new(c.text.clone(), centre, style))).map_err(draw_error)?;
+                }
+            }
+        }
+        root.present().map_err(draw_error)?;
+    }
+    Ok(svg)
+}
+
+/// The categories as colour swatches with their names, top of `area`.
+fn draw_legend(area: &DrawingArea<SVGBackend<'_>, Shift>, categories: &[(&str, RGBColor)]) -> Result<(), PlotError> {
+    for (k, (name, color)) in categories.iter().enumerate() {
+        let y = 40 + 26 * k as i32;
+        area.draw(&Rectangle::new([(8, y), (28, y + 16)], color.filled())).map_err(draw_error)?;
+        area.draw(&Rectangle::new([(8, y), (28, y + 16)], RGBColor(120, 120, 120).stroke_width(1)))
+            .map_err(draw_error)?;
+        area.draw(&Text::new(name.to_string(), (36, y + 2), (FONT, 13).into_font())).map_err(draw_error)?;
+    }
+    Ok(())
+}
+
+/// Black or white, whichever reads better on `c` (WCAG relative luminance; the two contrast
+/// ratios are equal at 0.179).
+fn contrasting_text(c: RGBColor) -> RGBColor {
+    let lin = |v: u8| {
+        let v = f64::from(v) / 255.0;
+        if v <= 0.04045 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
+    };
+    let l = 0.2126 * lin(c.0) + 0.7152 * lin(c.1) + 0.0722 * lin(c.2);
+    if l > 0.179 { BLACK } else { WHITE }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decimation_keeps_each_columns_extremes_and_ends() {
+        let n = 100_000;
+        let x: Vec<f64> = (0..n).map(|i| i as f64).collect();
+        let mut y: Vec<f64> = x.iter().map(|v| (v * 0.01).sin()).collect();
+        y[12_345] = 50.0; // a spike inside one column
+        y[77_777] = -40.0;
+        let segs = decimate_columns(&x, &y, (0.0, (n - 1) as f64), 800);
+        assert_eq!(segs.len(), 1);
+        let s = &segs[0];
+        assert!(s.len() <= 4 * 800, "{} points", s.len());
+        assert_eq!(s[0], (0.0, y[0]));
+        assert_eq!(*s.last().unwrap(), ((n - 1) as f64, y[n - 1]));
+        assert!(s.contains(&(12_345.0, 50.0)) && s.contains(&(77_777.0, -40.0)));
+        assert!(s.windows(2).all(|w| w[0].0 < w[1].0), "order kept");
     }
 
-    /// Adds a panel built by `build`, e.g. `fig.panel(|p| p.title("X").line("dx", &t, &dx))`.
-    pub fn panel(&mut self, build: impl FnOnce(&mut Panel) -> &mut Panel) -> &mut Self {
-        let mut panel = Panel::default();
-        build(&mut panel);
-        self.panels.push(panel);
-        self
+    #[test]
+    fn decimation_breaks_lines_at_non_finite_points() {
+        let x = [0.0, 1.0, 2.0, 3.0, 4.0];
+        let y = [0.0, 1.0, f64::NAN, 3.0, f64::INFINITY];
+        let segs = decimate_columns(&x, &y, (0.0, 4.0), 1000);
+        assert_eq!(segs, vec![vec![(0.0, 0.0), (1.0, 1.0)], vec![(3.0, 3.0)]]);
     }
 
-    /// The figure as a standalone SVG document.
-    pub fn to_svg_string(&self) -> Result<String, PlotError> {
-        render::render(self)
-    }
-
-    /// Writes the figure to `path`; a figure that cannot be drawn is an
-    /// [`io::ErrorKind::InvalidInput`] error carrying the [`PlotError`].
-    pub fn write_svg(&self, path: impl AsRef<Path>) -> io::Result<()> {
-        let svg = self.to_svg_string().map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
-        std::fs::write(path, svg)
+    #[test]
+    fn ranges_pad_the_data_and_cover_whole_decades() {
+        assert_eq!(padded_range([0.0, 10.0].into_iter()), (-0.4, 10.4));
+        assert_eq!(padded_range([2.0, 2.0].into_iter()), (1.8, 2.2));
+        assert_eq!(padded_range([f64::NAN].into_iter()), (0.0, 1.0));
+        let close = |(a, b): (f64, f64), (c, d): (f64, f64)| (a / c - 1.0).abs() < 1e-8 && (b / d - 1.0).abs() < 1e-8;
+        assert!(close(decade_range([0.03, 2.0].into_iter()), (0.01, 10.0)));
+        assert!(close(decade_range([1.0].into_iter()), (1.0, 10.0)));
+        assert_eq!(contrasting_text(CATEGORY_COLORS[3]), BLACK);
+        assert_eq!(contrasting_text(PALETTE[0]), WHITE);
     }
 }

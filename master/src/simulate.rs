@@ -1,20 +1,28 @@
 //! One run of the LT50m system with a chosen method, recorded as a [`Trace`]: the cabin-centre
-//! displacement and rotation from the static equilibrium, the Stewart wrench, and what each step
-//! cost. Methods: the monolithic eq. (7) model, a co-simulation scheme on the FMUs, or the
-//! decoupled model of the paper's ref. [3] (the Stewart FMU with its cabin held at the static
-//! pose, its wrench applied to the cable FMU).
+//! displacement and rotation from the static equilibrium and the Stewart wrench, sampled at the
+//! scene's output interval, and a [`Summary`] (peaks, iterations, residuals) taken at every
+//! step. Methods: the monolithic eq. (7) model, a co-simulation scheme on the FMUs, the
+//! decoupled model of the paper's ref. \[3\] (the Stewart FMU with its cabin held at the static
+//! pose, its wrench applied to the cable FMU), or the cable–cabin model alone.
+//!
+//! A run is checked whole before its first step ([`Run::prepare`]): the steps reach the end
+//! time exactly (fixed steps) or land on it (the adaptive step of a co-simulation), their number
+//! is capped, the memory the models need fits, the scene has what the method needs. Every
+//! method steps through the one loop of [`crate::stepping`]; any non-finite value seen while
+//! stepping stops the run with the time and the quantity.
 
 use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
 use feedcore::Vec3;
-use feedcore::scene::{Quantity, Scene};
+use feedcore::scene::{Quantity, Scene, StewartMode};
 
-use cosim::{Coupled, FmuSystem, Options};
+use cosim::{Coupled, FmuSystem, Options, Scheme, StepError};
 
-use crate::monolithic::Monolithic;
-use crate::progress::Progress;
+use crate::limits::{Footprint, Limits, Plan, PlanError, Schedule, check_memory};
+use crate::monolithic::{Monolithic, MonolithicError};
+use crate::stepping::{Flow, Request, Step, drive};
 use crate::system::{Adaptive, needs, scene_spec};
 
 /// How the system is solved.
@@ -25,7 +33,7 @@ pub enum Method {
     CableOnly,
     Monolithic,
     Cosim(Options),
-    /// A co-simulation with the adaptive macro step (implicit schemes).
+    /// A co-simulation with the adaptive macro step (schemes that iterate).
     CosimAdaptive(Options, Adaptive),
     Decoupled(Options),
 }
@@ -41,55 +49,146 @@ impl Method {
     }
 }
 
-/// Time histories of one run, sampled at the scene's output interval.
+/// Why a run did not give a result.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Refused before anything was built (steps, caps, memory, what the method needs).
+    #[error("the {method} run cannot start: {reason}")]
+    Refused { method: &'static str, reason: String },
+    /// The model or the FMUs could not be set up (missing FMU, failed form-finding, ...).
+    #[error("setting up the {method} run")]
+    Setup {
+        method: &'static str,
+        #[source]
+        source: Detached,
+    },
+    /// A step failed or gave a non-finite value.
+    #[error("the {method} run stopped at t = {time:.6} s: {reason}")]
+    Stopped { method: &'static str, time: f64, reason: String },
+    /// The results could not be written.
+    #[error("writing the results of the {method} run")]
+    Output {
+        method: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl RunError {
+    /// A co-simulation step that failed: its time, and its message without the time it
+    /// starts with.
+    pub fn stopped_by(method: &'static str, e: &StepError) -> RunError {
+        let text = e.to_string();
+        let prefix = format!("co-simulation stopped at t = {:.6} s: ", e.time());
+        let reason = text.strip_prefix(&prefix).map_or(text.clone(), str::to_string);
+        RunError::Stopped { method, time: e.time(), reason }
+    }
+
+    /// A system that could not be set up.
+    pub fn setup(method: &'static str, e: &(dyn std::error::Error + 'static)) -> RunError {
+        RunError::Setup { method, source: Detached::of(e) }
+    }
+}
+
+/// An error's message chain, kept as text so that it can cross threads (`Send + Sync`) whatever
+/// the error it came from.
+#[derive(Debug)]
+pub struct Detached {
+    message: String,
+    source: Option<Box<Detached>>,
+}
+
+impl Detached {
+    pub fn of(e: &(dyn std::error::Error + 'static)) -> Detached {
+        Detached { message: e.to_string(), source: e.source().map(|s| Box::new(Detached::of(s))) }
+    }
+}
+
+impl std::fmt::Display for Detached {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for Detached {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.source.as_deref().map(|s| s as _)
+    }
+}
+
+/// Figures of a whole run, taken at every step (not from the samples).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Summary {
+    /// Largest |displacement| of the cabin centre per world axis, mm.
+    pub max_abs_disp_mm: [f64; 3],
+    /// Largest distance of the cabin centre from its static position, mm, and when.
+    pub peak_mm: f64,
+    pub peak_time_s: f64,
+    /// Steps taken and iterations (system evaluations, or Newton iterations) over all of them.
+    pub steps: u64,
+    pub iterations: u64,
+    /// Largest scaled interface residual at the end of a step (co-simulation).
+    pub max_interface_residual: f64,
+    /// Largest position-constraint residual (monolithic), m.
+    pub max_constraint_residual_m: f64,
+    /// Tries of the adaptive step rejected (and rolled back), and the smallest and largest
+    /// step taken (the fixed step otherwise), s.
+    pub rejected_steps: u64,
+    pub h_min_used: f64,
+    pub h_max_used: f64,
+}
+
+/// Time histories of one run, sampled at the scene's output interval (an adaptive run: at every
+/// accepted step), and its summary.
 #[derive(Clone, Debug, Default)]
 pub struct Trace {
     pub method: String,
+    /// The fixed step, s (0 for an adaptive run: see `h`).
     pub dt: f64,
     pub t_end: f64,
-    pub steps: usize,
+    pub steps: u64,
+    /// Interval of the samples actually taken (a whole number of steps), s; 0 for an adaptive
+    /// run.
+    pub sample_interval_s: f64,
     pub t: Vec<f64>,
+    /// An adaptive run: the step that ended at each sample (0 for the start); empty otherwise.
+    pub h: Vec<f64>,
     /// Cabin-centre displacement from the static equilibrium, mm (world x, y, z).
     pub disp_mm: Vec<[f64; 3]>,
     /// Cabin rotation from the static orientation, world rotation vector, mrad.
     pub rot_mrad: Vec<[f64; 3]>,
-    /// What the Stewart platform exerts on the cabin (force N; moment about the centre point N·m).
+    /// What the Stewart platform exerts on the cabin (force N; moment about the centre point
+    /// N·m); zero unless the scene asks for the wrench or the method prescribes it.
     pub wrench: Vec<[f64; 6]>,
-    /// Iterations (system evaluations) per macro step, and the interface residual at its end.
-    pub iterations: Vec<usize>,
-    pub residual: Vec<f64>,
-    /// Adaptive runs: the step that ended at every sample (they sample every accepted step),
-    /// the steps rejected, and the smallest and largest step taken.
-    pub h: Vec<f64>,
-    pub rejected_steps: usize,
-    pub h_min_used: f64,
-    pub h_max_used: f64,
-    /// Largest position-constraint residual (monolithic only), m.
-    pub constraint_residual: f64,
+    pub summary: Summary,
     pub wall_time_s: f64,
 }
 
 impl Trace {
     pub fn max_abs_disp_mm(&self) -> [f64; 3] {
-        let mut m = [0.0f64; 3];
-        for d in &self.disp_mm {
-            for k in 0..3 {
-                m[k] = m[k].max(d[k].abs());
-            }
-        }
-        m
+        self.summary.max_abs_disp_mm
+    }
+
+    /// Largest distance of the cabin centre from its static position over every step, mm.
+    pub fn peak_mm(&self) -> f64 {
+        self.summary.peak_mm
     }
 
     pub fn mean_iterations(&self) -> f64 {
-        if self.iterations.is_empty() {
-            0.0
-        } else {
-            self.iterations.iter().sum::<usize>() as f64 / self.iterations.len() as f64
-        }
+        if self.summary.steps == 0 { 0.0 } else { self.summary.iterations as f64 / self.summary.steps as f64 }
     }
 
     pub fn max_residual(&self) -> f64 {
-        self.residual.iter().cloned().fold(0.0, f64::max)
+        self.summary.max_interface_residual
+    }
+
+    pub fn constraint_residual(&self) -> f64 {
+        self.summary.max_constraint_residual_m
+    }
+
+    /// Whether the steps were chosen by the adaptive step.
+    pub fn is_adaptive(&self) -> bool {
+        !self.h.is_empty()
     }
 
     /// Largest and RMS distance (mm) of the cabin centre from another run's at this run's
@@ -121,25 +220,21 @@ impl Trace {
         (max, (sum / n.max(1) as f64).sqrt())
     }
 
-    /// Largest distance of the cabin centre from its static position, mm.
-    pub fn peak_mm(&self) -> f64 {
-        self.disp_mm.iter().map(|d| (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()).fold(0.0, f64::max)
-    }
-
-    /// Writes the time histories the scene asks for (`outputs.quantities`): `t`, then
-    /// `dx_mm, dy_mm, dz_mm` (cabin displacement), `rx_mrad, ry_mrad, rz_mrad` (rotation),
-    /// `fx_n … mz_nm` (Stewart wrench), each group only if asked for.
-    pub fn write_csv(&self, path: &Path, quantities: &[Quantity]) -> std::io::Result<()> {
-        type Column<'a> = &'a dyn Fn(usize) -> Vec<f64>;
+    /// Writes the time histories the scene asks for (`outputs.quantities`): `t` (and `h_s`, the
+    /// step that ended there, in an adaptive run), then `dx_mm, dy_mm, dz_mm` (cabin
+    /// displacement), `rx_mrad, ry_mrad, rz_mrad` (rotation), `fx_n … mz_nm` (Stewart wrench),
+    /// each group only if asked for.
+    pub fn write_csv(&self, out: &mut dyn Write, quantities: &[Quantity]) -> std::io::Result<()> {
+        type Column<'a> = &'a dyn Fn(usize) -> &'a [f64];
         let groups: [(Quantity, &str, Column); 3] = [
-            (Quantity::CabinDisplacement, "dx_mm,dy_mm,dz_mm", &|i| self.disp_mm[i].to_vec()),
-            (Quantity::CabinRotation, "rx_mrad,ry_mrad,rz_mrad", &|i| self.rot_mrad[i].to_vec()),
-            (Quantity::Wrench, "fx_n,fy_n,fz_n,mx_nm,my_nm,mz_nm", &|i| self.wrench[i].to_vec()),
+            (Quantity::CabinDisplacement, "dx_mm,dy_mm,dz_mm", &|i| &self.disp_mm[i]),
+            (Quantity::CabinRotation, "rx_mrad,ry_mrad,rz_mrad", &|i| &self.rot_mrad[i]),
+            (Quantity::Wrench, "fx_n,fy_n,fz_n,mx_nm,my_nm,mz_nm", &|i| &self.wrench[i]),
         ];
         let chosen: Vec<_> = groups.iter().filter(|g| quantities.contains(&g.0)).collect();
-        let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+        let mut f = std::io::BufWriter::new(out);
         write!(f, "t")?;
-        if !self.h.is_empty() {
+        if self.is_adaptive() {
             write!(f, ",h_s")?;
         }
         for g in &chosen {
@@ -148,7 +243,7 @@ impl Trace {
         writeln!(f)?;
         for i in 0..self.t.len() {
             write!(f, "{}", self.t[i])?;
-            if !self.h.is_empty() {
+            if self.is_adaptive() {
                 write!(f, ",{}", self.h[i])?;
             }
             for g in &chosen {
@@ -158,7 +253,7 @@ impl Trace {
             }
             writeln!(f)?;
         }
-        Ok(())
+        f.flush()
     }
 }
 
@@ -169,22 +264,57 @@ struct Probe {
     wrench: [f64; 6],
 }
 
-/// Records a sample every `every` steps.
+/// Watches every step: refuses non-finite values, keeps the summary, samples every `every`
+/// steps.
 struct Recorder {
     trace: Trace,
-    every: usize,
+    every: u64,
     origin: Option<(Vec3, feedcore::Quat)>,
+    method: &'static str,
 }
 
 impl Recorder {
-    fn record(&mut self, t: f64, p: &Probe) {
+    fn stopped(&self, time: f64, reason: impl Into<String>) -> RunError {
+        RunError::Stopped { method: self.method, time, reason: reason.into() }
+    }
+
+    /// The state after step `k` (0: the start) at time `t`.
+    fn observe(&mut self, k: u64, t: f64, p: &Probe) -> Result<(), RunError> {
+        let names = ["x", "y", "z"];
+        for i in 0..3 {
+            if !p.position[i].is_finite() {
+                return Err(self.stopped(t, format!("the cabin position {} is {}", names[i], p.position[i])));
+            }
+        }
+        if !p.orientation.coords.iter().all(|x| x.is_finite()) {
+            return Err(self.stopped(t, "the cabin orientation is not finite"));
+        }
+        const WRENCH: [&str; 6] = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"];
+        if let Some(i) = p.wrench.iter().position(|x| !x.is_finite()) {
+            return Err(self.stopped(t, format!("the wrench on the cabin {} is {}", WRENCH[i], p.wrench[i])));
+        }
         let (p0, q0) = *self.origin.get_or_insert((p.position, p.orientation));
         let d = (p.position - p0) * 1e3;
-        let r = (p.orientation * q0.inverse()).scaled_axis() * 1e3;
-        self.trace.t.push(t);
-        self.trace.disp_mm.push([d.x, d.y, d.z]);
-        self.trace.rot_mrad.push([r.x, r.y, r.z]);
-        self.trace.wrench.push(p.wrench);
+        let s = &mut self.trace.summary;
+        for i in 0..3 {
+            s.max_abs_disp_mm[i] = s.max_abs_disp_mm[i].max(d[i].abs());
+        }
+        let distance = d.norm();
+        if !distance.is_finite() {
+            return Err(self.stopped(t, format!("the cabin displacement is {distance} mm")));
+        }
+        if distance > s.peak_mm {
+            s.peak_mm = distance;
+            s.peak_time_s = t;
+        }
+        if k.is_multiple_of(self.every) {
+            let r = (p.orientation * q0.inverse()).scaled_axis() * 1e3;
+            self.trace.t.push(t);
+            self.trace.disp_mm.push([d.x, d.y, d.z]);
+            self.trace.rot_mrad.push([r.x, r.y, r.z]);
+            self.trace.wrench.push(p.wrench);
+        }
+        Ok(())
     }
 }
 
@@ -198,32 +328,28 @@ struct CosimProbe {
 }
 
 impl CosimProbe {
-    fn new(c: &mut Coupled<FmuSystem>) -> Result<CosimProbe, Box<dyn std::error::Error>> {
-        let vr = |c: &mut Coupled<FmuSystem>, fmu: &str, name: String| -> Result<u32, Box<dyn std::error::Error>> {
+    fn new(c: &mut Coupled<FmuSystem>, read_wrench: bool) -> Result<CosimProbe, Box<dyn std::error::Error>> {
+        let mut vr = |fmu: &str, name: &str| -> Result<u32, Box<dyn std::error::Error>> {
             let inst = c.units_mut().instance(fmu).ok_or_else(|| format!("the system has no FMU named `{fmu}`"))?;
-            Ok(inst.fmu().value_reference(&name)?)
+            Ok(inst.fmu().value_reference(name)?)
         };
         Ok(CosimProbe {
-            r: [
-                vr(c, "cable", "cabin.r[1]".into())?,
-                vr(c, "cable", "cabin.r[2]".into())?,
-                vr(c, "cable", "cabin.r[3]".into())?,
-            ],
+            r: [vr("cable", "cabin.r[1]")?, vr("cable", "cabin.r[2]")?, vr("cable", "cabin.r[3]")?],
             q: [
-                vr(c, "cable", "cabin.q[1]".into())?,
-                vr(c, "cable", "cabin.q[2]".into())?,
-                vr(c, "cable", "cabin.q[3]".into())?,
-                vr(c, "cable", "cabin.q[4]".into())?,
+                vr("cable", "cabin.q[1]")?,
+                vr("cable", "cabin.q[2]")?,
+                vr("cable", "cabin.q[3]")?,
+                vr("cable", "cabin.q[4]")?,
             ],
             w: [
-                vr(c, "stewart", "wrench.f[1]".into())?,
-                vr(c, "stewart", "wrench.f[2]".into())?,
-                vr(c, "stewart", "wrench.f[3]".into())?,
-                vr(c, "stewart", "wrench.m[1]".into())?,
-                vr(c, "stewart", "wrench.m[2]".into())?,
-                vr(c, "stewart", "wrench.m[3]".into())?,
+                vr("stewart", "wrench.f[1]")?,
+                vr("stewart", "wrench.f[2]")?,
+                vr("stewart", "wrench.f[3]")?,
+                vr("stewart", "wrench.m[1]")?,
+                vr("stewart", "wrench.m[2]")?,
+                vr("stewart", "wrench.m[3]")?,
             ],
-            read_wrench: true,
+            read_wrench,
         })
     }
 
@@ -237,13 +363,275 @@ impl CosimProbe {
         }
         Ok(Probe {
             position: Vec3::from(r),
+            // a non-finite quaternion normalizes to NaN, which the recorder refuses
             orientation: feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3])),
             wrench: w,
         })
     }
 }
 
-/// Runs `scene` (read from `scene_file`) with `method` at step `dt` to `t_end`.
+/// A run checked whole, ready to start.
+#[derive(Clone, Debug)]
+pub struct Run<'a> {
+    scene: &'a Scene,
+    scene_file: &'a Path,
+    method: Method,
+    schedule: Schedule,
+    every: u64,
+}
+
+impl<'a> Run<'a> {
+    /// Checks everything the run needs before anything is built: the steps against the end time
+    /// and the step cap, the memory the models need, and what the method needs from the scene.
+    /// `dt` is the fixed step; an adaptive run ([`Method::CosimAdaptive`]) chooses its own.
+    pub fn prepare(
+        scene: &'a Scene,
+        scene_file: &'a Path,
+        method: Method,
+        dt: f64,
+        t_end: f64,
+        limits: &Limits,
+    ) -> Result<Run<'a>, RunError> {
+        let refused = |reason: String| RunError::Refused { method: method.name(), reason };
+        let schedule = match method {
+            Method::CosimAdaptive(o, a) => {
+                if !o.scheme.is_implicit() {
+                    return Err(refused(format!(
+                        "the adaptive step needs a scheme that iterates (iterative, ijcsa, iqn-ils), not {}",
+                        o.scheme.name()
+                    )));
+                }
+                a.controller().map_err(refused)?;
+                Schedule::adaptive(t_end, a.h_min, a.h_max, limits).map_err(|e| refused(e.to_string()))?
+            }
+            _ => Schedule::Fixed(Plan::new(dt, t_end, limits).map_err(|e| refused(e.to_string()))?),
+        };
+        let footprint = if method == Method::CableOnly { Footprint::CableModel } else { Footprint::Coupled };
+        check_memory(scene, footprint, scene.damping.fit_modes.is_some(), limits)
+            .map_err(|e: PlanError| refused(format!("{}: {e}", scene_file.display())))?;
+        let coupled = scene.analyses.stewart == StewartMode::Coupled;
+        match method {
+            Method::CableOnly => {
+                if scene.disturbance.is_none() && coupled {
+                    return Err(refused(format!(
+                        "{}: `--scheme cable` runs the cable–cabin model under the scene's [disturbance], and this \
+                         scene has none (its platform is coupled: run it with a coupling scheme or monolithic)",
+                        scene_file.display()
+                    )));
+                }
+            }
+            _ if !coupled => {
+                return Err(refused(format!(
+                    "{}: the scene has no moving platform (analyses.stewart = {:?}); only `--scheme cable` runs it",
+                    scene_file.display(),
+                    scene.analyses.stewart
+                )));
+            }
+            Method::Monolithic => {}
+            Method::Cosim(_) | Method::CosimAdaptive(..) | Method::Decoupled(_) => {
+                if scene.system.is_none() {
+                    return Err(refused(format!(
+                        "{}: the scene has no [system] section (the FMUs and their connections)",
+                        scene_file.display()
+                    )));
+                }
+                // The FMUs get the scene's path as an FMI string, which is UTF-8.
+                let absolute =
+                    std::fs::canonicalize(scene_file).map_err(|e| refused(format!("{}: {e}", scene_file.display())))?;
+                if absolute.to_str().is_none() {
+                    return Err(refused(format!(
+                        "{}: the scene's path is not UTF-8, and the FMUs receive it as an FMI (UTF-8) string; \
+                         rename the file or link it under a UTF-8 name",
+                        scene_file.display()
+                    )));
+                }
+            }
+        }
+        let every = match schedule {
+            Schedule::Fixed(plan) => ((scene.outputs.sample_interval_s / plan.dt).round() as u64).clamp(1, plan.steps),
+            // every accepted step
+            Schedule::Adaptive { .. } => 1,
+        };
+        Ok(Run { scene, scene_file, method, schedule, every })
+    }
+
+    /// Runs it; `quiet`: no progress bar.
+    pub fn execute(&self, quiet: bool) -> Result<Trace, RunError> {
+        let (scene, method) = (self.scene, self.method);
+        let name = method.name();
+        let (dt, sample_interval_s) = match self.schedule {
+            Schedule::Fixed(plan) => (plan.dt, self.every as f64 * plan.dt),
+            Schedule::Adaptive { .. } => (0.0, 0.0),
+        };
+        let mut rec = Recorder {
+            trace: Trace {
+                method: name.into(),
+                dt,
+                t_end: self.schedule.t_end(),
+                sample_interval_s,
+                ..Default::default()
+            },
+            every: self.every,
+            origin: None,
+            method: name,
+        };
+        let setup = |e: &(dyn std::error::Error + 'static)| RunError::setup(name, e);
+        let start = Instant::now();
+        let stopped = |time: f64, reason: String| RunError::Stopped { method: name, time, reason };
+        // the fixed step of the methods without an adaptive one (prepare gives them no other)
+        let fixed = |r: Request| match r {
+            Request::Fixed { h, t } => Ok((h, t)),
+            Request::Adaptive { .. } => {
+                Err(RunError::Refused { method: name, reason: "this method has no adaptive step".into() })
+            }
+        };
+        match method {
+            Method::CableOnly => {
+                let model = cable_fmu::model::CableCabin::build(scene, 0).map_err(|e| setup(&e))?;
+                let disturbance =
+                    |t: f64| nalgebra::Vector6::from(scene.disturbance.as_ref().map_or([0.0; 6], |d| d.wrench(t)));
+                let mut dy = model
+                    .dynamics_with(cable_fmu::model::Payload::Locked, 0.0, &disturbance(0.0))
+                    .map_err(|e| setup(&e))?;
+                let probe = |dy: &cable_fmu::dynamics::Dynamics, t: f64| {
+                    let c = dy.cabin();
+                    Probe { position: c.position, orientation: c.orientation, wrench: vec6(&disturbance(t)) }
+                };
+                let first = probe(&dy, 0.0);
+                self.drive(&mut rec, quiet, first, |r| {
+                    let (h, t) = fixed(r)?;
+                    let s = dy.step(h, &disturbance(t)).map_err(|e| stopped(e.time, e.reason))?;
+                    Ok(Flow::Stepped(stepped(h, s.iterations, 0.0, probe(&dy, t))))
+                })?;
+            }
+            Method::Monolithic => {
+                let mut m = Monolithic::new(scene).map_err(|e| setup(&*e))?;
+                let probe = |s: &crate::monolithic::Sample| Probe {
+                    position: s.cabin.position,
+                    orientation: s.cabin.orientation,
+                    wrench: vec6(&s.wrench),
+                };
+                let first = probe(&m.sample());
+                self.drive(&mut rec, quiet, first, |r| {
+                    let (h, _) = fixed(r)?;
+                    let iterations = m.step(h).map_err(|e: MonolithicError| stopped(e.time, e.reason))?;
+                    let s = m.sample();
+                    let mut step = stepped(h, iterations, 0.0, probe(&s));
+                    step.payload.constraint_residual = s.constraint_residual;
+                    Ok(Flow::Stepped(step))
+                })?;
+            }
+            Method::Cosim(options) | Method::CosimAdaptive(options, _) | Method::Decoupled(options) => {
+                let mut sc = scene.clone();
+                let mut options = options;
+                if matches!(method, Method::Decoupled(_)) {
+                    // ref. [3]: the platform's wrench with the cabin held at its static pose, fed
+                    // forward to the cable model: cut the connections into the Stewart FMU
+                    let sys = sc.system.as_mut().expect("checked in prepare");
+                    sys.connections.retain(|c| !c.to.starts_with("stewart."));
+                    options.scheme = Scheme::Sequential;
+                }
+                let adaptive = match method {
+                    Method::CosimAdaptive(_, a) => Some(a),
+                    _ => None,
+                };
+                let spec = scene_spec(&sc, self.scene_file).map_err(|e| setup(&e))?;
+                let system = FmuSystem::load(&spec, &needs(&options, adaptive.is_some())).map_err(|e| setup(&e))?;
+                let mut c = Coupled::new(system, options).map_err(|e| setup(&e))?;
+                let mut controller = adaptive
+                    .map(|a| a.controller())
+                    .transpose()
+                    .map_err(|reason| RunError::Refused { method: name, reason })?;
+                let read_wrench = scene.outputs.quantities.contains(&Quantity::Wrench);
+                let probe = CosimProbe::new(&mut c, read_wrench).map_err(|e| setup(&*e))?;
+                let first = probe.read(&mut c).map_err(|e| stopped(0.0, e.to_string()))?;
+                self.drive(&mut rec, quiet, first, |r| {
+                    let (h, report, rejected) = match (r, controller.as_mut(), adaptive) {
+                        (Request::Adaptive { t_stop }, Some(ctl), Some(a)) => {
+                            let s = c
+                                .step_adaptive(ctl, a.tolerances, t_stop)
+                                .map_err(|e| RunError::stopped_by(name, &e))?;
+                            (s.h, s.report, s.rejected)
+                        }
+                        _ => {
+                            let (h, _) = fixed(r)?;
+                            (h, c.step(h).map_err(|e| RunError::stopped_by(name, &e))?, 0)
+                        }
+                    };
+                    let t = c.time();
+                    let p = probe.read(&mut c).map_err(|e| stopped(t, e.to_string()))?;
+                    let mut step = stepped(h, report.iterations, report.residual, p);
+                    step.rejected = rejected;
+                    Ok(Flow::Stepped(step))
+                })?;
+            }
+        }
+        rec.trace.wall_time_s = start.elapsed().as_secs_f64();
+        Ok(rec.trace)
+    }
+}
+
+/// What a step of a method leaves to observe.
+struct Observed {
+    probe: Probe,
+    /// Largest position-constraint residual (monolithic), m.
+    constraint_residual: f64,
+}
+
+/// A step of `h` with its cost and what it left.
+fn stepped(h: f64, iterations: usize, residual: f64, probe: Probe) -> Step<Observed> {
+    Step { h, rejected: 0, iterations, residual, payload: Observed { probe, constraint_residual: 0.0 } }
+}
+
+impl Run<'_> {
+    /// Observes the start, then takes every step with `step` through the step loop, refusing
+    /// non-finite values and keeping the summary.
+    fn drive(
+        &self,
+        rec: &mut Recorder,
+        quiet: bool,
+        first: Probe,
+        step: impl FnMut(Request) -> Result<Flow<Observed>, RunError>,
+    ) -> Result<(), RunError> {
+        let adaptive = matches!(self.schedule, Schedule::Adaptive { .. });
+        rec.observe(0, 0.0, &first)?;
+        if adaptive {
+            rec.trace.h.push(0.0);
+        }
+        let method = rec.method;
+        let totals = drive(
+            &self.schedule,
+            quiet,
+            |time, reason| RunError::Stopped { method, time, reason },
+            step,
+            |k, t, s| {
+                let c = s.payload.constraint_residual;
+                if !c.is_finite() {
+                    return Err(rec.stopped(t, format!("the constraint residual is {c}")));
+                }
+                let m = &mut rec.trace.summary.max_constraint_residual_m;
+                *m = m.max(c);
+                rec.observe(k, t, &s.payload.probe)?;
+                if adaptive {
+                    rec.trace.h.push(s.h);
+                }
+                Ok(())
+            },
+        )?;
+        let summary = &mut rec.trace.summary;
+        summary.steps = totals.steps;
+        summary.iterations = totals.iterations;
+        summary.max_interface_residual = totals.max_residual;
+        summary.rejected_steps = totals.rejected;
+        summary.h_min_used = totals.h_min;
+        summary.h_max_used = totals.h_max;
+        rec.trace.steps = totals.steps;
+        Ok(())
+    }
+}
+
+/// Runs `scene` (read from `scene_file`) with `method` at step `dt` to `t_end`, within the
+/// default [`Limits`].
 pub fn simulate(
     scene: &Scene,
     scene_file: &Path,
@@ -251,132 +639,8 @@ pub fn simulate(
     dt: f64,
     t_end: f64,
     quiet: bool,
-) -> Result<Trace, Box<dyn std::error::Error>> {
-    if !(dt > 0.0 && dt.is_finite() && t_end > 0.0 && t_end.is_finite()) {
-        return Err(format!("the step ({dt} s) and the end time ({t_end} s) must be positive").into());
-    }
-    let steps = (t_end / dt).round() as usize;
-    let every = ((scene.outputs.sample_interval_s / dt).round() as usize).max(1);
-    let mut rec = Recorder {
-        trace: Trace { method: method.name().into(), dt, t_end, steps, ..Default::default() },
-        every,
-        origin: None,
-    };
-    let mut bar = Progress::stderr(steps as u64, t_end, quiet);
-    let start = Instant::now();
-    let coupled = scene.analyses.stewart == feedcore::scene::StewartMode::Coupled;
-    if !coupled && method != Method::CableOnly {
-        return Err(format!(
-            "{}: the scene has no moving platform (analyses.stewart = {:?}); only `--scheme cable` runs it",
-            scene_file.display(),
-            scene.analyses.stewart
-        )
-        .into());
-    }
-    match method {
-        Method::CableOnly => {
-            let model = cable_fmu::model::CableCabin::build(scene, 0)?;
-            let disturbance =
-                |t: f64| nalgebra::Vector6::from(scene.disturbance.as_ref().map_or([0.0; 6], |d| d.wrench(t)));
-            let mut dy = model.dynamics_with(cable_fmu::model::Payload::Locked, 0.0, &disturbance(0.0))?;
-            let probe = |dy: &cable_fmu::dynamics::Dynamics, t: f64| {
-                let c = dy.cabin();
-                Probe { position: c.position, orientation: c.orientation, wrench: vec6(&disturbance(t)) }
-            };
-            rec.record(0.0, &probe(&dy, 0.0));
-            for k in 1..=steps {
-                let t = k as f64 * dt;
-                let s = dy.step(dt, &disturbance(t))?;
-                rec.trace.iterations.push(s.iterations);
-                rec.trace.residual.push(0.0);
-                if k % rec.every == 0 {
-                    rec.record(t, &probe(&dy, t));
-                }
-                bar.update(k as u64, t);
-            }
-        }
-        Method::Monolithic => {
-            let mut m = Monolithic::new(scene)?;
-            let s = m.sample();
-            rec.record(
-                0.0,
-                &Probe { position: s.cabin.position, orientation: s.cabin.orientation, wrench: vec6(&s.wrench) },
-            );
-            for k in 1..=steps {
-                let iterations = m.step(dt)?;
-                rec.trace.iterations.push(iterations);
-                rec.trace.residual.push(0.0);
-                let s = m.sample();
-                rec.trace.constraint_residual = rec.trace.constraint_residual.max(s.constraint_residual);
-                if k % rec.every == 0 {
-                    rec.record(
-                        k as f64 * dt,
-                        &Probe {
-                            position: s.cabin.position,
-                            orientation: s.cabin.orientation,
-                            wrench: vec6(&s.wrench),
-                        },
-                    );
-                }
-                bar.update(k as u64, k as f64 * dt);
-            }
-        }
-        Method::Cosim(options) | Method::Decoupled(options) | Method::CosimAdaptive(options, _) => {
-            let mut sc = scene.clone();
-            let mut options = options;
-            if matches!(method, Method::Decoupled(_)) {
-                // ref. [3]: the platform's wrench with the cabin held at its static pose, fed
-                // forward to the cable model: cut the connections into the Stewart FMU
-                let sys = sc.system.as_mut().ok_or_else(|| format!("{}: no [system] section", scene_file.display()))?;
-                sys.connections.retain(|c| !c.to.starts_with("stewart."));
-                options.scheme = cosim::Scheme::Sequential;
-            }
-            let adaptive = match method {
-                Method::CosimAdaptive(_, a) => Some(a),
-                _ => None,
-            };
-            let system = FmuSystem::load(&scene_spec(&sc, scene_file)?, &needs(&options, adaptive.is_some()))?;
-            let mut c = Coupled::new(system, options)?;
-            let mut probe = CosimProbe::new(&mut c)?;
-            probe.read_wrench = scene.outputs.quantities.contains(&Quantity::Wrench);
-            rec.record(0.0, &probe.read(&mut c)?);
-            if let Some(a) = adaptive {
-                let mut ctl = a.controller()?;
-                rec.trace.h_min_used = f64::INFINITY;
-                let mut k = 0;
-                while c.time() < t_end * (1.0 - 1e-12) {
-                    let s = c.step_adaptive(&mut ctl, a.tolerances, t_end)?;
-                    k += 1;
-                    rec.trace.iterations.push(s.report.iterations);
-                    rec.trace.residual.push(s.report.residual);
-                    rec.trace.rejected_steps += s.rejected;
-                    rec.trace.h_min_used = rec.trace.h_min_used.min(s.h);
-                    rec.trace.h_max_used = rec.trace.h_max_used.max(s.h);
-                    rec.trace.h.push(s.h);
-                    rec.record(c.time(), &probe.read(&mut c)?);
-                    bar.update(((c.time() / dt) as u64).min(steps as u64), c.time());
-                }
-                rec.trace.steps = k;
-                // the first sample (t = 0) has no step
-                rec.trace.h.insert(0, 0.0);
-            } else {
-                rec.trace.h_min_used = dt;
-                rec.trace.h_max_used = dt;
-                for k in 1..=steps {
-                    let report = c.step(dt)?;
-                    rec.trace.iterations.push(report.iterations);
-                    rec.trace.residual.push(report.residual);
-                    if k % rec.every == 0 {
-                        rec.record(k as f64 * dt, &probe.read(&mut c)?);
-                    }
-                    bar.update(k as u64, k as f64 * dt);
-                }
-            }
-        }
-    }
-    bar.finish();
-    rec.trace.wall_time_s = start.elapsed().as_secs_f64();
-    Ok(rec.trace)
+) -> Result<Trace, RunError> {
+    Run::prepare(scene, scene_file, method, dt, t_end, &Limits::default())?.execute(quiet)
 }
 
 fn vec6(v: &nalgebra::Vector6<f64>) -> [f64; 6] {
@@ -384,12 +648,12 @@ fn vec6(v: &nalgebra::Vector6<f64>) -> [f64; 6] {
 }
 
 /// Writes `scene` (a variant of the one read from `scene_file`) to a private file, with the FMU
-/// paths of its [system] made absolute, so that the FMUs read this variant; returns the variant
+/// paths of its `[system]` made absolute, so that the FMUs read this variant; returns the variant
 /// and its file.
 pub fn write_variant(scene: &Scene, scene_file: &Path, tag: &str) -> std::io::Result<(Scene, std::path::PathBuf)> {
     let mut s = scene.clone();
     if let Some(sys) = s.system.as_mut() {
-        let base = scene_file.parent().unwrap_or(Path::new("."));
+        let base = scene_file.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         for f in &mut sys.fmus {
             let p = Path::new(&f.path);
             if !p.is_absolute() {

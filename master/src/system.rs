@@ -1,6 +1,6 @@
 //! Systems of FMUs as the master runs them: the scene's `[system]` table as a
 //! [`SystemSpec`], and a run of any system (`master run --system`) that records every output of
-//! every component.
+//! every component ([`SystemRun`]: checked before it starts, stepped through the one step loop).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -8,11 +8,13 @@ use std::time::Instant;
 
 use cosim::step_control::{Controller, Limits, Tolerances};
 use cosim::system::spec::{Component, Connection, Endpoint, Matching, Parameter, Value};
-use cosim::{Coupled, FmuSystem, Needs, Options, SystemSpec};
+use cosim::{Coupled, FmuSystem, Needs, Options, SetupError, SystemSpec};
 use feedcore::scene::Scene;
 use fmi2::{Causality, VarType};
 
-use crate::progress::Progress;
+use crate::limits::{Limits as StepLimits, Plan, Schedule};
+use crate::simulate::RunError;
+use crate::stepping::{Flow, Request, Step, drive};
 
 /// Resolves a scene-relative path.
 fn relative_to(scene_file: &Path, path: &str) -> PathBuf {
@@ -22,11 +24,13 @@ fn relative_to(scene_file: &Path, path: &str) -> PathBuf {
 
 /// The scene's `[system]` as a system description: FMU paths relative to the scene file,
 /// connections by name prefix, parameters as text (`"@scene"`: the scene file's absolute path).
-pub fn scene_spec(scene: &Scene, scene_file: &Path) -> Result<SystemSpec, Box<dyn std::error::Error>> {
-    let sys = scene.system.as_ref().ok_or_else(|| {
-        format!("{}: the scene has no [system] section (FMUs and their connections)", scene_file.display())
-    })?;
-    let scene_abs = std::fs::canonicalize(scene_file).map_err(|e| format!("{}: {e}", scene_file.display()))?;
+pub fn scene_spec(scene: &Scene, scene_file: &Path) -> Result<SystemSpec, SetupError> {
+    let file_error = |message: String| SetupError::File { path: scene_file.to_owned(), message };
+    let sys = scene
+        .system
+        .as_ref()
+        .ok_or_else(|| file_error("the scene has no [system] section (FMUs and their connections)".into()))?;
+    let scene_abs = std::fs::canonicalize(scene_file).map_err(|e| file_error(e.to_string()))?;
     let endpoint = |text: &str| {
         let (component, variable) = text.split_once('.').expect("validated scene");
         Endpoint { component: component.into(), variable: variable.into() }
@@ -87,20 +91,43 @@ impl Adaptive {
     }
 }
 
-/// Every output variable of one component, by type.
-struct Outputs {
+/// Every output variable of one component, by type, in the order of its description.
+struct ComponentOutputs {
     component: usize,
     real: Vec<u32>,
     integer: Vec<u32>,
     boolean: Vec<u32>,
     string: Vec<u32>,
+    /// `<component>.<variable>` of the Real outputs.
+    real_names: Vec<String>,
+    /// (type, index within the type) of every output, in description order.
+    order: Vec<(VarType, usize)>,
 }
 
-/// Summary of a run of a system.
+/// Where the samples of a run of a system go.
+#[derive(Default)]
+pub struct Sinks<'a> {
+    /// CSV: `time`, then every output of every component as `<component>.<variable>`.
+    pub csv: Option<&'a mut dyn Write>,
+    /// The Real outputs kept in memory (e.g. for a plot).
+    pub real: Option<&'a mut RealHistory>,
+}
+
+/// The Real outputs of every component over time.
 #[derive(Clone, Debug, Default)]
-pub struct SystemRun {
-    pub steps: usize,
-    pub rejected_steps: usize,
+pub struct RealHistory {
+    /// `<component>.<variable>` of each column.
+    pub names: Vec<String>,
+    pub t: Vec<f64>,
+    /// One column per name.
+    pub values: Vec<Vec<f64>>,
+}
+
+/// What a run of a system did.
+#[derive(Clone, Debug, Default)]
+pub struct SystemOutcome {
+    pub steps: u64,
+    pub rejected_steps: u64,
     pub h_min_used: f64,
     pub h_max_used: f64,
     pub mean_iterations: f64,
@@ -110,167 +137,207 @@ pub struct SystemRun {
     /// and what the component said.
     pub stopped_early: Option<(f64, String)>,
     pub wall_time_s: f64,
+    /// `time` and every output, as in the CSV.
     pub columns: Vec<String>,
 }
 
-/// Runs `spec` with `options` from 0 to `t_end` at step `dt` (or adaptively from `dt`), writing
-/// `time` and every output of every component to `csv` (in a temporary file renamed at the end,
-/// so a failed run leaves no file that looks complete).
-pub fn run_system(
-    spec: &SystemSpec,
+/// A run of a system checked whole, ready to start (like [`crate::simulate::Run`]).
+pub struct SystemRun<'a> {
+    spec: &'a SystemSpec,
     options: Options,
     adaptive: Option<Adaptive>,
-    dt: f64,
-    t_end: f64,
-    csv: Option<&Path>,
-    quiet: bool,
-) -> Result<SystemRun, Box<dyn std::error::Error>> {
-    if !(dt > 0.0 && dt.is_finite() && t_end > 0.0 && t_end.is_finite()) {
-        return Err(format!("the step ({dt} s) and the end time ({t_end} s) must be positive").into());
-    }
-    let start = Instant::now();
-    let system = FmuSystem::load(spec, &needs(&options, adaptive.is_some()))?;
-    let mut c = Coupled::new(system, options)?;
-    let mut outputs = Vec::new();
-    let mut columns = vec!["time".to_string()];
-    for (k, (name, inst)) in c.units_mut().instances().enumerate() {
-        let mut o = Outputs { component: k, real: vec![], integer: vec![], boolean: vec![], string: vec![] };
-        for v in inst.fmu().description().variables.iter().filter(|v| v.causality == Causality::Output) {
-            columns.push(format!("{name}.{}", v.name));
-            match v.var_type {
-                VarType::Real => o.real.push(v.value_reference),
-                VarType::Integer => o.integer.push(v.value_reference),
-                VarType::Boolean => o.boolean.push(v.value_reference),
-                VarType::String => o.string.push(v.value_reference),
+    schedule: Schedule,
+}
+
+impl<'a> SystemRun<'a> {
+    /// Checks the steps before anything is loaded: `dt` steps that reach `t_end` exactly within
+    /// the step cap, or (`adaptive`) a scheme that iterates and a step range whose largest steps
+    /// stay within the cap.
+    pub fn prepare(
+        spec: &'a SystemSpec,
+        options: Options,
+        adaptive: Option<Adaptive>,
+        dt: f64,
+        t_end: f64,
+        limits: &StepLimits,
+    ) -> Result<SystemRun<'a>, RunError> {
+        let method = options.scheme.name();
+        let refused = |reason: String| RunError::Refused { method, reason };
+        let schedule = match adaptive {
+            Some(a) => {
+                if !options.scheme.is_implicit() {
+                    return Err(refused(format!(
+                        "the adaptive step needs a scheme that iterates (iterative, ijcsa, iqn-ils), not {method}"
+                    )));
+                }
+                a.controller().map_err(refused)?;
+                Schedule::adaptive(t_end, a.h_min, a.h_max, limits).map_err(|e| refused(e.to_string()))?
             }
+            None => Schedule::Fixed(Plan::new(dt, t_end, limits).map_err(|e| refused(e.to_string()))?),
+        };
+        Ok(SystemRun { spec, options, adaptive, schedule })
+    }
+
+    /// Runs it from 0 to the end time, writing the samples (every step) to `sinks`. Stops on a
+    /// non-finite output it reads (the coupled ones are always checked; the others when a sink
+    /// asks for them). A component that ends the run (fmi2Discard) ends it at the last
+    /// communication point: not an error.
+    pub fn execute(&self, quiet: bool, mut sinks: Sinks<'_>) -> Result<SystemOutcome, RunError> {
+        let method = self.options.scheme.name();
+        let setup = |e: &(dyn std::error::Error + 'static)| RunError::setup(method, e);
+        let output = |source: std::io::Error| RunError::Output { method, source };
+        let start = Instant::now();
+        let system =
+            FmuSystem::load(self.spec, &needs(&self.options, self.adaptive.is_some())).map_err(|e| setup(&e))?;
+        let mut c = Coupled::new(system, self.options).map_err(|e| setup(&e))?;
+        let mut outputs = Vec::new();
+        let mut columns = vec!["time".to_string()];
+        for (k, (name, inst)) in c.units_mut().instances().enumerate() {
+            let mut o = ComponentOutputs {
+                component: k,
+                real: vec![],
+                integer: vec![],
+                boolean: vec![],
+                string: vec![],
+                real_names: vec![],
+                order: vec![],
+            };
+            for v in inst.fmu().description().variables.iter().filter(|v| v.causality == Causality::Output) {
+                columns.push(format!("{name}.{}", v.name));
+                let list = match v.var_type {
+                    VarType::Real => {
+                        o.real_names.push(format!("{name}.{}", v.name));
+                        &mut o.real
+                    }
+                    VarType::Integer => &mut o.integer,
+                    VarType::Boolean => &mut o.boolean,
+                    VarType::String => &mut o.string,
+                };
+                o.order.push((v.var_type, list.len()));
+                list.push(v.value_reference);
+            }
+            outputs.push(o);
         }
-        outputs.push(o);
-    }
-    // the CSV columns follow the description order of each component's outputs
-    let order: Vec<Vec<(VarType, usize)>> = c
-        .units_mut()
-        .instances()
-        .map(|(_, inst)| {
-            let mut counters = [0usize; 4];
-            inst.fmu()
-                .description()
-                .variables
-                .iter()
-                .filter(|v| v.causality == Causality::Output)
-                .map(|v| {
-                    let slot = match v.var_type {
-                        VarType::Real => 0,
-                        VarType::Integer => 1,
-                        VarType::Boolean => 2,
-                        VarType::String => 3,
-                    };
-                    counters[slot] += 1;
-                    (v.var_type, counters[slot] - 1)
-                })
-                .collect()
-        })
-        .collect();
-    let part = csv.map(|p| {
-        let mut name = p.file_name().unwrap_or_default().to_os_string();
-        name.push(".part");
-        p.with_file_name(name)
-    });
-    let mut file = match &part {
-        Some(p) => Some(std::io::BufWriter::new(
-            std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
-        )),
-        None => None,
-    };
-    if let Some(f) = file.as_mut() {
-        writeln!(f, "{}", columns.iter().map(|c| csv_text(c)).collect::<Vec<_>>().join(","))?;
-    }
-    let mut buf = (Vec::new(), Vec::new(), Vec::new());
-    let mut write_row = |c: &mut Coupled<FmuSystem>,
-                         f: &mut Option<std::io::BufWriter<std::fs::File>>|
-     -> Result<(), Box<dyn std::error::Error>> {
-        let Some(f) = f.as_mut() else { return Ok(()) };
-        write!(f, "{}", c.time())?;
-        for (o, order) in outputs.iter().zip(&order) {
-            let inst = c.units_mut().instances().nth(o.component).expect("a component").1;
-            buf.0.resize(o.real.len(), 0.0);
-            buf.1.resize(o.integer.len(), 0);
-            buf.2.resize(o.boolean.len(), false);
-            inst.get_real(&o.real, &mut buf.0)?;
-            inst.get_integer(&o.integer, &mut buf.1)?;
-            inst.get_boolean(&o.boolean, &mut buf.2)?;
-            let strings = if o.string.is_empty() { Vec::new() } else { inst.get_string(&o.string)? };
-            for (t, j) in order {
-                match t {
-                    VarType::Real => write!(f, ",{:e}", buf.0[*j])?,
-                    VarType::Integer => write!(f, ",{}", buf.1[*j])?,
-                    VarType::Boolean => write!(f, ",{}", u8::from(buf.2[*j]))?,
-                    VarType::String => write!(f, ",{}", csv_text(&strings[*j]))?,
+        if let Some(f) = sinks.csv.as_mut() {
+            writeln!(f, "{}", columns.iter().map(|c| csv_text(c)).collect::<Vec<_>>().join(",")).map_err(output)?;
+        }
+        if let Some(h) = sinks.real.as_mut() {
+            h.names = outputs.iter().flat_map(|o| o.real_names.iter().cloned()).collect();
+            h.values = vec![Vec::new(); h.names.len()];
+        }
+        let reads = sinks.csv.is_some() || sinks.real.is_some();
+        let mut buf = (Vec::new(), Vec::new(), Vec::new());
+        // one row of samples at time t
+        let mut sample = |c: &mut Coupled<FmuSystem>, t: f64, sinks: &mut Sinks<'_>| -> Result<(), RunError> {
+            if !reads {
+                return Ok(());
+            }
+            if let Some(f) = sinks.csv.as_mut() {
+                write!(f, "{t}").map_err(output)?;
+            }
+            if let Some(h) = sinks.real.as_mut() {
+                h.t.push(t);
+            }
+            let mut column = 0;
+            for o in &outputs {
+                let inst = c.units_mut().instances().nth(o.component).expect("a component").1;
+                let failed = |e: fmi2::import::Error| RunError::Stopped { method, time: t, reason: e.to_string() };
+                buf.0.resize(o.real.len(), 0.0);
+                buf.1.resize(o.integer.len(), 0);
+                buf.2.resize(o.boolean.len(), false);
+                inst.get_real(&o.real, &mut buf.0).map_err(failed)?;
+                inst.get_integer(&o.integer, &mut buf.1).map_err(failed)?;
+                inst.get_boolean(&o.boolean, &mut buf.2).map_err(failed)?;
+                if let Some(i) = buf.0.iter().position(|x| !x.is_finite()) {
+                    return Err(RunError::Stopped {
+                        method,
+                        time: t,
+                        reason: format!("the output `{}` is {}", o.real_names[i], buf.0[i]),
+                    });
+                }
+                if let Some(h) = sinks.real.as_mut() {
+                    for (x, col) in buf.0.iter().zip(&mut h.values[column..]) {
+                        col.push(*x);
+                    }
+                }
+                column += o.real.len();
+                let Some(f) = sinks.csv.as_mut() else { continue };
+                let strings =
+                    if o.string.is_empty() { Vec::new() } else { inst.get_string(&o.string).map_err(failed)? };
+                for (ty, j) in &o.order {
+                    match ty {
+                        VarType::Real => write!(f, ",{:e}", buf.0[*j]),
+                        VarType::Integer => write!(f, ",{}", buf.1[*j]),
+                        VarType::Boolean => write!(f, ",{}", u8::from(buf.2[*j])),
+                        VarType::String => write!(f, ",{}", csv_text(&strings[*j])),
+                    }
+                    .map_err(output)?;
                 }
             }
-        }
-        writeln!(f)?;
-        Ok(())
-    };
-    write_row(&mut c, &mut file)?;
-    let mut run = SystemRun { t_end, columns, h_min_used: f64::INFINITY, ..Default::default() };
-    let mut iterations = 0usize;
-    let fixed_steps = (t_end / dt).round() as usize;
-    let mut bar = Progress::stderr(fixed_steps as u64, t_end, quiet);
-    let mut controller = adaptive.map(|a| a.controller()).transpose()?;
-    loop {
-        let (done, k) = match &controller {
-            Some(_) => (c.time() >= t_end * (1.0 - 1e-12), run.steps),
-            None => (run.steps >= fixed_steps, run.steps),
-        };
-        if done {
-            break;
-        }
-        let result = match (controller.as_mut(), adaptive) {
-            (Some(ctl), Some(a)) => c.step_adaptive(ctl, a.tolerances, t_end).map(|s| {
-                run.rejected_steps += s.rejected;
-                run.h_min_used = run.h_min_used.min(s.h);
-                run.h_max_used = run.h_max_used.max(s.h);
-                s.report
-            }),
-            _ => c.step(dt).inspect(|_| {
-                run.h_min_used = dt;
-                run.h_max_used = dt;
-            }),
-        };
-        match result {
-            Ok(report) => {
-                run.steps += 1;
-                iterations += report.iterations;
-                run.max_residual = run.max_residual.max(report.residual);
+            if let Some(f) = sinks.csv.as_mut() {
+                writeln!(f).map_err(output)?;
             }
-            Err(e) if e.ended().is_some() => {
-                let (unit, why) = e.ended().expect("checked");
-                run.stopped_early = Some((c.time(), format!("component `{unit}` {why}")));
-                break;
-            }
-            Err(e) => return Err(e.into()),
+            Ok(())
+        };
+        sample(&mut c, 0.0, &mut sinks)?;
+        let mut controller =
+            self.adaptive.map(|a| a.controller()).transpose().map_err(|reason| RunError::Refused { method, reason })?;
+        let tolerances = self.adaptive.map(|a| a.tolerances);
+        // the step and the sampling after it both reach the system
+        let cell = std::cell::RefCell::new(c);
+        let totals = drive(
+            &self.schedule,
+            quiet,
+            |time, reason| RunError::Stopped { method, time, reason },
+            |r| {
+                let mut c = cell.borrow_mut();
+                let result = match (r, controller.as_mut(), tolerances) {
+                    (Request::Adaptive { t_stop }, Some(ctl), Some(tol)) => {
+                        c.step_adaptive(ctl, tol, t_stop).map(|s| (s.h, s.report, s.rejected))
+                    }
+                    (Request::Fixed { h, .. }, _, _) => c.step(h).map(|report| (h, report, 0)),
+                    (Request::Adaptive { .. }, _, _) => {
+                        return Err(RunError::Refused { method, reason: "no adaptive step was prepared".into() });
+                    }
+                };
+                match result {
+                    Ok((h, report, rejected)) => Ok(Flow::Stepped(Step {
+                        h,
+                        rejected,
+                        iterations: report.iterations,
+                        residual: report.residual,
+                        payload: (),
+                    })),
+                    Err(e) => match e.ended() {
+                        Some((unit, why)) => Ok(Flow::Ended(format!("component `{unit}` {why}"))),
+                        None => Err(RunError::stopped_by(method, &e)),
+                    },
+                }
+            },
+            |_, t, _| sample(&mut cell.borrow_mut(), t, &mut sinks),
+        )?;
+        let mut c = cell.into_inner();
+        if let Some(f) = sinks.csv.as_mut() {
+            f.flush().map_err(output)?;
         }
-        write_row(&mut c, &mut file)?;
-        bar.update((k + 1).min(fixed_steps) as u64, c.time());
+        // after an early stop a component may refuse fmi2Terminate; the run is over either way
+        let terminated = c.units_mut().terminate();
+        if totals.ended.is_none() {
+            terminated.map_err(|e| setup(&e))?;
+        }
+        Ok(SystemOutcome {
+            steps: totals.steps,
+            rejected_steps: totals.rejected,
+            h_min_used: totals.h_min,
+            h_max_used: totals.h_max,
+            mean_iterations: if totals.steps == 0 { 0.0 } else { totals.iterations as f64 / totals.steps as f64 },
+            max_residual: totals.max_residual,
+            t_end: self.schedule.t_end(),
+            stopped_early: totals.ended,
+            wall_time_s: start.elapsed().as_secs_f64(),
+            columns,
+        })
     }
-    bar.finish();
-    if let (Some(mut f), Some(part), Some(csv)) = (file, part, csv) {
-        f.flush()?;
-        drop(f);
-        std::fs::rename(&part, csv)
-            .map_err(|e| format!("{}: cannot rename to {}: {e}", part.display(), csv.display()))?;
-    }
-    run.mean_iterations = if run.steps == 0 { 0.0 } else { iterations as f64 / run.steps as f64 };
-    if run.steps == 0 {
-        run.h_min_used = 0.0;
-    }
-    // after an early stop a component may refuse fmi2Terminate; the run is over either way
-    let terminated = c.units_mut().terminate();
-    if run.stopped_early.is_none() {
-        terminated?;
-    }
-    run.wall_time_s = start.elapsed().as_secs_f64();
-    Ok(run)
 }
 
 /// A CSV field, quoted when it must be.

@@ -4,7 +4,7 @@
 //! rather than through an XML library.
 
 use std::fmt::Write as _;
-use std::io::{Read, Write};
+use std::io::{Read, Seek, Write};
 use std::path::Path;
 
 use fmi2::VarType;
@@ -147,24 +147,28 @@ pub fn ssd_text(s: &SspSystem) -> String {
 
 /// Writes the archive to `path` (through a temporary file renamed at the end).
 pub fn write_ssp(path: &Path, s: &SspSystem) -> Result<(), SetupError> {
-    let io = |e: std::io::Error| SetupError::File { path: path.to_owned(), message: format!("cannot write: {e}") };
-    let zerr =
-        |e: zip::result::ZipError| SetupError::File { path: path.to_owned(), message: format!("cannot write: {e}") };
+    let err = |message: String| SetupError::File { path: path.to_owned(), message };
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".part");
     let part = path.with_file_name(name);
-    let mut zip = zip::ZipWriter::new(std::fs::File::create(&part).map_err(io)?);
+    let file = std::fs::File::create(&part).map_err(|e| err(format!("cannot write: {e}")))?;
+    write_archive(file, s).map_err(|e| err(format!("cannot write: {e}")))?;
+    std::fs::rename(&part, path).map_err(|e| err(format!("cannot write: {e}")))
+}
+
+/// Writes the archive to `out` (a file, or a buffer in memory); returns it.
+pub fn write_archive<W: Write + Seek>(out: W, s: &SspSystem) -> Result<W, zip::result::ZipError> {
+    let mut zip = zip::ZipWriter::new(out);
     let deflated = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
-    zip.start_file("SystemStructure.ssd", deflated).map_err(zerr)?;
-    zip.write_all(ssd_text(s).as_bytes()).map_err(io)?;
+    zip.start_file("SystemStructure.ssd", deflated)?;
+    zip.write_all(ssd_text(s).as_bytes())?;
     for c in &s.components {
         // an FMU is already compressed
         let stored = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Stored);
-        zip.start_file(format!("resources/{}.fmu", c.name), stored).map_err(zerr)?;
-        zip.write_all(&c.fmu).map_err(io)?;
+        zip.start_file(format!("resources/{}.fmu", c.name), stored)?;
+        zip.write_all(&c.fmu)?;
     }
-    zip.finish().map_err(zerr)?;
-    std::fs::rename(&part, path).map_err(io)
+    zip.finish()
 }
 
 /// The bytes of the FMU archive `fmu` with `bytes` added as `resources/<name>` (replacing a

@@ -1,316 +1,396 @@
 //! `master bench`: run time against error. Every scheme at every macro step, the median wall time
 //! of a few repetitions, and the error of the cabin-centre displacement against a fine-step
-//! monolithic reference; a table, `bench.csv` and a log–log work–precision plot.
+//! monolithic reference; a table, `bench.csv` and a log–log work–precision plot. With
+//! `--adaptive-rtols`, the schemes that iterate also with the adaptive step at each tolerance,
+//! each against the cheapest fixed step of the same scheme that is as accurate
+//! (`bench_adaptive.csv`).
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
-use feedcore::scene::Scene;
-use master::plot::{Figure, Scale, Series};
-use master::simulate::{Trace, simulate, write_variant};
+use anyhow::{Context, bail};
+use master::plot::{Precision, work_precision};
+use master::simulate::{Run, RunError, Trace, write_variant};
 use master::table::Table;
 
-use super::CmdResult;
-use super::run::create_parent;
-use super::scheme_args::{SCHEMES, SchemeOptions};
+use super::output::{Outputs, run_inputs};
+use super::scheme_args::{SchemeName, SchemeOptions, positive, tolerance};
+use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML).
     #[arg(long)]
-    pub scene: PathBuf,
-    /// Comma-separated methods.
-    #[arg(long, default_value = "monolithic,ijcsa,iqn-ils,iterative,gauss-seidel,jacobi,decoupled", long_help = format!("Comma-separated methods: {SCHEMES}."))]
-    pub schemes: String,
-    /// Comma-separated macro steps (s).
-    #[arg(long, default_value = "0.04,0.02,0.01,0.005,0.0025")]
-    pub dts: String,
+    pub(crate) scene: PathBuf,
+    /// Methods (comma-separated).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "monolithic,ijcsa,iqn-ils,iterative,gauss-seidel,jacobi,decoupled"
+    )]
+    pub(crate) schemes: Vec<SchemeName>,
+    /// Macro steps (s, comma-separated); the coarsest must be a whole multiple of each.
+    #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
+          default_value = "0.04,0.02,0.01,0.005,0.0025")]
+    pub(crate) dts: Vec<f64>,
     /// Runs per scheme and step; the median wall time is reported.
-    #[arg(long, default_value_t = 3)]
-    pub repeats: usize,
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub(crate) repeats: u32,
     /// Simulated time (s); default: the scene's solver.t_end_s.
-    #[arg(long)]
-    pub t_end: Option<f64>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) t_end: Option<f64>,
     /// Step of the monolithic reference (s); default: the smallest step / 4.
-    #[arg(long)]
-    pub reference_dt: Option<f64>,
-    /// Also run every implicit scheme of --schemes with the adaptive step at these relative
-    /// tolerances (comma-separated, e.g. 1e-3), each against the cheapest fixed step of the same
-    /// scheme that reaches its error.
-    #[arg(long)]
-    pub adaptive_rtols: Option<String>,
-    /// Directory for bench.csv and work_precision.svg.
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) reference_dt: Option<f64>,
+    /// Also run every scheme of --schemes that iterates with the adaptive step at these
+    /// relative tolerances (comma-separated, e.g. 1e-3,1e-2), each against the cheapest fixed
+    /// step of the same scheme that reaches its error.
+    #[arg(long, value_delimiter = ',', value_parser = tolerance)]
+    pub(crate) adaptive_rtols: Vec<f64>,
+    /// Directory for bench.csv, work_precision.svg (and bench_adaptive.csv).
     #[arg(long, default_value = "out/bench")]
-    pub out: PathBuf,
+    pub(crate) out: PathBuf,
     /// No progress bars.
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
     #[command(flatten)]
-    pub options: SchemeOptions,
+    pub(crate) options: SchemeOptions,
+}
+
+/// What a scheme at one step measured: median wall time, max and RMS error, iterations.
+struct Measured {
+    wall: f64,
+    max: f64,
+    rms: f64,
+    iterations: f64,
 }
 
 /// One cell of the benchmark.
 struct Cell {
-    scheme: String,
+    scheme: SchemeName,
     dt: f64,
-    result: Result<(f64, f64, f64, f64), String>, // wall (median), max error, RMS error, iterations
+    result: Result<Measured, String>,
 }
 
-pub fn run(args: &Args) -> CmdResult {
-    let mut scene = Scene::load(&args.scene)?;
-    let dts: Vec<f64> = args
-        .dts
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| format!("--dts: {e}"))?;
-    if dts.is_empty() || dts.iter().any(|d| !(*d > 0.0)) || args.repeats == 0 {
-        return Err("--dts needs positive steps and --repeats at least 1".into());
+/// What an adaptive run measured: median wall time, max error, and its steps.
+struct AdaptiveMeasured {
+    wall: f64,
+    max: f64,
+    steps: u64,
+    rejected: u64,
+    h_min: f64,
+    h_max: f64,
+}
+
+/// Runs `run` `repeats` times: the median wall time and the last trace; a run that stops (a
+/// scheme breaking down) is a result of the benchmark, given as its message.
+fn repeated(run: &Run, repeats: u32, quiet: bool) -> anyhow::Result<Result<(f64, Trace), String>> {
+    let mut walls = Vec::new();
+    let mut last = None;
+    for _ in 0..repeats {
+        match run.execute(quiet) {
+            Ok(t) => {
+                walls.push(t.wall_time_s);
+                last = Some(t);
+            }
+            Err(e @ RunError::Stopped { .. }) => return Ok(Err(e.to_string())),
+            Err(e) => return Err(e.into()),
+        }
+    }
+    walls.sort_by(f64::total_cmp);
+    Ok(last.map(|t| (walls[walls.len() / 2], t)).ok_or_else(|| "no run".to_string()))
+}
+
+pub(crate) fn run(args: &Args) -> CmdResult {
+    let mut scene = load_scene(&args.scene)?;
+    let dts = &args.dts;
+    if dts.is_empty() {
+        bail!("--dts: give at least one step");
+    }
+    if args.options.adaptive {
+        bail!(
+            "--adaptive: the grid of --dts runs at fixed steps; give the adaptive runs' tolerances with --adaptive-rtols"
+        );
     }
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     // one sampling for all runs: the coarsest step, so every trace has the same times
     let coarse = dts.iter().cloned().fold(0.0, f64::max);
-    for d in &dts {
+    for d in dts {
         let ratio = coarse / d;
-        if (ratio - ratio.round()).abs() > 1e-9 {
-            return Err(format!("--dts: {d} does not divide the coarsest step {coarse}").into());
+        if (ratio - ratio.round()).abs() > 1e-9 * ratio {
+            bail!("--dts: {d} does not divide the coarsest step {coarse}");
         }
     }
     scene.outputs.sample_interval_s = coarse;
-    let (scene, file) = write_variant(&scene, &args.scene, &format!("bench-{}", scene.name))?;
-    let quiet = args.quiet || !std::io::stderr().is_terminal();
     let reference_dt = args.reference_dt.unwrap_or(dts.iter().cloned().fold(f64::INFINITY, f64::min) / 4.0);
-    let rtols: Vec<f64> = match &args.adaptive_rtols {
-        None => Vec::new(),
-        Some(text) => text
-            .split(',')
-            .map(|x| x.trim().parse::<f64>().map_err(|e| format!("--adaptive-rtols: `{x}`: {e}")))
-            .collect::<Result<_, _>>()?,
-    };
-    // adaptive runs sample every accepted step: compare them with a reference sampled at its step
-    let (reference_scene, reference_file) = if rtols.is_empty() {
-        (scene.clone(), file.clone())
+
+    // every run is checked before the first one starts
+    let (variant, file) = write_variant(&scene, &args.scene, &format!("bench-{}", scene.name))
+        .context("writing the bench's copy of the scene")?;
+    let limits = caps().run;
+    let mut runs = Vec::new();
+    for &name in &args.schemes {
+        for &dt in dts {
+            let context = || format!("{} at h = {dt} s", name.as_str());
+            let method = args.options.method(name).with_context(context)?;
+            runs.push((name, dt, Run::prepare(&variant, &file, method, dt, t_end, &limits).with_context(context)?));
+        }
+    }
+    // adaptive runs sample every accepted step: they are compared with a reference sampled at
+    // its own step (interpolated between its samples)
+    let (reference_scene, reference_file) = if args.adaptive_rtols.is_empty() {
+        (variant.clone(), file.clone())
     } else {
-        let mut fine = scene.clone();
+        let mut fine = variant.clone();
         fine.outputs.sample_interval_s = reference_dt;
-        write_variant(&fine, &file, &format!("bench-reference-{}", scene.name))?
+        write_variant(&fine, &file, &format!("bench-reference-{}", scene.name))
+            .context("writing the bench's copy of the scene")?
     };
-    eprintln!("reference: monolithic at h = {reference_dt} s …");
-    let reference = simulate(
+    let reference = Run::prepare(
         &reference_scene,
         &reference_file,
-        args.options.fixed_step().method("monolithic")?,
+        args.options.method(SchemeName::Monolithic)?,
         reference_dt,
         t_end,
-        quiet,
-    )?;
+        &limits,
+    )
+    .context("the monolithic reference (--reference-dt)")?;
+    let mut adaptive_runs = Vec::new();
+    for &rtol in &args.adaptive_rtols {
+        for &name in args.schemes.iter().filter(|s| s.iterates()) {
+            let options = SchemeOptions { adaptive: true, rtol, ..args.options.clone() };
+            let context = || format!("{} with the adaptive step at rtol {rtol:e}", name.as_str());
+            let method = options.method(name).with_context(context)?;
+            adaptive_runs.push((
+                name,
+                rtol,
+                Run::prepare(&variant, &file, method, dts[0], t_end, &limits).with_context(context)?,
+            ));
+        }
+    }
+    let mut outputs = Outputs::new(run_inputs(&args.scene, &variant));
+    let csv_id = outputs.declare("--out", &args.out.join("bench.csv"), Some("csv"))?;
+    let svg_id = outputs.declare("--out", &args.out.join("work_precision.svg"), Some("svg"))?;
+    let adaptive_id = (!adaptive_runs.is_empty())
+        .then(|| outputs.declare("--out", &args.out.join("bench_adaptive.csv"), Some("csv")))
+        .transpose()?;
+    outputs.open()?;
+
+    let quiet = args.quiet || !std::io::stderr().is_terminal();
+    eprintln!("reference: monolithic at h = {reference_dt} s …");
+    let reference = reference.execute(quiet)?;
     let peak = reference.peak_mm();
+    let percent = |m: f64| if peak > 0.0 { 100.0 * m / peak } else { f64::NAN };
     let mut cells = Vec::new();
-    for name in args.schemes.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let method = args.options.method(name)?;
-        for &dt in &dts {
-            eprintln!("{name} at h = {dt} s …");
-            let result =
-                repeated(args.repeats, || simulate(&scene, &file, method, dt, t_end, quiet)).map(|(wall, t)| {
-                    let (max, rms) = t.error_against(&reference);
-                    (wall, max, rms, t.mean_iterations())
-                });
-            cells.push(Cell { scheme: name.to_string(), dt, result });
-        }
+    for (name, dt, run) in &runs {
+        eprintln!("{} at h = {dt} s …", name.as_str());
+        let result = repeated(run, args.repeats, quiet)
+            .with_context(|| format!("{} at h = {dt} s", name.as_str()))?
+            .map(|(wall, t)| {
+                let (max, rms) = t.error_against(&reference);
+                Measured { wall, max, rms, iterations: t.mean_iterations() }
+            });
+        cells.push(Cell { scheme: *name, dt: *dt, result });
     }
-    // adaptive runs: (scheme, rtol, wall, max error, steps, rejected, h_min, h_max) or a failure
-    let mut adaptive_rows = Vec::new();
-    for &rtol in &rtols {
-        for name in args.schemes.split(',').map(str::trim).filter(|s| matches!(*s, "iterative" | "ijcsa" | "iqn-ils")) {
-            let mut o = args.options.clone();
-            o.adaptive = true;
-            o.rtol = rtol;
-            let method = o.method(name)?;
-            eprintln!("{name} adaptive at rtol = {rtol} …");
-            let result =
-                repeated(args.repeats, || simulate(&scene, &file, method, dts[0], t_end, quiet)).map(|(wall, t)| {
-                    (wall, t.error_against(&reference).0, t.steps, t.rejected_steps, t.h_min_used, t.h_max_used)
-                });
-            adaptive_rows.push((name.to_string(), rtol, result));
-        }
+    let mut adaptive_cells = Vec::new();
+    for (name, rtol, run) in &adaptive_runs {
+        eprintln!("{} adaptive at rtol = {rtol:e} …", name.as_str());
+        let result = repeated(run, args.repeats, quiet)
+            .with_context(|| format!("{} adaptive at rtol {rtol:e}", name.as_str()))?
+            .map(|(wall, t)| {
+                let s = &t.summary;
+                AdaptiveMeasured {
+                    wall,
+                    max: t.error_against(&reference).0,
+                    steps: s.steps,
+                    rejected: s.rejected_steps,
+                    h_min: s.h_min_used,
+                    h_max: s.h_max_used,
+                }
+            });
+        adaptive_cells.push((*name, *rtol, result));
     }
-    std::fs::create_dir_all(&args.out)?;
-    let csv_path = args.out.join("bench.csv");
-    let mut csv = std::fs::File::create(&csv_path)?;
-    writeln!(
-        csv,
-        "scheme,dt_s,wall_time_s,max_error_mm,rms_error_mm,max_error_percent_of_peak,mean_iterations,failure"
-    )?;
+
     let mut table =
         Table::new(["scheme", "h s", "wall s", "max error mm", "RMS error mm", "% of peak", "iter/step", "note"]);
+    let mut csv = String::from(
+        "scheme,dt_s,wall_time_s,max_error_mm,rms_error_mm,max_error_percent_of_peak,mean_iterations,failure\n",
+    );
     for c in &cells {
+        let name = c.scheme.as_str();
         match &c.result {
-            Ok((w, m, r, it)) => {
-                writeln!(csv, "{},{},{w},{m:e},{r:e},{},{it},", c.scheme, c.dt, 100.0 * m / peak)?;
+            Ok(m) => {
+                let p = percent(m.max);
+                let p_csv = if p.is_finite() { p.to_string() } else { String::new() };
+                csv.push_str(&format!(
+                    "{name},{},{},{:e},{:e},{p_csv},{},\n",
+                    c.dt, m.wall, m.max, m.rms, m.iterations
+                ));
                 table.row([
-                    c.scheme.clone(),
+                    name.to_string(),
                     c.dt.to_string(),
-                    format!("{w:.3}"),
-                    format!("{m:.3e}"),
-                    format!("{r:.3e}"),
-                    format!("{:.4}", 100.0 * m / peak),
-                    format!("{it:.2}"),
+                    format!("{:.3}", m.wall),
+                    format!("{:.3e}", m.max),
+                    format!("{:.3e}", m.rms),
+                    if p.is_finite() { format!("{p:.4}") } else { "—".into() },
+                    format!("{:.2}", m.iterations),
                     String::new(),
                 ]);
             }
             Err(e) => {
-                let short: String = e.split(':').take(2).collect::<Vec<_>>().join(":");
-                writeln!(csv, "{},{},,,,,,\"{}\"", c.scheme, c.dt, e.replace('"', "'"))?;
-                table.row([
-                    c.scheme.clone(),
-                    c.dt.to_string(),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                    "".into(),
-                    short,
-                ]);
+                let short = e.split(';').next().unwrap_or_default().to_string();
+                csv.push_str(&format!("{name},{},,,,,,\"{}\"\n", c.dt, e.replace('"', "'")));
+                let mut row = vec![name.to_string(), c.dt.to_string()];
+                row.extend(std::iter::repeat_n(String::new(), 5));
+                row.push(short);
+                table.row(row);
             }
         }
     }
-    let svg = args.out.join("work_precision.svg");
-    create_parent(&svg)?;
-    let mut fig = Figure::new(900, 600);
-    fig.title(&format!(
-        "{}: work–precision, {t_end} s simulated (reference: monolithic at h = {reference_dt} s)",
-        scene.name
-    ));
-    fig.panel(|p| {
-        p.x_label("wall time (s)")
-            .y_label("max error of the cabin-centre displacement (mm)")
-            .x_scale(Scale::Log10)
-            .y_scale(Scale::Log10);
-        let mut names: Vec<&str> = cells.iter().map(|c| c.scheme.as_str()).collect();
-        names.dedup();
-        for name in names {
-            let pts: Vec<(f64, f64)> = cells
+    outputs.write(csv_id, |w| w.write_all(csv.as_bytes()))?;
+
+    let mut schemes: Vec<SchemeName> = cells.iter().map(|c| c.scheme).collect();
+    schemes.dedup();
+    // a zero error (a run identical to the reference) has no place on a log axis
+    let lines: Vec<Precision> = schemes
+        .iter()
+        .map(|&name| Precision {
+            name: name.as_str(),
+            points: cells
                 .iter()
                 .filter(|c| c.scheme == name)
-                .filter_map(|c| c.result.as_ref().ok().filter(|r| r.1 > 0.0).map(|r| (r.0, r.1)))
-                .collect();
-            if !pts.is_empty() {
-                let (x, y): (Vec<f64>, Vec<f64>) = pts.into_iter().unzip();
-                p.add(Series::line(name, &x, &y).auto_marker());
-            }
+                .filter_map(|c| c.result.as_ref().ok().filter(|m| m.max > 0.0).map(|m| (m.wall, m.max)))
+                .collect(),
+        })
+        .collect();
+    let svg = work_precision(
+        &format!("{}: work–precision, {t_end} s simulated (reference: monolithic at h = {reference_dt} s)", scene.name),
+        "wall time (s)",
+        "max error of the cabin-centre displacement (mm)",
+        &lines,
+        (peak > 0.0).then_some((0.01 * peak, "1 % of the peak")),
+    )
+    .context("drawing the work–precision plot")?;
+    outputs.write(svg_id, |w| w.write_all(svg.as_bytes()))?;
+    let adaptive_table = match adaptive_id {
+        Some(id) => {
+            let (table, csv) = adaptive_results(&adaptive_cells, &cells, peak);
+            outputs.write(id, |w| w.write_all(csv.as_bytes()))?;
+            Some((table, outputs.path(id).to_owned()))
         }
-        p.hline(0.01 * peak, "1 % of the peak");
-        p
-    });
-    fig.write_svg(&svg)?;
-    println!("{}: {t_end} s simulated; reference monolithic at h = {reference_dt} s, peak {peak:.4} mm", scene.name);
-    println!();
-    print!("{}", table.render());
-    println!();
+        None => None,
+    };
+    let (csv_path, svg_path) = (outputs.path(csv_id).to_owned(), outputs.path(svg_id).to_owned());
+    outputs.commit()?;
+
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "{}: {t_end} s simulated; reference monolithic at h = {reference_dt} s, peak {peak:.4} mm",
+        scene.name
+    )?;
+    writeln!(out)?;
+    write!(out, "{}", table.render())?;
+    writeln!(out)?;
     // per scheme: the smallest error reached and the cheapest run within 1 % of the peak
     let mut summary = Table::new(["scheme", "smallest error mm", "at h s", "cheapest within 1 % of peak", "wall s"]);
-    let mut names: Vec<&str> = cells.iter().map(|c| c.scheme.as_str()).collect();
-    names.dedup();
-    for name in names {
-        let ok: Vec<(&Cell, &_)> =
-            cells.iter().filter(|c| c.scheme == name).filter_map(|c| c.result.as_ref().ok().map(|r| (c, r))).collect();
-        let best = ok.iter().min_by(|a, b| a.1.1.total_cmp(&b.1.1));
-        let cheap = ok.iter().filter(|(_, r)| r.1 <= 0.01 * peak).min_by(|a, b| a.1.0.total_cmp(&b.1.0));
+    for &name in &schemes {
+        let ok: Vec<(&Cell, &Measured)> =
+            cells.iter().filter(|c| c.scheme == name).filter_map(|c| c.result.as_ref().ok().map(|m| (c, m))).collect();
+        let best = ok.iter().min_by(|a, b| a.1.max.total_cmp(&b.1.max));
+        let cheap = ok.iter().filter(|(_, m)| m.max <= 0.01 * peak).min_by(|a, b| a.1.wall.total_cmp(&b.1.wall));
         summary.row([
-            name.to_string(),
-            best.map_or("—".into(), |(_, r)| format!("{:.3e}", r.1)),
+            name.as_str().to_string(),
+            best.map_or("—".into(), |(_, m)| format!("{:.3e}", m.max)),
             best.map_or("—".into(), |(c, _)| c.dt.to_string()),
             cheap.map_or("not reached".into(), |(c, _)| format!("h = {} s", c.dt)),
-            cheap.map_or("—".into(), |(_, r)| format!("{:.3}", r.0)),
+            cheap.map_or("—".into(), |(_, m)| format!("{:.3}", m.wall)),
         ]);
     }
-    print!("{}", summary.render());
-    println!();
-    if !adaptive_rows.is_empty() {
-        let mut t = Table::new([
-            "adaptive",
-            "rtol",
-            "wall s",
-            "max error mm",
-            "% of peak",
-            "steps",
-            "rejected",
-            "h min … max s",
-            "cheapest fixed h reaching it",
-            "its wall s",
-            "cost ratio",
-        ]);
-        let mut lines = vec!["scheme,rtol,wall_time_s,max_error_mm,max_error_percent_of_peak,steps,rejected_steps,h_min_used,h_max_used,fixed_dt_s,fixed_wall_time_s,cost_ratio,failure".to_string()];
-        for (name, rtol, r) in &adaptive_rows {
-            match r {
-                Ok((wall, err, steps, rejected, hmin, hmax)) => {
-                    let fixed = cells
-                        .iter()
-                        .filter(|c| &c.scheme == name)
-                        .filter_map(|c| c.result.as_ref().ok().filter(|x| x.1 <= *err).map(|x| (c.dt, x.0)))
-                        .min_by(|a, b| a.1.total_cmp(&b.1));
-                    t.row([
-                        name.clone(),
-                        format!("{rtol:e}"),
-                        format!("{wall:.3}"),
-                        format!("{err:.3e}"),
-                        format!("{:.4}", 100.0 * err / peak),
-                        steps.to_string(),
-                        rejected.to_string(),
-                        format!("{hmin:.1e} … {hmax:.1e}"),
-                        fixed.map_or("none in --dts".into(), |f| format!("h = {}", f.0)),
-                        fixed.map_or("—".into(), |f| format!("{:.3}", f.1)),
-                        fixed.map_or("—".into(), |f| format!("{:.2}", wall / f.1)),
-                    ]);
-                    lines.push(format!(
-                        "{name},{rtol:e},{wall},{err:e},{},{steps},{rejected},{hmin},{hmax},{},{},{},",
-                        100.0 * err / peak,
-                        fixed.map_or(String::new(), |f| f.0.to_string()),
-                        fixed.map_or(String::new(), |f| f.1.to_string()),
-                        fixed.map_or(String::new(), |f| (wall / f.1).to_string())
-                    ));
-                }
-                Err(e) => {
-                    t.row([
-                        name.clone(),
-                        format!("{rtol:e}"),
-                        "failed".into(),
-                        "".into(),
-                        "".into(),
-                        "".into(),
-                        "".into(),
-                        "".into(),
-                        "".into(),
-                        "".into(),
-                        e.chars().take(60).collect(),
-                    ]);
-                    lines.push(format!("{name},{rtol:e},,,,,,,,,,,\"{}\"", e.replace('"', "'")));
-                }
-            }
-        }
-        print!("{}", t.render());
-        println!();
-        let adaptive_csv = args.out.join("bench_adaptive.csv");
-        std::fs::write(&adaptive_csv, lines.join("\n") + "\n")?;
-        println!("{} written", adaptive_csv.display());
+    write!(out, "{}", summary.render())?;
+    writeln!(out)?;
+    if let Some((table, path)) = adaptive_table {
+        write!(out, "{}", table.render())?;
+        writeln!(out)?;
+        writeln!(out, "{} written", path.display())?;
     }
-    println!("{} and {} written", csv_path.display(), svg.display());
+    writeln!(out, "{} and {} written", csv_path.display(), svg_path.display())?;
     Ok(())
 }
 
-/// Runs `run` `repeats` times: the median wall time and the last trace, or the first failure.
-fn repeated(
-    repeats: usize,
-    mut run: impl FnMut() -> Result<Trace, Box<dyn std::error::Error>>,
-) -> Result<(f64, Trace), String> {
-    let mut walls = Vec::with_capacity(repeats);
-    let mut last = None;
-    for _ in 0..repeats {
-        let t = run().map_err(|e| e.to_string())?;
-        walls.push(t.wall_time_s);
-        last = Some(t);
+/// The adaptive runs as a table and as CSV: each with the cheapest fixed step of its scheme in
+/// the grid that is as accurate, and their cost ratio.
+fn adaptive_results(
+    adaptive: &[(SchemeName, f64, Result<AdaptiveMeasured, String>)],
+    cells: &[Cell],
+    peak: f64,
+) -> (Table, String) {
+    let mut table = Table::new([
+        "adaptive",
+        "rtol",
+        "wall s",
+        "max error mm",
+        "% of peak",
+        "steps",
+        "rejected",
+        "h min … max s",
+        "cheapest fixed h reaching it",
+        "its wall s",
+        "cost ratio",
+    ]);
+    let mut csv = String::from(
+        "scheme,rtol,wall_time_s,max_error_mm,max_error_percent_of_peak,steps,rejected_steps,h_min_used,h_max_used,\
+         fixed_dt_s,fixed_wall_time_s,cost_ratio,failure\n",
+    );
+    let percent = |m: f64| if peak > 0.0 { 100.0 * m / peak } else { f64::NAN };
+    for (name, rtol, result) in adaptive {
+        let scheme = name.as_str();
+        match result {
+            Ok(m) => {
+                let fixed = cells
+                    .iter()
+                    .filter(|c| c.scheme == *name)
+                    .filter_map(|c| c.result.as_ref().ok().filter(|x| x.max <= m.max).map(|x| (c.dt, x.wall)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
+                let p = percent(m.max);
+                let given = |f: &dyn Fn((f64, f64)) -> String| fixed.map_or(String::new(), f);
+                table.row([
+                    scheme.to_string(),
+                    format!("{rtol:e}"),
+                    format!("{:.3}", m.wall),
+                    format!("{:.3e}", m.max),
+                    if p.is_finite() { format!("{p:.4}") } else { "—".into() },
+                    m.steps.to_string(),
+                    m.rejected.to_string(),
+                    format!("{:.1e} … {:.1e}", m.h_min, m.h_max),
+                    fixed.map_or("none in --dts".into(), |f| format!("h = {}", f.0)),
+                    fixed.map_or("—".into(), |f| format!("{:.3}", f.1)),
+                    fixed.map_or("—".into(), |f| format!("{:.2}", m.wall / f.1)),
+                ]);
+                csv.push_str(&format!(
+                    "{scheme},{rtol:e},{},{:e},{},{},{},{},{},{},{},{},\n",
+                    m.wall,
+                    m.max,
+                    if p.is_finite() { p.to_string() } else { String::new() },
+                    m.steps,
+                    m.rejected,
+                    m.h_min,
+                    m.h_max,
+                    given(&|f| f.0.to_string()),
+                    given(&|f| f.1.to_string()),
+                    given(&|f| (m.wall / f.1).to_string()),
+                ));
+            }
+            Err(e) => {
+                let short = e.split(';').next().unwrap_or_default().to_string();
+                let mut row = vec![scheme.to_string(), format!("{rtol:e}"), "failed".into()];
+                row.extend(std::iter::repeat_n(String::new(), 7));
+                row.push(short);
+                table.row(row);
+                csv.push_str(&format!("{scheme},{rtol:e},,,,,,,,,,,\"{}\"\n", e.replace('"', "'")));
+            }
+        }
     }
-    walls.sort_by(f64::total_cmp);
-    let trace = last.ok_or("no run")?;
-    Ok((walls[walls.len() / 2], trace))
+    (table, csv)
 }

@@ -1,99 +1,115 @@
 //! `master compare`: each scheme's error against the monolithic model at the same step.
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
-use feedcore::scene::Scene;
-use master::simulate::simulate;
+use master::simulate::{Run, RunError};
 use master::table::Table;
 use serde_json::json;
 
-use super::CmdResult;
+use super::output::{Outputs, run_inputs};
 use super::run::plot_traces;
-use super::scheme_args::{SCHEMES, SchemeOptions};
+use super::scheme_args::{SchemeName, SchemeOptions};
+use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML).
     #[arg(long)]
-    pub scene: PathBuf,
-    /// Comma-separated methods to compare with `monolithic`.
-    #[arg(long, default_value = "ijcsa,iqn-ils,iterative,gauss-seidel,jacobi,decoupled", long_help = format!("Comma-separated methods to compare with the monolithic reference: {SCHEMES}."))]
-    pub schemes: String,
+    pub(crate) scene: PathBuf,
+    /// Methods to compare with the monolithic reference (comma-separated).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "ijcsa,iqn-ils,iterative,gauss-seidel,jacobi,decoupled"
+    )]
+    pub(crate) schemes: Vec<SchemeName>,
     /// Macro step (s) of every run; default: the scene's solver.dt_s.
-    #[arg(long)]
-    pub dt: Option<f64>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) dt: Option<f64>,
     /// End time (s); default: the scene's solver.t_end_s.
-    #[arg(long)]
-    pub t_end: Option<f64>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) t_end: Option<f64>,
     /// Print JSON instead of a table.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
     /// Draw all displacement histories in one SVG.
     #[arg(long)]
-    pub plot: Option<PathBuf>,
+    pub(crate) plot: Option<PathBuf>,
     /// No progress bars.
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
     #[command(flatten)]
-    pub options: SchemeOptions,
+    pub(crate) options: SchemeOptions,
 }
 
-pub fn run(args: &Args) -> CmdResult {
-    let scene = Scene::load(&args.scene)?;
+pub(crate) fn run(args: &Args) -> CmdResult {
+    let scene = load_scene(&args.scene)?;
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
-    let reference = simulate(&scene, &args.scene, args.options.fixed_step().method("monolithic")?, dt, t_end, quiet)?;
+    // errors at every step: every run samples every step
+    let mut sampled = scene.clone();
+    sampled.outputs.sample_interval_s = dt;
+    let limits = caps().run;
+    let prepare = |options: &SchemeOptions, name: SchemeName| -> anyhow::Result<Run> {
+        Ok(Run::prepare(&sampled, &args.scene, options.method(name)?, dt, t_end, &limits)?)
+    };
+    // the reference at the fixed step even when the schemes take the adaptive one
+    let reference = prepare(&args.options.fixed_step(), SchemeName::Monolithic)?;
+    let runs: Vec<(SchemeName, Run)> =
+        args.schemes.iter().map(|&name| Ok((name, prepare(&args.options, name)?))).collect::<anyhow::Result<_>>()?;
+    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+    outputs.open()?;
+
+    let reference = reference.execute(quiet)?;
     let peak = reference.peak_mm();
     let mut rows = Vec::new();
     let mut traces = vec![reference.clone()];
-    for name in args.schemes.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        let method = args.options.method(name)?;
-        // a scheme that breaks down is a result, not a reason to stop the comparison
-        match simulate(&scene, &args.scene, method, dt, t_end, quiet) {
+    for (name, run) in &runs {
+        let name = name.as_str();
+        match run.execute(quiet) {
             Ok(t) => {
                 let (max, rms) = t.error_against(&reference);
                 rows.push(json!({"scheme": name, "max_error_mm": max, "rms_error_mm": rms, "max_error_percent_of_peak": 100.0 * max / peak,
                     "mean_iterations": t.mean_iterations(), "wall_time_s": t.wall_time_s, "peak_disp_mm": t.peak_mm()}));
                 traces.push(t);
             }
-            Err(e) => rows.push(json!({"scheme": name, "failed": e.to_string()})),
+            // a scheme that breaks down is a result, not a reason to stop the comparison
+            Err(e @ RunError::Stopped { .. }) => rows.push(json!({"scheme": name, "failed": e.to_string()})),
+            Err(e) => return Err(e.into()),
         }
     }
-    if let Some(p) = &args.plot {
-        plot_traces(
-            &traces.iter().collect::<Vec<_>>(),
-            &format!("{}: cabin-centre response at h = {dt} s", scene.name),
-            p,
-        )?;
+    if let Some(id) = svg {
+        let title = format!("{}: cabin-centre response at h = {dt} s", scene.name);
+        plot_traces(&outputs, id, &traces.iter().collect::<Vec<_>>(), &title)?;
     }
+    outputs.commit()?;
+
+    let mut out = std::io::stdout().lock();
     if args.json {
-        let out = json!({"scene": scene.name, "dt": dt, "t_end": t_end, "monolithic": {"peak_disp_mm": peak,
+        let all = json!({"scene": scene.name, "dt": dt, "t_end": t_end, "monolithic": {"peak_disp_mm": peak,
             "wall_time_s": reference.wall_time_s, "mean_iterations": reference.mean_iterations()}, "schemes": rows});
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&all)?)?;
         return Ok(());
     }
-    println!("{}: errors of the cabin-centre displacement against monolithic, h = {dt} s, {t_end} s", scene.name);
-    println!(
+    writeln!(out, "{}: errors of the cabin-centre displacement against monolithic, h = {dt} s, {t_end} s", scene.name)?;
+    writeln!(
+        out,
         "monolithic: peak {peak:.4} mm, {:.2} Newton iterations per step, {:.2} s",
         reference.mean_iterations(),
         reference.wall_time_s
-    );
-    println!();
+    )?;
+    writeln!(out)?;
     let mut t =
         Table::new(["scheme", "max error mm", "RMS error mm", "max error % of peak", "iterations/step", "wall s"]);
     for r in &rows {
         let name = r["scheme"].as_str().unwrap_or("?").to_string();
         if let Some(f) = r.get("failed") {
-            t.row([
-                name,
-                "failed".into(),
-                "".into(),
-                "".into(),
-                "".into(),
-                f.as_str().unwrap_or("").chars().take(60).collect(),
-            ]);
+            let reason: String = f.as_str().unwrap_or("").chars().take(60).collect();
+            t.row([name, "failed".into(), "".into(), "".into(), "".into(), reason]);
             continue;
         }
         let g = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
@@ -106,6 +122,6 @@ pub fn run(args: &Args) -> CmdResult {
             format!("{:.2}", g("wall_time_s")),
         ]);
     }
-    print!("{}", t.render());
+    write!(out, "{}", t.render())?;
     Ok(())
 }

@@ -6,42 +6,39 @@
 //! the parameter set to that relative name, which the FMU resolves against its resources), so
 //! the archive stands alone.
 
+use std::io::{Cursor, Write};
 use std::path::PathBuf;
 
-use cosim::ssp::write::{SspComponent, SspConnector, SspSystem, with_resource, write_ssp};
+use anyhow::Context;
+use cosim::ssp::write::{SspComponent, SspConnector, SspSystem, with_resource, write_archive};
 use cosim::system::fmu::resolve;
 use cosim::system::spec::Value;
-use feedcore::scene::Scene;
 use master::system::scene_spec;
 
-use super::CmdResult;
-use super::run::create_parent;
+use super::output::{Outputs, run_inputs};
+use super::{CmdResult, load_scene};
 
 /// The name of the scene file inside the FMUs' resources.
-pub const SCENE_RESOURCE: &str = "exported_scene.toml";
+pub(crate) const SCENE_RESOURCE: &str = "exported_scene.toml";
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML) whose [system] is exported.
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// The SSP archive to write (`.ssp`).
     #[arg(long)]
-    pub out: PathBuf,
+    pub(crate) out: PathBuf,
 }
 
-pub fn run(args: &Args) -> CmdResult {
-    if args.out.extension().and_then(|e| e.to_str()) != Some("ssp") {
-        return Err(format!("--out {}: name the archive *.ssp", args.out.display()).into());
-    }
-    if args.out.exists() && std::fs::canonicalize(&args.out)? == std::fs::canonicalize(&args.scene)? {
-        return Err(format!("--out {}: that is the scene file; choose another name", args.out.display()).into());
-    }
-    let scene = Scene::load(&args.scene)?;
-    let sys = scene.system.as_ref().ok_or_else(|| format!("{}: the scene has no [system]", args.scene.display()))?;
+pub(crate) fn run(args: &Args) -> CmdResult {
+    let scene = load_scene(&args.scene)?;
+    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let id = outputs.declare("--out", &args.out, Some("ssp"))?;
     let spec = scene_spec(&scene, &args.scene)?;
+    let sys = scene.system.as_ref().expect("scene_spec needs a [system]");
     let resolved = resolve(&spec)?;
-    let scene_bytes = std::fs::read(&args.scene)?;
+    let scene_bytes = std::fs::read(&args.scene).with_context(|| format!("{}: cannot read", args.scene.display()))?;
     let mut components = Vec::new();
     for c in &spec.components {
         let reads_scene =
@@ -49,7 +46,7 @@ pub fn run(args: &Args) -> CmdResult {
         let fmu = if reads_scene {
             with_resource(&c.source, SCENE_RESOURCE, &scene_bytes)?
         } else {
-            std::fs::read(&c.source).map_err(|e| format!("{}: {e}", c.source.display()))?
+            std::fs::read(&c.source).with_context(|| format!("{}: cannot read", c.source.display()))?
         };
         let mut connectors: Vec<SspConnector> = Vec::new();
         let mut add = |name: &str, kind: &'static str, var_type| {
@@ -85,14 +82,17 @@ pub fn run(args: &Args) -> CmdResult {
         start_time: 0.0,
         stop_time: scene.solver.t_end_s,
     };
-    create_parent(&args.out)?;
-    write_ssp(&args.out, &system)?;
-    println!(
+    let archive = write_archive(Cursor::new(Vec::new()), &system).context("packing the archive")?.into_inner();
+    outputs.open()?;
+    outputs.write(id, |w| w.write_all(&archive))?;
+    outputs.commit()?;
+    writeln!(
+        std::io::stdout().lock(),
         "{}: {} components, {} connections, {} parameter values",
         args.out.display(),
         system.components.len(),
         system.connections.len(),
         system.components.iter().map(|c| c.parameters.len()).sum::<usize>()
-    );
+    )?;
     Ok(())
 }

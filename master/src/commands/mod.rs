@@ -1,18 +1,65 @@
-//! One module per subcommand. Each has an `Args` struct (clap) and `run(&Args)`.
+//! One module per subcommand. Each has an `Args` struct (clap) and `run(&Args)`; the shared
+//! pieces: scheme options, output files written whole or not at all, and the caps every command
+//! obeys (set once from the global flags).
 
-pub mod bench;
-pub mod compare;
-pub mod export_ssp;
-pub mod modes;
-pub mod package;
-pub mod replay;
-pub mod run;
-pub mod run_system;
-pub mod scheme_args;
-pub mod stability;
-pub mod statics;
-pub mod stewart;
-pub mod stress;
+use std::path::Path;
+use std::sync::OnceLock;
 
-/// Errors reach the user as one readable message.
-pub type CmdResult = Result<(), Box<dyn std::error::Error>>;
+use anyhow::Context;
+use feedcore::scene::{Scene, SceneErrorKind};
+use master::limits::Limits;
+
+pub(crate) mod bench;
+pub(crate) mod compare;
+pub(crate) mod export_ssp;
+pub(crate) mod modes;
+pub(crate) mod output;
+pub(crate) mod package;
+pub(crate) mod replay;
+pub(crate) mod run;
+pub(crate) mod run_system;
+pub(crate) mod scheme_args;
+pub(crate) mod stability;
+pub(crate) mod statics;
+pub(crate) mod stewart;
+pub(crate) mod stress;
+
+/// Errors reach the user with their whole chain of causes.
+pub(crate) type CmdResult = anyhow::Result<()>;
+
+/// The result of the commands not yet moved to anyhow (package, replay).
+pub(crate) type BoxResult = Result<(), Box<dyn std::error::Error>>;
+
+/// A [`BoxResult`] as a [`CmdResult`] (the message chain kept as text).
+pub(crate) fn boxed(r: BoxResult) -> CmdResult {
+    r.map_err(|e| anyhow::Error::new(master::simulate::Detached::of(&*e)))
+}
+
+/// Caps from the global flags (`--max-steps`, `--max-memory-mb`, `--max-scene-bytes`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Caps {
+    pub(crate) run: Limits,
+    pub(crate) scene_bytes: u64,
+}
+
+static CAPS: OnceLock<Caps> = OnceLock::new();
+
+/// Sets the caps once, before any command runs.
+pub(crate) fn set_caps(caps: Caps) {
+    let _ = CAPS.set(caps);
+}
+
+pub(crate) fn caps() -> Caps {
+    *CAPS.get_or_init(|| Caps { run: Limits::default(), scene_bytes: feedcore::scene::MAX_SCENE_BYTES })
+}
+
+/// Reads a scene within the size cap; a file over it names the flag that raises it.
+pub(crate) fn load_scene(path: &Path) -> anyhow::Result<Scene> {
+    match Scene::load_limited(path, caps().scene_bytes) {
+        Ok(s) => Ok(s),
+        Err(e) if matches!(e.kind, SceneErrorKind::TooLarge { .. }) => {
+            Err(e).context("a scene file this large is refused; raise the limit with --max-scene-bytes if it is meant")
+        }
+        Err(e) => Err(e.into()),
+    }
+}

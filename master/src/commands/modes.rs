@@ -1,27 +1,29 @@
 //! `master modes`: natural frequencies and mode shapes about the static equilibrium.
 
+use std::io::Write;
 use std::path::PathBuf;
 
+use anyhow::Context;
 use cable_fmu::model::CableCabin;
-use feedcore::scene::Scene;
+use master::limits::{Footprint, check_memory};
 use master::table::Table;
 use nalgebra::Vector6;
 use serde_json::json;
 
-use super::CmdResult;
+use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML), e.g. scenes/lt50m_B.toml.
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Number of modes (lowest first); default: the scene's `analyses.modes`.
-    #[arg(long)]
-    pub count: Option<usize>,
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub(crate) count: Option<u32>,
     /// Print JSON: frequencies_hz (ascending) and per mode its cabin participation and the
     /// cabin's part of the mass-normalized shape [dx, dy, dz, rx, ry, rz].
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
 }
 
 /// Share of the modal kinetic energy carried by the cabin, and a name for its main motion.
@@ -34,9 +36,15 @@ fn describe(cabin_mass: &nalgebra::Matrix6<f64>, shape: &Vector6<f64>) -> (f64, 
     (share, what)
 }
 
-pub fn run(args: &Args) -> CmdResult {
-    let scene = Scene::load(&args.scene)?;
-    let count = args.count.unwrap_or(scene.analyses.modes).max(1);
+pub(crate) fn run(args: &Args) -> CmdResult {
+    let scene = load_scene(&args.scene)?;
+    let mut out = std::io::stdout().lock();
+    let count = args.count.map_or(scene.analyses.modes, |c| c as usize);
+    if count == 0 {
+        anyhow::bail!("{}: the scene asks for no modes (analyses.modes = 0); give --count N", args.scene.display());
+    }
+    check_memory(&scene, Footprint::CableModel, true, &caps().run)
+        .with_context(|| format!("{}: the modal analysis cannot start", args.scene.display()))?;
     let model = CableCabin::build(&scene, count)?;
     let modes = model.modes.as_ref().expect("modes were asked for");
     let sys = model.system(cable_fmu::model::Payload::Locked);
@@ -56,38 +64,41 @@ pub fn run(args: &Args) -> CmdResult {
             .iter()
             .map(|(f, share, what, part)| json!({"frequency_hz": f, "cabin_share": share, "motion": what, "cabin_shape": part.as_slice()}))
             .collect();
-        let out = json!({
+        let json_out = json!({
             "scene": scene.name,
             "frequencies_hz": rows.iter().map(|r| r.0).collect::<Vec<_>>(),
             "modes": list,
             "damping": {"ratio": model.damping.ratio, "fit_frequencies_hz": model.damping.frequencies_hz,
                         "alpha_per_s": model.damping.alpha, "beta_s": model.damping.beta},
         });
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&json_out)?)?;
         return Ok(());
     }
-    println!("Natural modes about the static equilibrium: {} ({})", scene.name, args.scene.display());
-    println!(
+    writeln!(out, "Natural modes about the static equilibrium: {} ({})", scene.name, args.scene.display())?;
+    writeln!(
+        out,
         "cable–cabin system with the Stewart platform locked at its start; {} elements per cable",
         scene.cables.elements
-    );
-    println!();
+    )?;
+    writeln!(out)?;
     let mut t = Table::new(["mode", "f Hz", "period s", "cabin share", "main motion"]);
     for (k, (f, share, what, _)) in rows.iter().enumerate() {
         t.row([(k + 1).to_string(), format!("{f:.5}"), format!("{:.3}", 1.0 / f), format!("{share:.2}"), what.clone()]);
     }
-    print!("{}", t.render());
-    println!();
-    println!(
+    write!(out, "{}", t.render())?;
+    writeln!(out)?;
+    writeln!(
+        out,
         "Rayleigh damping ζ = {} at {:.4} and {:.4} Hz: α = {:.4e} 1/s, β = {:.4e} s.",
         model.damping.ratio,
         model.damping.frequencies_hz[0],
         model.damping.frequencies_hz[1],
         model.damping.alpha,
         model.damping.beta
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "\"cabin share\": fraction of the mode's kinetic energy carried by the cabin (the rest is in the cables)."
-    );
+    )?;
     Ok(())
 }

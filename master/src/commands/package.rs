@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use fmi2::export::Model;
 
-use super::CmdResult;
+use super::BoxResult as CmdResult;
 
 #[derive(clap::Args)]
 pub struct Args {

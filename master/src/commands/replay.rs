@@ -9,7 +9,7 @@ use cable_fmu::model::{CableCabin, Payload};
 use feedcore::scene::Scene;
 use nalgebra::Vector6;
 
-use super::CmdResult;
+use super::BoxResult as CmdResult;
 
 #[derive(clap::Args)]
 pub struct Args {

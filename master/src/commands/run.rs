@@ -1,149 +1,186 @@
-//! `master run`: one simulation of the scene with the chosen method.
+//! `master run`: one simulation of the scene with the chosen method (or, with `--system`, of
+//! any system of FMUs: [`super::run_system`]).
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
+use anyhow::{Context, bail};
 use feedcore::scene::Scene;
-use master::plot::Figure;
-use master::simulate::{Trace, simulate};
+use master::limits::num;
+use master::plot::{History, time_history};
+use master::simulate::{Run, Trace};
 use serde_json::json;
 
-use super::CmdResult;
-use super::scheme_args::{SCHEMES, SchemeOptions};
+use super::output::{OutputId, Outputs, run_inputs};
+use super::scheme_args::{SchemeName, SchemeOptions};
+use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML), e.g. scenes/lt50m_C.toml. Its [system] section names the FMUs.
     #[arg(long, required_unless_present = "system", conflicts_with = "system")]
-    pub scene: Option<PathBuf>,
+    pub(crate) scene: Option<PathBuf>,
     /// Any system of FMI 2.0 Co-Simulation FMUs in SSP 1.0: an `.ssp` archive, or an `.ssd` with
     /// the FMUs beside it. The CSV then holds `time` and every output as `<component>.<variable>`.
     #[arg(long)]
-    pub system: Option<PathBuf>,
-    /// Method: monolithic, jacobi, gauss-seidel, gauss-seidel-reversed, iterative, ijcsa, decoupled, cable.
-    #[arg(long, long_help = format!("Method: {SCHEMES}."))]
-    pub scheme: String,
-    /// Macro step (s); default: the scene's solver.dt_s.
-    #[arg(long)]
-    pub dt: Option<f64>,
+    pub(crate) system: Option<PathBuf>,
+    /// Method.
+    #[arg(long, value_enum)]
+    pub(crate) scheme: SchemeName,
+    /// Macro step (s); default: the scene's solver.dt_s. The end time must be a whole number of
+    /// steps. Not with --adaptive.
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) dt: Option<f64>,
     /// End time (s); default: the scene's solver.t_end_s.
-    #[arg(long)]
-    pub t_end: Option<f64>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub(crate) t_end: Option<f64>,
     /// Write the time histories as CSV: t, dx_mm, dy_mm, dz_mm (cabin-centre displacement from the
     /// static equilibrium), rx_mrad, ry_mrad, rz_mrad (rotation), fx_n … mz_nm (Stewart wrench) —
-    /// the groups the scene's outputs.quantities ask for, at its outputs.sample_interval_s.
+    /// the groups the scene's outputs.quantities ask for, at its outputs.sample_interval_s (with
+    /// --adaptive: every accepted step, its size in an h_s column after t).
     #[arg(long)]
-    pub out: Option<PathBuf>,
+    pub(crate) out: Option<PathBuf>,
     /// Print a JSON summary instead of text.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
     /// Draw the cabin-centre displacement (X, Y, Z panels, like the paper's Figs. 4–5) as SVG.
     #[arg(long)]
-    pub plot: Option<PathBuf>,
+    pub(crate) plot: Option<PathBuf>,
     /// No progress bar (it is also off when stderr is not a terminal).
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
     #[command(flatten)]
-    pub options: SchemeOptions,
+    pub(crate) options: SchemeOptions,
 }
 
-/// Creates the directory a result file goes to.
-pub fn create_parent(path: &std::path::Path) -> std::io::Result<()> {
-    match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => std::fs::create_dir_all(d),
-        _ => Ok(()),
-    }
-}
-
-/// JSON summary of a trace.
-pub fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
+/// JSON summary of a trace: every figure from every step (`dt` and `sample_interval_s` null
+/// for an adaptive run).
+pub(crate) fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
+    let fixed = |x: f64| if t.is_adaptive() { None } else { Some(x) };
     json!({
         "scene": scene.name,
         "scheme": t.method,
-        "dt": t.dt,
+        "adaptive": t.is_adaptive(),
+        "dt": fixed(t.dt),
         "t_end": t.t_end,
         "steps": t.steps,
+        "rejected_steps": t.summary.rejected_steps,
+        "h_min_used": t.summary.h_min_used,
+        "h_max_used": t.summary.h_max_used,
+        "sample_interval_s": fixed(t.sample_interval_s),
         "wall_time_s": t.wall_time_s,
         "max_abs_disp_mm": t.max_abs_disp_mm(),
         "peak_disp_mm": t.peak_mm(),
+        "peak_time_s": t.summary.peak_time_s,
         "mean_iterations": t.mean_iterations(),
         "max_interface_residual": t.max_residual(),
-        "max_constraint_residual_m": t.constraint_residual,
-        "rejected_steps": t.rejected_steps,
-        "h_min_used": t.h_min_used,
-        "h_max_used": t.h_max_used,
+        "max_constraint_residual_m": t.constraint_residual(),
     })
 }
 
-/// The displacement histories as three stacked panels.
-pub fn plot_traces(traces: &[&Trace], title: &str, path: &PathBuf) -> CmdResult {
-    if path.extension().and_then(|e| e.to_str()) != Some("svg") {
-        return Err(format!("--plot {}: only SVG is written; name the file *.svg", path.display()).into());
-    }
-    create_parent(path)?;
-    let mut fig = Figure::new(900, 780);
-    fig.title(title).share_x(true);
-    for (k, axis) in ["X", "Y", "Z"].iter().enumerate() {
-        fig.panel(|p| {
-            p.y_label(&format!("{axis} displacement (mm)")).x_label("time (s)");
-            for t in traces {
-                let y: Vec<f64> = t.disp_mm.iter().map(|d| d[k]).collect();
-                p.line(&t.method, &t.t, &y);
-            }
-            p
-        });
-    }
-    fig.write_svg(path)?;
-    Ok(())
+/// The displacement histories as three stacked panels, into output `id`.
+pub(crate) fn plot_traces(outputs: &Outputs, id: OutputId, traces: &[&Trace], title: &str) -> CmdResult {
+    let runs: Vec<History> = traces.iter().map(|t| History { name: &t.method, t: &t.t, disp_mm: &t.disp_mm }).collect();
+    let svg = time_history(title, &runs).context("drawing the time histories")?;
+    outputs.write(id, |w| w.write_all(svg.as_bytes()))
 }
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let scene_file = match (&args.scene, &args.system) {
         (Some(f), _) => f,
         (None, Some(system)) => return super::run_system::run(args, system),
-        (None, None) => return Err("give --scene or --system".into()),
+        (None, None) => bail!("give --scene or --system"),
     };
-    let scene = Scene::load(scene_file)?;
-    let method = args.options.method(&args.scheme)?;
+    let scene = load_scene(scene_file)?;
+    let method = args.options.method(args.scheme)?;
+    if args.options.adaptive && args.dt.is_some() {
+        bail!(
+            "--dt: the adaptive step chooses its own steps within [--h-min, --h-max] and lands on the end time; \
+             drop --dt, or --adaptive for fixed steps"
+        );
+    }
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
-    let trace = simulate(&scene, scene_file, method, dt, t_end, quiet)?;
-    if let Some(out) = &args.out {
-        create_parent(out)?;
-        trace.write_csv(out, &scene.outputs.quantities)?;
+    // everything the run needs is checked before its first step
+    let run = Run::prepare(&scene, scene_file, method, dt, t_end, &caps().run).with_context(|| {
+        let from =
+            |flag: bool, given: &str, key: &str| if flag { given.to_string() } else { format!("the scene's {key}") };
+        let end = format!("end time {} s from {}", num(t_end), from(args.t_end.is_some(), "--t-end", "solver.t_end_s"));
+        if args.options.adaptive {
+            format!("adaptive steps within [{}, {}] s, {end}", num(args.options.h_min), num(args.options.h_max))
+        } else {
+            format!("h = {} s from {}, {end}", num(dt), from(args.dt.is_some(), "--dt", "solver.dt_s"))
+        }
+    })?;
+    let mut outputs = Outputs::new(run_inputs(scene_file, &scene));
+    let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
+    let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+    outputs.open()?;
+
+    let trace = run.execute(quiet)?;
+    if let Some(id) = csv {
+        outputs.write(id, |w| trace.write_csv(w, &scene.outputs.quantities))?;
     }
-    if let Some(p) = &args.plot {
-        plot_traces(&[&trace], &format!("{}: cabin-centre response, {} at h = {dt} s", scene.name, trace.method), p)?;
+    let steps = if trace.is_adaptive() {
+        format!("the adaptive step (rtol {:e})", args.options.rtol)
+    } else {
+        format!("h = {dt} s")
+    };
+    if let Some(id) = svg {
+        let title = format!("{}: cabin-centre response, {} at {steps}", scene.name, trace.method);
+        plot_traces(&outputs, id, &[&trace], &title)?;
     }
+    outputs.commit()?;
+
+    let mut out = std::io::stdout().lock();
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&summary(&scene, &trace))?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&summary(&scene, &trace))?)?;
         return Ok(());
     }
     let m = trace.max_abs_disp_mm();
-    println!(
-        "{} — {} at h = {dt} s to {t_end} s: {} steps in {:.3} s",
+    writeln!(
+        out,
+        "{} — {} at {steps} to {t_end} s: {} steps in {:.3} s",
         scene.name, trace.method, trace.steps, trace.wall_time_s
-    );
-    println!("peak cabin-centre displacement |X| {:.4} mm, |Y| {:.4} mm, |Z| {:.4} mm", m[0], m[1], m[2]);
-    match trace.method.as_str() {
-        "monolithic" => println!(
+    )?;
+    if trace.is_adaptive() {
+        let s = &trace.summary;
+        writeln!(
+            out,
+            "adaptive step: {} tries rejected, h from {:.3e} to {:.3e} s",
+            s.rejected_steps, s.h_min_used, s.h_max_used
+        )?;
+    }
+    writeln!(
+        out,
+        "peak cabin-centre displacement {:.4} mm at t = {} s; |X| {:.4} mm, |Y| {:.4} mm, |Z| {:.4} mm",
+        trace.peak_mm(),
+        trace.summary.peak_time_s,
+        m[0],
+        m[1],
+        m[2]
+    )?;
+    match args.scheme {
+        SchemeName::Monolithic => writeln!(
+            out,
             "Newton iterations per step {:.2}, largest constraint residual {:.2e} m",
             trace.mean_iterations(),
-            trace.constraint_residual
-        ),
-        "cable" => println!("Newton iterations per step {:.2}", trace.mean_iterations()),
-        _ => println!(
+            trace.constraint_residual()
+        )?,
+        SchemeName::Cable => writeln!(out, "Newton iterations per step {:.2}", trace.mean_iterations())?,
+        _ => writeln!(
+            out,
             "iterations per step {:.2}, largest interface residual {:.2e}",
             trace.mean_iterations(),
             trace.max_residual()
-        ),
+        )?,
     }
-    if let Some(out) = &args.out {
-        println!("time histories: {}", out.display());
+    if let Some(p) = &args.out {
+        writeln!(out, "time histories: {}", p.display())?;
     }
     if let Some(p) = &args.plot {
-        println!("plot: {}", p.display());
+        writeln!(out, "plot: {}", p.display())?;
     }
     Ok(())
 }

@@ -1,129 +1,157 @@
 //! `master run --system FILE`: any system of FMI 2.0 Co-Simulation FMUs described in SSP 1.0
 //! (an `.ssp` archive, or an `.ssd` with its FMUs beside it), run by a coupling scheme. The CSV
-//! holds `time` and every output of every component as `<component>.<variable>`.
+//! holds `time` and every output of every component as `<component>.<variable>`; the plot
+//! shows every Real output, a panel per component.
 
+use std::io::{IsTerminal, Write};
 use std::path::Path;
 
-use master::plot::Figure;
+use anyhow::{Context, bail};
+use master::limits::num;
+use master::plot::{Line, PALETTE, Panel, stacked};
 use master::simulate::Method;
-use master::system::run_system;
+use master::system::{RealHistory, Sinks, SystemRun};
 use serde_json::json;
 
-use super::CmdResult;
-use super::run::{Args, create_parent};
+use super::output::Outputs;
+use super::run::Args;
+use super::{CmdResult, caps};
 
-pub fn run(args: &Args, file: &Path) -> CmdResult {
-    let loaded = cosim::ssp::read::load(file)?;
-    let (options, adaptive) = match args.options.method(&args.scheme)? {
+pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
+    let (options, adaptive) = match args.options.method(args.scheme)? {
         Method::Cosim(o) => (o, None),
         Method::CosimAdaptive(o, a) => (o, Some(a)),
-        other => {
-            return Err(format!(
-                "--scheme {}: runs only the LT50m scene (--scene); a --system runs with a coupling scheme \
-                 (jacobi, gauss-seidel, iterative, ijcsa, iqn-ils)",
-                other.name()
-            )
-            .into());
-        }
+        other => bail!(
+            "--scheme {}: runs only the LT50m scene (--scene); a --system runs with a coupling scheme \
+             (jacobi, gauss-seidel, iterative, ijcsa, iqn-ils)",
+            other.name()
+        ),
     };
-    let dt = args.dt.ok_or("--dt: give the macro step of the system (s)")?;
+    let loaded = cosim::ssp::read::load(file)?;
+    let dt = match (adaptive, args.dt) {
+        (None, Some(dt)) => dt,
+        (None, None) => bail!("--dt: give the macro step of the system (s)"),
+        (Some(_), Some(_)) => bail!(
+            "--dt: the adaptive step chooses its own steps within [--h-min, --h-max] and lands on the end time; \
+             drop --dt, or --adaptive for fixed steps"
+        ),
+        // not used: the adaptive step chooses
+        (Some(_), None) => f64::NAN,
+    };
     let start = loaded.start_time.unwrap_or(0.0);
     if start != 0.0 {
-        return Err(format!("{}: DefaultExperiment startTime = {start}; the master starts at 0", file.display()).into());
+        bail!("{}: DefaultExperiment startTime = {start}; the master starts at 0", file.display());
     }
-    let t_end = args
-        .t_end
-        .or(loaded.stop_time)
-        .ok_or("--t-end: give the end time (the system description has no DefaultExperiment stopTime)")?;
-    let quiet = args.quiet || args.json || !std::io::IsTerminal::is_terminal(&std::io::stderr());
-    // the plot reads the time histories back from the CSV (a private one without --out)
-    let scratch = std::env::temp_dir().join(format!("master-system-{}.csv", std::process::id()));
-    let csv = args.out.clone().or_else(|| args.plot.as_ref().map(|_| scratch.clone()));
-    if let Some(out) = &csv {
-        create_parent(out)?;
+    let Some(t_end) = args.t_end.or(loaded.stop_time) else {
+        bail!("--t-end: give the end time (the system description has no DefaultExperiment stopTime)");
+    };
+    let run = SystemRun::prepare(&loaded.spec, options, adaptive, dt, t_end, &caps().run).with_context(|| {
+        let from = if args.t_end.is_some() { "--t-end" } else { "the DefaultExperiment" };
+        match adaptive {
+            Some(a) => format!(
+                "{}: adaptive steps within [{}, {}] s, end time {} s from {from}",
+                file.display(),
+                num(a.h_min),
+                num(a.h_max),
+                num(t_end)
+            ),
+            None => format!("{}: h = {} s, end time {} s from {from}", file.display(), num(dt), num(t_end)),
+        }
+    })?;
+    let inputs = std::iter::once(file.to_owned()).chain(loaded.spec.components.iter().map(|c| c.source.clone()));
+    let mut outputs = Outputs::new(inputs);
+    let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
+    let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+    outputs.open()?;
+
+    let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
+    let mut writer = csv.map(|id| outputs.stream(id)).transpose()?;
+    let mut history = RealHistory::default();
+    let sinks = Sinks { csv: writer.as_mut().map(|w| w as &mut dyn Write), real: svg.map(|_| &mut history) };
+    let outcome = run.execute(quiet, sinks)?;
+    if let (Some(id), Some(w)) = (csv, writer) {
+        outputs.finish(id, w)?;
     }
-    let run = run_system(&loaded.spec, options, adaptive, dt, t_end, csv.as_deref(), quiet)?;
-    if let Some((t, why)) = &run.stopped_early {
+    if let Some((t, why)) = &outcome.stopped_early {
         eprintln!("note: the run ended early at t = {t} s: {why}");
     }
-    if let (Some(p), Some(csv)) = (&args.plot, &csv) {
-        plot_outputs(csv, p, &format!("{}: {} at h = {dt} s", file.display(), options.scheme.name()))?;
-        if args.out.is_none() {
-            let _ = std::fs::remove_file(csv);
-        }
+    let steps = match adaptive {
+        Some(a) => format!("the adaptive step (rtol {:e})", a.tolerances.rtol),
+        None => format!("h = {dt} s"),
+    };
+    if let Some(id) = svg {
+        let svg = plot_outputs(&history, &format!("{}: {} at {steps}", file.display(), options.scheme.name()))?;
+        outputs.write(id, |w| w.write_all(svg.as_bytes()))?;
     }
+    outputs.commit()?;
+
+    let mut out = std::io::stdout().lock();
     if args.json {
         let v = json!({
             "system": file.display().to_string(),
             "scheme": options.scheme.name(),
-            "dt": dt,
+            "adaptive": adaptive.is_some(),
+            "dt": adaptive.is_none().then_some(dt),
             "t_end": t_end,
-            "steps": run.steps,
-            "rejected_steps": run.rejected_steps,
-            "h_min_used": run.h_min_used,
-            "h_max_used": run.h_max_used,
-            "wall_time_s": run.wall_time_s,
-            "mean_iterations": run.mean_iterations,
-            "max_interface_residual": run.max_residual,
-            "outputs": run.columns.len() - 1,
-            "stopped_early": run.stopped_early.is_some(),
-            "stopped_at": run.stopped_early.as_ref().map(|s| s.0),
-            "note": run.stopped_early.as_ref().map(|s| s.1.clone()),
+            "steps": outcome.steps,
+            "rejected_steps": outcome.rejected_steps,
+            "h_min_used": outcome.h_min_used,
+            "h_max_used": outcome.h_max_used,
+            "wall_time_s": outcome.wall_time_s,
+            "mean_iterations": outcome.mean_iterations,
+            "max_interface_residual": outcome.max_residual,
+            "outputs": outcome.columns.len() - 1,
+            "stopped_early": outcome.stopped_early.is_some(),
+            "stopped_at": outcome.stopped_early.as_ref().map(|s| s.0),
+            "note": outcome.stopped_early.as_ref().map(|s| s.1.clone()),
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
         return Ok(());
     }
-    println!(
-        "{} — {} at h = {dt} s to {t_end} s: {} steps in {:.3} s, {:.2} iterations per step, largest interface residual {:.2e}",
+    writeln!(
+        out,
+        "{} — {} at {steps} to {t_end} s: {} steps in {:.3} s, {:.2} iterations per step, largest interface residual {:.2e}",
         file.display(),
         options.scheme.name(),
-        run.steps,
-        run.wall_time_s,
-        run.mean_iterations,
-        run.max_residual
-    );
+        outcome.steps,
+        outcome.wall_time_s,
+        outcome.mean_iterations,
+        outcome.max_residual
+    )?;
     if adaptive.is_some() {
-        println!(
-            "adaptive step: {} rejected, h from {:.3e} to {:.3e} s",
-            run.rejected_steps, run.h_min_used, run.h_max_used
-        );
+        writeln!(
+            out,
+            "adaptive step: {} tries rejected, h from {:.3e} to {:.3e} s",
+            outcome.rejected_steps, outcome.h_min_used, outcome.h_max_used
+        )?;
     }
-    if let Some(out) = &args.out {
-        println!("time histories of {} outputs: {}", run.columns.len() - 1, out.display());
+    if let Some(p) = &args.out {
+        writeln!(out, "time histories of {} outputs: {}", outcome.columns.len() - 1, p.display())?;
+    }
+    if let Some(p) = &args.plot {
+        writeln!(out, "plot: {}", p.display())?;
     }
     Ok(())
 }
 
-/// Every numeric output of the CSV against time, one panel per component.
-fn plot_outputs(csv: &Path, svg: &Path, title: &str) -> CmdResult {
-    if svg.extension().and_then(|e| e.to_str()) != Some("svg") {
-        return Err(format!("--plot {}: only SVG is written; name the file *.svg", svg.display()).into());
-    }
-    let text = std::fs::read_to_string(csv)?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
-    let rows: Vec<Vec<f64>> =
-        lines.map(|l| l.split(',').map(|x| x.parse::<f64>().unwrap_or(f64::NAN)).collect()).collect();
-    let mut components: Vec<&str> = header.iter().skip(1).filter_map(|c| c.split('.').next()).collect();
+/// Every Real output against time, a panel per component.
+fn plot_outputs(history: &RealHistory, title: &str) -> anyhow::Result<String> {
+    let component = |name: &str| name.split('.').next().unwrap_or_default().to_string();
+    let mut components: Vec<String> = history.names.iter().map(|n| component(n)).collect();
     components.dedup();
-    let t: Vec<f64> = rows.iter().map(|r| r[0]).collect();
-    create_parent(svg)?;
-    let mut fig = Figure::new(900, 320 * components.len().max(1) as u32 + 60);
-    fig.title(title);
-    for comp in components {
-        fig.panel(|p| {
-            p.title(comp).x_label("time (s)");
-            for (j, name) in header.iter().enumerate().skip(1) {
-                if name.split('.').next() == Some(comp) {
-                    let y: Vec<f64> = rows.iter().map(|r| r.get(j).copied().unwrap_or(f64::NAN)).collect();
-                    if y.iter().all(|v| v.is_finite()) {
-                        p.line(name, &t, &y);
-                    }
-                }
-            }
-            p
-        });
-    }
-    fig.write_svg(svg)?;
-    Ok(())
+    let panels: Vec<Panel> = components
+        .iter()
+        .map(|c| {
+            let lines: Vec<Line> = history
+                .names
+                .iter()
+                .zip(&history.values)
+                .filter(|(n, _)| component(n) == *c)
+                .map(|(n, y)| Line { name: n, t: &history.t, y: y.clone() })
+                .collect();
+            // a legend of more lines than the palette has colours would not tell them apart
+            Panel { y_label: c.clone(), legend: lines.len() <= PALETTE.len(), lines }
+        })
+        .collect();
+    stacked(title, &panels, 320).context("drawing the outputs")
 }

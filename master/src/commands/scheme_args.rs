@@ -1,143 +1,230 @@
-//! Command-line options that choose and tune a method (shared by run, compare, bench).
+//! Command-line options that choose and tune a method (shared by run, compare, bench,
+//! stability): the one place for scheme names and scheme options.
 
+use anyhow::bail;
+use clap::ValueEnum;
 use master::cosim::step_control::Tolerances;
 use master::cosim::{Extrapolation, IqnOptions, JacobianUpdate, Options, Relaxation, Scheme};
 use master::simulate::Method;
 use master::system::Adaptive;
 
+/// The methods `--scheme` and `--schemes` know, and what each needs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum SchemeName {
+    /// The cable–cabin model alone, platform locked, under the scene's [disturbance]; in-process.
+    Cable,
+    /// Eq. (7): the whole system in one model, no FMUs; the accuracy reference.
+    Monolithic,
+    /// Every FMU steps with the inputs of the last communication point.
+    Jacobi,
+    /// The FMUs one after the other (cable first), each with the newest outputs.
+    GaussSeidel,
+    /// Gauss–Seidel with the Stewart FMU first.
+    GaussSeidelReversed,
+    /// Fixed point with rollback (needs get/set FMU state); --relaxation.
+    Iterative,
+    /// Newton on the interface with its Jacobian (needs get/set FMU state; directional
+    /// derivatives, else finite differences).
+    Ijcsa,
+    /// Interface quasi-Newton: least squares on the residual history of this and the last
+    /// steps, no derivatives (needs get/set FMU state); --iqn-*.
+    IqnIls,
+    /// Ref. [3]: the Stewart wrench on a cabin held at its static pose, fed to the cable model.
+    Decoupled,
+}
+
+impl SchemeName {
+    /// The name as written on the command line.
+    pub(crate) fn as_str(self) -> &'static str {
+        match self {
+            SchemeName::Cable => "cable",
+            SchemeName::Monolithic => "monolithic",
+            SchemeName::Jacobi => "jacobi",
+            SchemeName::GaussSeidel => "gauss-seidel",
+            SchemeName::GaussSeidelReversed => "gauss-seidel-reversed",
+            SchemeName::Iterative => "iterative",
+            SchemeName::Ijcsa => "ijcsa",
+            SchemeName::IqnIls => "iqn-ils",
+            SchemeName::Decoupled => "decoupled",
+        }
+    }
+
+    /// Whether the scheme iterates within a macro step (and so has an adaptive step).
+    pub(crate) fn iterates(self) -> bool {
+        matches!(self, SchemeName::Iterative | SchemeName::Ijcsa | SchemeName::IqnIls)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum ExtrapolationArg {
+    /// The last outputs.
+    Constant,
+    /// Extrapolated from the last two (non-iterating schemes pass the slope to the FMUs
+    /// through fmi2SetRealInputDerivatives).
+    Linear,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum JacobianArg {
+    /// Recomputed every step.
+    EveryStep,
+    /// Quasi-Newton: kept while Newton contracts well.
+    Reuse,
+}
+
+/// `--relaxation`: `aitken` or a factor in (0, 1].
+fn relaxation(text: &str) -> Result<Relaxation, String> {
+    if text == "aitken" {
+        return Ok(Relaxation::Aitken);
+    }
+    match text.parse::<f64>() {
+        Ok(w) if w > 0.0 && w <= 1.0 => Ok(Relaxation::Fixed(w)),
+        _ => Err(format!("`{text}`: give `aitken` or a factor in (0, 1]")),
+    }
+}
+
+/// A positive finite number.
+pub(crate) fn positive(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(x) if x > 0.0 && x.is_finite() => Ok(x),
+        Ok(x) => Err(format!("{x} is not a positive finite number")),
+        Err(e) => Err(format!("`{text}`: {e}")),
+    }
+}
+
+/// A number in [0, 1).
+fn below_one(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(x) if (0.0..1.0).contains(&x) => Ok(x),
+        _ => Err(format!("`{text}`: give a number in [0, 1)")),
+    }
+}
+
+/// A factor in (0, 1].
+fn factor(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(x) if x > 0.0 && x <= 1.0 => Ok(x),
+        _ => Err(format!("`{text}`: give a factor in (0, 1]")),
+    }
+}
+
+/// A relative tolerance in (0, 1).
+pub(crate) fn tolerance(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(x) if x > 0.0 && x < 1.0 => Ok(x),
+        _ => Err(format!("`{text}`: give a tolerance in (0, 1)")),
+    }
+}
+
 /// Options of the coupling schemes.
 #[derive(clap::Args, Clone, Debug)]
-pub struct SchemeOptions {
-    /// First guess of the end-of-step inputs: `constant` (the last outputs) or `linear`
-    /// (extrapolated from the last two; non-iterating schemes pass the slope to the FMUs
-    /// through fmi2SetRealInputDerivatives).
-    #[arg(long, default_value = "constant", value_parser = ["constant", "linear"])]
-    pub extrapolation: String,
+pub(crate) struct SchemeOptions {
+    /// First guess of the end-of-step inputs.
+    #[arg(long, value_enum, default_value_t = ExtrapolationArg::Constant)]
+    pub(crate) extrapolation: ExtrapolationArg,
     /// Interface tolerance of iterating schemes: every |U − C·Y| ≤ tol · s, with s the largest
     /// start value (at least 1) among the inputs of the same FMU and unit (e.g. the weight for
     /// forces).
-    #[arg(long, default_value_t = 1e-8)]
-    pub tol: f64,
+    #[arg(long, default_value = "1e-8", value_parser = positive)]
+    pub(crate) tol: f64,
     /// Iteration limit per macro step of iterating schemes (exceeding it stops the run).
-    #[arg(long, default_value_t = 100)]
-    pub max_iter: usize,
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub(crate) max_iter: u32,
     /// Relaxation of `iterative`: a fixed factor in (0, 1], or `aitken` (dynamic; it stalls on
     /// the LT50m scenes, whose interface couples several modes of both signs).
-    #[arg(long, default_value = "0.5")]
-    pub relaxation: String,
-    /// Interface Jacobian of `ijcsa`: `every-step` (recomputed each step) or `reuse`
-    /// (quasi-Newton: kept while Newton contracts well).
-    #[arg(long, default_value = "every-step", value_parser = ["every-step", "reuse"])]
-    pub jacobian: String,
-    /// Time windows whose residual history `iqn-ils` reuses (0: this step's only).
+    #[arg(long, default_value = "0.5", value_parser = relaxation)]
+    pub(crate) relaxation: Relaxation,
+    /// Interface Jacobian of `ijcsa`.
+    #[arg(long, value_enum, default_value_t = JacobianArg::EveryStep)]
+    pub(crate) jacobian: JacobianArg,
+    /// Past steps (time windows) whose residual history `iqn-ils` reuses (0: this step's only).
     #[arg(long, default_value_t = IqnOptions::default().reuse)]
-    pub iqn_reuse: usize,
+    pub(crate) iqn_reuse: usize,
     /// QR filter limit of `iqn-ils` in [0, 1): a history column keeping less than this
     /// fraction of its norm after orthogonalization against newer ones is deleted.
-    #[arg(long, default_value_t = IqnOptions::default().filter)]
-    pub iqn_filter: f64,
-    /// Relaxation of the first update of `iqn-ils` while there is no history, in (0, 1].
-    #[arg(long, default_value_t = IqnOptions::default().initial_relaxation)]
-    pub iqn_relaxation: f64,
-    /// Adaptive macro step (implicit schemes: iterative, ijcsa, iqn-ils): local error
-    /// estimate of the coupled quantities (predictor against corrector), rejected steps rolled
-    /// back; --dt is the first step.
+    #[arg(long, default_value_t = IqnOptions::default().filter, value_parser = below_one,
+          allow_negative_numbers = true)]
+    pub(crate) iqn_filter: f64,
+    /// Relaxation of the first update of `iqn-ils`, while there is no history, in (0, 1].
+    #[arg(long, default_value_t = IqnOptions::default().initial_relaxation, value_parser = factor,
+          allow_negative_numbers = true)]
+    pub(crate) iqn_relaxation: f64,
+    /// Adaptive macro step (iterative, ijcsa, iqn-ils): a local error estimate of the coupled
+    /// quantities (predictor against corrector), rejected steps rolled back. The steps are
+    /// chosen within [--h-min, --h-max] (the first ones at 10 × --h-min) and the last lands on
+    /// the end time; --dt does not apply.
     #[arg(long)]
-    pub adaptive: bool,
-    /// Relative tolerance of the adaptive step: error per step ≤ rtol × how far each coupled
-    /// quantity has moved from its initial value.
-    #[arg(long, default_value_t = 1e-3)]
-    pub rtol: f64,
+    pub(crate) adaptive: bool,
+    /// Relative tolerance of the adaptive step, in (0, 1): error per step ≤ rtol × how far each
+    /// coupled quantity has moved from its initial value.
+    #[arg(long, default_value = "1e-3", value_parser = tolerance, allow_negative_numbers = true)]
+    pub(crate) rtol: f64,
     /// Absolute tolerance of the adaptive step, as a fraction of each coupled quantity's scale.
-    #[arg(long, default_value_t = 1e-6)]
-    pub atol: f64,
+    #[arg(long, default_value = "1e-6", value_parser = positive, allow_negative_numbers = true)]
+    pub(crate) atol: f64,
     /// Smallest step of the adaptive step (s).
-    #[arg(long, default_value_t = 1e-5)]
-    pub h_min: f64,
+    #[arg(long, default_value = "1e-5", value_parser = positive, allow_negative_numbers = true)]
+    pub(crate) h_min: f64,
     /// Largest step of the adaptive step (s).
-    #[arg(long, default_value_t = 0.1)]
-    pub h_max: f64,
+    #[arg(long, default_value = "0.1", value_parser = positive, allow_negative_numbers = true)]
+    pub(crate) h_max: f64,
 }
 
-/// The methods `master run --scheme` knows, with what each needs from the FMUs.
-pub const SCHEMES: &str = "cable (the cable–cabin model alone with the platform locked, under the scene's \
-    [disturbance]; in-process), monolithic (eq. 7, no FMUs), jacobi, gauss-seidel (cable first), \
-    gauss-seidel-reversed (Stewart first), iterative (needs get/set FMU state), \
-    ijcsa (needs get/set FMU state; directional derivatives, else finite differences), \
-    iqn-ils (interface quasi-Newton, least squares on the residual history; needs get/set FMU state), \
-    decoupled (ref. [3]: the Stewart wrench on a fixed cabin fed to the cable model)";
-
 impl SchemeOptions {
-    pub fn method(&self, scheme: &str) -> Result<Method, String> {
-        let relaxation = match self.relaxation.as_str() {
-            "aitken" => Relaxation::Aitken,
-            x => match x.parse::<f64>() {
-                Ok(w) if w > 0.0 && w <= 1.0 => Relaxation::Fixed(w),
-                _ => return Err(format!("--relaxation {x}: give `aitken` or a factor in (0, 1]")),
-            },
-        };
-        if !(self.tol > 0.0) {
-            return Err(format!("--tol {}: must be positive", self.tol));
-        }
-        if self.max_iter < 1 {
-            return Err("--max-iter must be at least 1".into());
+    /// The method of `scheme` with these options; refused: `--adaptive` with a scheme that does
+    /// not iterate.
+    pub(crate) fn method(&self, scheme: SchemeName) -> anyhow::Result<Method> {
+        if self.adaptive && !scheme.iterates() {
+            bail!(
+                "--adaptive needs a scheme that iterates (iterative, ijcsa, iqn-ils); `{}` has no adaptive step",
+                scheme.as_str()
+            );
         }
         let mut options = Options {
             scheme: Scheme::Jacobi,
-            extrapolation: if self.extrapolation == "linear" { Extrapolation::Linear } else { Extrapolation::Constant },
-            relaxation,
-            jacobian: if self.jacobian == "reuse" { JacobianUpdate::Reuse } else { JacobianUpdate::EveryStep },
+            extrapolation: match self.extrapolation {
+                ExtrapolationArg::Constant => Extrapolation::Constant,
+                ExtrapolationArg::Linear => Extrapolation::Linear,
+            },
+            relaxation: self.relaxation,
+            jacobian: match self.jacobian {
+                JacobianArg::EveryStep => JacobianUpdate::EveryStep,
+                JacobianArg::Reuse => JacobianUpdate::Reuse,
+            },
             tol: self.tol,
-            max_iter: self.max_iter,
+            max_iter: self.max_iter as usize,
             iqn: IqnOptions { reuse: self.iqn_reuse, filter: self.iqn_filter, initial_relaxation: self.iqn_relaxation },
         };
-        if !(0.0..1.0).contains(&self.iqn_filter) {
-            return Err(format!("--iqn-filter {}: give a limit in [0, 1)", self.iqn_filter));
-        }
-        if !(self.iqn_relaxation > 0.0 && self.iqn_relaxation <= 1.0) {
-            return Err(format!("--iqn-relaxation {}: give a factor in (0, 1]", self.iqn_relaxation));
-        }
-        if self.adaptive && !matches!(scheme, "iterative" | "ijcsa" | "iqn-ils") {
-            self.adaptive_settings(scheme)?;
-        }
         options.scheme = match scheme {
-            "monolithic" => return Ok(Method::Monolithic),
-            "cable" => return Ok(Method::CableOnly),
-            "decoupled" => return Ok(Method::Decoupled(options)),
-            "jacobi" => Scheme::Jacobi,
-            "gauss-seidel" => Scheme::GaussSeidel { reversed: false },
-            "gauss-seidel-reversed" => Scheme::GaussSeidel { reversed: true },
-            "iterative" => Scheme::Iterative,
-            "ijcsa" => Scheme::Ijcsa,
-            "iqn-ils" => Scheme::IqnIls,
-            other => return Err(format!("unknown scheme `{other}`; known: {SCHEMES}")),
+            SchemeName::Monolithic => return Ok(Method::Monolithic),
+            SchemeName::Cable => return Ok(Method::CableOnly),
+            SchemeName::Decoupled => return Ok(Method::Decoupled(options)),
+            SchemeName::Jacobi => Scheme::Jacobi,
+            SchemeName::GaussSeidel => Scheme::GaussSeidel { reversed: false },
+            SchemeName::GaussSeidelReversed => Scheme::GaussSeidel { reversed: true },
+            SchemeName::Iterative => Scheme::Iterative,
+            SchemeName::Ijcsa => Scheme::Ijcsa,
+            SchemeName::IqnIls => Scheme::IqnIls,
         };
         if self.adaptive {
-            return Ok(Method::CosimAdaptive(options, self.adaptive_settings(scheme)?));
+            return Ok(Method::CosimAdaptive(options, self.adaptive_settings()?));
         }
         Ok(Method::Cosim(options))
     }
 
     /// The same options at a fixed step (e.g. for a reference run).
-    pub fn fixed_step(&self) -> SchemeOptions {
+    pub(crate) fn fixed_step(&self) -> SchemeOptions {
         SchemeOptions { adaptive: false, ..self.clone() }
     }
 
-    /// The adaptive step's settings, checked; `scheme` must iterate.
-    pub fn adaptive_settings(&self, scheme: &str) -> Result<Adaptive, String> {
-        if !matches!(scheme, "iterative" | "ijcsa" | "iqn-ils") {
-            return Err(format!(
-                "--adaptive needs an implicit scheme (iterative, ijcsa, iqn-ils); `{scheme}` has no adaptive step"
-            ));
-        }
-        if !(self.rtol > 0.0 && self.rtol < 1.0) {
-            return Err(format!("--rtol {}: give a tolerance in (0, 1)", self.rtol));
-        }
-        if !(self.atol > 0.0) {
-            return Err(format!("--atol {}: must be positive", self.atol));
-        }
-        if !(self.h_min > 0.0 && self.h_max >= self.h_min && self.h_max.is_finite()) {
-            return Err(format!("--h-min {} and --h-max {}: need 0 < h-min ≤ h-max", self.h_min, self.h_max));
+    /// The adaptive step's settings (each value range checked by its parser).
+    fn adaptive_settings(&self) -> anyhow::Result<Adaptive> {
+        if self.h_max < self.h_min {
+            bail!(
+                "--h-min {} s and --h-max {} s: the smallest step must not exceed the largest",
+                self.h_min,
+                self.h_max
+            );
         }
         Ok(Adaptive {
             tolerances: Tolerances { rtol: self.rtol, atol: self.atol },

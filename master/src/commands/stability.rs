@@ -5,43 +5,54 @@
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
+use anyhow::Context;
+use cable_fmu::net::CableNet;
+use cable_fmu::statics::{StaticsError, form_find};
 use feedcore::scene::Scene;
-use master::plot::{Color, Figure, Grid, Legend, Scale};
-use master::simulate::{simulate, write_variant};
+use master::plot::{CATEGORY_COLORS, Cell, MapPanel, stability_map};
+use master::simulate::{Run, RunError, write_variant};
 use master::table::Table;
 
-use super::CmdResult;
-use super::run::create_parent;
-use super::scheme_args::SchemeOptions;
+use super::output::{Outputs, run_inputs};
+use super::scheme_args::{SchemeName, SchemeOptions, positive};
+use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML).
     #[arg(long)]
-    pub scene: PathBuf,
-    /// Comma-separated coupling schemes.
-    #[arg(long, default_value = "jacobi,gauss-seidel,gauss-seidel-reversed,iterative,ijcsa,iqn-ils")]
-    pub schemes: String,
+    pub(crate) scene: PathBuf,
+    /// Coupling schemes (comma-separated).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "jacobi,gauss-seidel,gauss-seidel-reversed,iterative,ijcsa,iqn-ils"
+    )]
+    pub(crate) schemes: Vec<SchemeName>,
     /// Factors on every mass and inertia of the Stewart platform (1: the scene's platform).
-    #[arg(long, default_value = "0.1,0.2,0.5,1,2,5,10")]
-    pub ratios: String,
-    /// Comma-separated macro steps (s).
-    #[arg(long, default_value = "0.04,0.02,0.01,0.005,0.0025")]
-    pub dts: String,
+    #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
+          default_value = "0.1,0.2,0.5,1,2,5,10")]
+    pub(crate) ratios: Vec<f64>,
+    /// Macro steps (s, comma-separated).
+    #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
+          default_value = "0.04,0.02,0.01,0.005,0.0025")]
+    pub(crate) dts: Vec<f64>,
     /// Simulated time of every run (s).
-    #[arg(long, default_value_t = 10.0)]
-    pub t_end: f64,
+    #[arg(long, default_value_t = 10.0, value_parser = positive, allow_negative_numbers = true)]
+    pub(crate) t_end: f64,
     /// Directory for stability.csv and stability.svg.
     #[arg(long, default_value = "out/stability")]
-    pub out: PathBuf,
+    pub(crate) out: PathBuf,
     /// No progress bars.
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
     #[command(flatten)]
-    pub options: SchemeOptions,
+    pub(crate) options: SchemeOptions,
 }
 
-#[derive(Clone, Copy, PartialEq, Eq)]
+/// The outcome of one cell; the order is that of the map's colours ([`CATEGORY_COLORS`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Verdict {
     Stable,
     Unstable,
@@ -50,16 +61,14 @@ enum Verdict {
     Infeasible,
 }
 
-fn list(text: &str, what: &str) -> Result<Vec<f64>, String> {
-    let v: Vec<f64> = text
-        .split(',')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| format!("{what}: {e}"))?;
-    if v.is_empty() || v.iter().any(|x| !(*x > 0.0)) {
-        return Err(format!("{what}: positive numbers are needed"));
+/// How a run that stopped failed: an iteration limit reached without a sign of divergence is
+/// "not converged", anything else "unstable".
+fn stopped_verdict(reason: &str) -> Verdict {
+    if reason.contains("did not converge in") && !reason.contains("unstable") {
+        Verdict::NotConverged
+    } else {
+        Verdict::Unstable
     }
-    Ok(v)
 }
 
 /// The scene with every mass and inertia of the platform scaled by `f`.
@@ -78,101 +87,102 @@ fn scaled(scene: &Scene, f: f64) -> Scene {
     s
 }
 
-pub fn run(args: &Args) -> CmdResult {
-    let scene = Scene::load(&args.scene)?;
-    let ratios = list(&args.ratios, "--ratios")?;
-    let dts = list(&args.dts, "--dts")?;
+pub(crate) fn run(args: &Args) -> CmdResult {
+    let scene = load_scene(&args.scene)?;
+    let (ratios, dts) = (&args.ratios, &args.dts);
     let quiet = args.quiet || !std::io::stderr().is_terminal();
-    let schemes: Vec<&str> = args.schemes.split(',').map(str::trim).filter(|s| !s.is_empty()).collect();
-    let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
+    let limits = caps().run;
+    // every variant is form-found and every run checked before the first one starts
+    let mut scaled_scenes = Vec::new();
     for (ir, &f) in ratios.iter().enumerate() {
-        let (variant, file) =
-            write_variant(&scaled(&scene, f), &args.scene, &format!("stability-{}-{ir}", scene.name))?;
-        for name in &schemes {
-            let method = args.options.method(name)?;
-            for &dt in &dts {
-                eprintln!("{name}, mass ×{f}, h = {dt} s …");
-                let (verdict, iterations, note) = match simulate(&variant, &file, method, dt, args.t_end, quiet) {
-                    Ok(t) => {
-                        // a run that ends but keeps growing is not stable either
-                        let n = t.disp_mm.len();
-                        let peak = |r: std::ops::Range<usize>| {
-                            t.disp_mm[r].iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()))
-                        };
-                        let (early, late) = (peak(0..n / 3), peak(2 * n / 3..n));
-                        if late > 10.0 * early.max(1e-9) {
-                            (
-                                Verdict::Unstable,
-                                t.mean_iterations(),
-                                format!("growing: peak {early:.2e} → {late:.2e} mm"),
-                            )
-                        } else {
-                            (Verdict::Stable, t.mean_iterations(), String::new())
-                        }
-                    }
-                    Err(e) => {
-                        let e = e.to_string();
-                        let v = if e.contains("infeasible") {
-                            Verdict::Infeasible
-                        } else if e.contains("did not converge in") && !e.contains("unstable") {
-                            Verdict::NotConverged
-                        } else {
-                            Verdict::Unstable
-                        };
-                        (v, f64::NAN, e)
-                    }
-                };
-                rows.push((name.to_string(), f, dt, verdict, iterations, note));
+        let (variant, file) = write_variant(&scaled(&scene, f), &args.scene, &format!("stability-{}-{ir}", scene.name))
+            .context("writing the scaled scenes")?;
+        let net = CableNet::from_scene(&variant);
+        let feasible = match form_find(&net, variant.target_position(), variant.target_orientation()) {
+            Ok(_) => true,
+            Err(StaticsError::Infeasible { .. }) => false,
+            Err(e) => return Err(e).with_context(|| format!("form-finding with the platform's mass ×{f}")),
+        };
+        scaled_scenes.push((f, feasible, variant, file));
+    }
+    let mut variants = Vec::new();
+    for (f, feasible, variant, file) in &scaled_scenes {
+        let mut runs = Vec::new();
+        for &name in &args.schemes {
+            for &dt in dts {
+                let context = || format!("{}, mass ×{f}, h = {dt} s", name.as_str());
+                let method = args.options.method(name).with_context(context)?;
+                let run = Run::prepare(variant, file, method, dt, args.t_end, &limits).with_context(context)?;
+                runs.push((name, dt, run));
             }
         }
+        variants.push((*f, *feasible, runs));
     }
-    std::fs::create_dir_all(&args.out)?;
-    let csv_path = args.out.join("stability.csv");
-    let mut csv = std::fs::File::create(&csv_path)?;
-    writeln!(csv, "scheme,mass_factor,dt_s,verdict,mean_iterations,note")?;
+    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let csv_id = outputs.declare("--out", &args.out.join("stability.csv"), Some("csv"))?;
+    let svg_id = outputs.declare("--out", &args.out.join("stability.svg"), Some("svg"))?;
+    outputs.open()?;
+
+    let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
+    for (f, feasible, runs) in &variants {
+        for (name, dt, run) in runs {
+            if !feasible {
+                rows.push((*name, *f, *dt, Verdict::Infeasible, f64::NAN, "a cable would have to push".to_string()));
+                continue;
+            }
+            eprintln!("{}, mass ×{f}, h = {dt} s …", name.as_str());
+            let (verdict, iterations, note) = match run.execute(quiet) {
+                Ok(t) => {
+                    // a run that ends but keeps growing is not stable either
+                    let n = t.disp_mm.len();
+                    let peak =
+                        |r: std::ops::Range<usize>| t.disp_mm[r].iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+                    let (early, late) = (peak(0..n / 3), peak(2 * n / 3..n));
+                    if late > 10.0 * early.max(1e-9) {
+                        (Verdict::Unstable, t.mean_iterations(), format!("growing: peak {early:.2e} → {late:.2e} mm"))
+                    } else {
+                        (Verdict::Stable, t.mean_iterations(), String::new())
+                    }
+                }
+                Err(RunError::Stopped { time, reason, .. }) => {
+                    (stopped_verdict(&reason), f64::NAN, format!("stopped at t = {time:.6} s: {reason}"))
+                }
+                // a missing FMU or a model that cannot be set up is no verdict on the scheme
+                Err(e) => return Err(e).with_context(|| format!("{}, mass ×{f}, h = {dt} s", name.as_str())),
+            };
+            rows.push((*name, *f, *dt, verdict, iterations, note));
+        }
+    }
     let label = |v: Verdict| match v {
         Verdict::Stable => "stable",
         Verdict::Unstable => "unstable",
         Verdict::NotConverged => "not converged",
         Verdict::Infeasible => "infeasible",
     };
+    let mut csv = String::from("scheme,mass_factor,dt_s,verdict,mean_iterations,note\n");
     for (s, f, dt, v, it, note) in &rows {
-        writeln!(
-            csv,
-            "{s},{f},{dt},{},{},\"{}\"",
-            label(*v),
-            if it.is_nan() { String::new() } else { format!("{it:.3}") },
-            note.replace('"', "'")
-        )?;
+        let it = if it.is_nan() { String::new() } else { format!("{it:.3}") };
+        csv.push_str(&format!("{},{f},{dt},{},{it},\"{}\"\n", s.as_str(), label(*v), note.replace('"', "'")));
     }
-    let svg = args.out.join("stability.svg");
-    create_parent(&svg)?;
-    let mut fig = Figure::new(1100, 330 * schemes.len().div_ceil(2) as u32 + 60);
-    fig.title(&format!(
-        "{}: stability over the platform's mass factor and the macro step ({} s runs)",
-        scene.name, args.t_end
-    ))
-    .columns(2);
-    println!(
-        "{}: stable (S), unstable (U), not converged (N); iterations per step where the scheme iterates",
+    outputs.write(csv_id, |w| w.write_all(csv.as_bytes()))?;
+
+    let mut text = format!(
+        "{}: stable (S), unstable (U), not converged (N), infeasible pose (–); iterations per step where the scheme iterates\n",
         scene.name
     );
-    for (k, name) in schemes.iter().enumerate() {
-        let mut grid = Grid::new(&dts, &ratios)
-            .category("stable", Color::SKY_BLUE)
-            .category("unstable", Color::VERMILLION)
-            .category("not converged", Color::ORANGE)
-            .category("infeasible pose", Color::LIGHT_GREY);
+    let mut panels = Vec::new();
+    for &name in &args.schemes {
+        let mut cells = Vec::new();
         let mut table =
             Table::new(std::iter::once("mass factor".to_string()).chain(dts.iter().map(|d| format!("h = {d}"))));
         for (iy, &f) in ratios.iter().enumerate() {
-            let mut cells = vec![format!("×{f}")];
+            let mut row = vec![format!("×{f}")];
             for (ix, &dt) in dts.iter().enumerate() {
-                let r = rows.iter().find(|r| &r.0 == name && r.1 == f && r.2 == dt).expect("every cell was run");
-                let iterating = matches!(*name, "iterative" | "ijcsa" | "iqn-ils");
-                let text = if r.3 == Verdict::Stable && iterating { format!("{:.1}", r.4) } else { String::new() };
-                grid.set(ix, iy, r.3 as usize, &text);
-                cells.push(match r.3 {
+                let r = rows.iter().find(|r| r.0 == name && r.1 == f && r.2 == dt).expect("every cell was run");
+                let iterating = name.iterates();
+                let note = if r.3 == Verdict::Stable && iterating { format!("{:.1}", r.4) } else { String::new() };
+                cells.push(Cell { ix, iy, category: r.3 as usize, text: note });
+                row.push(match r.3 {
                     Verdict::Stable if iterating => format!("S {:.1}", r.4),
                     Verdict::Stable => "S".into(),
                     Verdict::Unstable => "U".into(),
@@ -180,23 +190,36 @@ pub fn run(args: &Args) -> CmdResult {
                     Verdict::Infeasible => "–".into(),
                 });
             }
-            table.row(cells);
+            table.row(row);
         }
-        fig.panel(|p| {
-            p.title(name)
-                .x_scale(Scale::Log10)
-                .y_scale(Scale::Log10)
-                .x_label("macro step h (s)")
-                .y_label("platform mass factor")
-                .legend(if k == 0 { Legend::Right } else { Legend::Hidden })
-                .grid(grid)
-        });
-        println!();
-        println!("{name}:");
-        print!("{}", table.render());
+        panels.push(MapPanel { title: name.as_str(), cells });
+        text.push_str(&format!("\n{}:\n{}", name.as_str(), table.render()));
     }
-    fig.write_svg(&svg)?;
-    println!();
-    println!("{} and {} written", csv_path.display(), svg.display());
+    let categories = [
+        ("stable", CATEGORY_COLORS[0]),
+        ("unstable", CATEGORY_COLORS[1]),
+        ("not converged", CATEGORY_COLORS[2]),
+        ("infeasible pose", CATEGORY_COLORS[3]),
+    ];
+    let svg = stability_map(
+        &format!(
+            "{}: stability over the platform's mass factor and the macro step ({} s runs)",
+            scene.name, args.t_end
+        ),
+        "macro step h (s)",
+        "platform mass factor",
+        dts,
+        ratios,
+        &categories,
+        &panels,
+    )
+    .context("drawing the stability map")?;
+    outputs.write(svg_id, |w| w.write_all(svg.as_bytes()))?;
+    let (csv_path, svg_path) = (outputs.path(csv_id).to_owned(), outputs.path(svg_id).to_owned());
+    outputs.commit()?;
+    let mut out = std::io::stdout().lock();
+    write!(out, "{text}")?;
+    writeln!(out)?;
+    writeln!(out, "{} and {} written", csv_path.display(), svg_path.display())?;
     Ok(())
 }

@@ -1,29 +1,34 @@
 //! `master statics`: form-finding statics of the scene's target pose.
 
+use std::io::Write;
 use std::path::PathBuf;
 
+use anyhow::Context;
 use cable_fmu::net::CableNet;
 use cable_fmu::statics::{CableState, form_find};
-use feedcore::scene::Scene;
+use master::limits::{Footprint, check_memory};
 use master::table::Table;
 use serde_json::json;
 
-use super::CmdResult;
+use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML), e.g. scenes/lt50m_C.toml.
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Print JSON instead of a table: cabin_position [x, y, z] (m), cabin_orientation
     /// [w, x, y, z] (unit quaternion, body to world), and per cable unstretched_length_m,
     /// tension_anchor_n, tension_cabin_n, slack, nearly_slack, state, lowest_point_z_m.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
 }
 
-pub fn run(args: &Args) -> CmdResult {
-    let scene = Scene::load(&args.scene)?;
+pub(crate) fn run(args: &Args) -> CmdResult {
+    let scene = load_scene(&args.scene)?;
+    let mut out = std::io::stdout().lock();
+    check_memory(&scene, Footprint::CableModel, false, &caps().run)
+        .with_context(|| format!("{}: the form-finding cannot start", args.scene.display()))?;
     let net = CableNet::from_scene(&scene);
     let eq = form_find(&net, scene.target_position(), scene.target_orientation())?;
     let q = eq.orientation;
@@ -46,7 +51,7 @@ pub fn run(args: &Args) -> CmdResult {
                 })
             })
             .collect();
-        let out = json!({
+        let json_out = json!({
             "scene": scene.name,
             "cabin_position": eq.position.as_slice(),
             "cabin_orientation": [q.w, q.i, q.j, q.k],
@@ -54,22 +59,24 @@ pub fn run(args: &Args) -> CmdResult {
             "residual_n": eq.residual,
             "cables": cables,
         });
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&json_out)?)?;
         return Ok(());
     }
-    println!("Form-finding statics: {} ({})", scene.name, args.scene.display());
-    println!(
+    writeln!(out, "Form-finding statics: {} ({})", scene.name, args.scene.display())?;
+    writeln!(
+        out,
         "cabin centre point at ({:.4}, {:.4}, {:.4}) m, orientation (w, x, y, z) = ({:.9}, {:.9}, {:.9}, {:.9})",
         eq.position.x, eq.position.y, eq.position.z, q.w, q.i, q.j, q.k
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "suspended: {:.1} kg (cabin {:.1} kg, Stewart platform locked at its start {:.1} kg), {} elements per cable",
         net.suspended().mass,
         net.cabin.mass,
         net.payload.mass,
         net.spec.elements
-    );
-    println!();
+    )?;
+    writeln!(out)?;
     let mut t = Table::new(["cable", "azimuth °", "unstretched m", "T anchor N", "T cabin N", "lowest z m", "state"]);
     for (i, c) in eq.cables.iter().enumerate() {
         let state = match c.state {
@@ -87,11 +94,12 @@ pub fn run(args: &Args) -> CmdResult {
             state.to_string(),
         ]);
     }
-    print!("{}", t.render());
-    println!();
-    println!(
+    write!(out, "{}", t.render())?;
+    writeln!(out)?;
+    writeln!(
+        out,
         "Tensions are the axial forces of the end elements; residual of the cabin equations {:.1e} N.",
         eq.residual
-    );
+    )?;
     Ok(())
 }

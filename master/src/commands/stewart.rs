@@ -1,22 +1,22 @@
 //! `master stewart`: the Stewart platform on a fixed cabin at the scene's target pose: its added
 //! mass, static wrench, and the wrench and actuator-force range over one circle of the platform.
 
+use std::io::Write;
 use std::path::PathBuf;
 
-use feedcore::scene::Scene;
 use master::table::Table;
 use nalgebra::Vector6;
 use serde_json::json;
 use stewart_fmu::{CabinMotion, Stewart};
 
-use super::CmdResult;
+use super::{CmdResult, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene file (TOML), e.g. scenes/lt50m_B.toml. The cabin is held at the scene's target pose
     /// and the platform runs the scene's motion, sampled every `solver.dt_s`.
     #[arg(long)]
-    pub scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Print JSON instead of tables. Keys (world frame; 6-vectors and matrix rows/columns are
     /// force then moment, moments about the cabin centre point; SI units): added_mass (6×6, the
     /// locked spatial mass matrix, = −∂wrench/∂(a, α)), static_wrench (platform at rest at its
@@ -25,13 +25,14 @@ pub struct Args {
     /// max} per leg (tension positive), plus scene, total_mass_kg, cabin_position,
     /// cabin_orientation [w, x, y, z], revolution_s, samples.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
 }
 
 const LABELS: [&str; 6] = ["Fx N", "Fy N", "Fz N", "Mx N·m", "My N·m", "Mz N·m"];
 
-pub fn run(args: &Args) -> CmdResult {
-    let scene = Scene::load(&args.scene)?;
+pub(crate) fn run(args: &Args) -> CmdResult {
+    let scene = load_scene(&args.scene)?;
+    let mut out = std::io::stdout().lock();
     let st = Stewart::from_scene(&scene)?;
     let (position, orientation) = (scene.target_position(), scene.target_orientation());
     let cabin = CabinMotion::at_rest(position, orientation);
@@ -46,7 +47,7 @@ pub fn run(args: &Args) -> CmdResult {
     if args.json {
         let rows: Vec<Vec<f64>> = (0..6).map(|i| added.row(i).iter().copied().collect()).collect();
         let q = orientation;
-        let out = json!({
+        let json_out = json!({
             "scene": scene.name,
             "total_mass_kg": st.total_mass(),
             "cabin_position": position.as_slice(),
@@ -64,27 +65,29 @@ pub fn run(args: &Args) -> CmdResult {
                 "max": range.actuator_max,
             },
         });
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&json_out)?)?;
         return Ok(());
     }
 
-    println!("Stewart platform on a fixed cabin: {} ({})", scene.name, args.scene.display());
-    println!(
+    writeln!(out, "Stewart platform on a fixed cabin: {} ({})", scene.name, args.scene.display())?;
+    writeln!(
+        out,
         "cabin centre point at ({:.4}, {:.4}, {:.4}) m; moving mass {:.1} kg; world frame, moments about the cabin centre point",
         position.x,
         position.y,
         position.z,
         st.total_mass()
-    );
-    println!();
-    println!("Added mass at the starting pose (locked spatial mass matrix; kg, kg·m, kg·m²):");
+    )?;
+    writeln!(out)?;
+    writeln!(out, "Added mass at the starting pose (locked spatial mass matrix; kg, kg·m, kg·m²):")?;
     let mut t = Table::new(["", "ax", "ay", "az", "αx", "αy", "αz"]);
     for (i, label) in ["Fx", "Fy", "Fz", "Mx", "My", "Mz"].iter().enumerate() {
         t.row(std::iter::once(label.to_string()).chain(added.row(i).iter().map(|x| format!("{x:.4}"))));
     }
-    print!("{}", t.render());
-    println!();
-    println!(
+    write!(out, "{}", t.render())?;
+    writeln!(out)?;
+    writeln!(
+        out,
         "Wrench on the cabin: at rest, and over the first revolution ({:.2} s, {} samples, {} start):",
         range.duration,
         range.samples,
@@ -92,7 +95,7 @@ pub fn run(args: &Args) -> CmdResult {
             feedcore::scene::Start::Abrupt => "abrupt",
             feedcore::scene::Start::Ramp => "ramped",
         }
-    );
+    )?;
     let mut t = Table::new(["", "static", "min", "max", "max − min"]);
     let (lo, hi): (&Vector6<f64>, &Vector6<f64>) = (&range.wrench_min, &range.wrench_max);
     for i in 0..6 {
@@ -104,9 +107,9 @@ pub fn run(args: &Args) -> CmdResult {
             format!("{:.4}", hi[i] - lo[i]),
         ]);
     }
-    print!("{}", t.render());
-    println!();
-    println!("Actuator forces, N (tension positive):");
+    write!(out, "{}", t.render())?;
+    writeln!(out)?;
+    writeln!(out, "Actuator forces, N (tension positive):")?;
     let mut t = Table::new(["leg", "static", "min", "max"]);
     for k in 0..static_forces.len() {
         t.row([
@@ -116,7 +119,7 @@ pub fn run(args: &Args) -> CmdResult {
             format!("{:.3}", range.actuator_max[k]),
         ]);
     }
-    print!("{}", t.render());
-    println!("peak actuator force |F| = {:.3} N", range.actuator_force_max());
+    write!(out, "{}", t.render())?;
+    writeln!(out, "peak actuator force |F| = {:.3} N", range.actuator_force_max())?;
     Ok(())
 }

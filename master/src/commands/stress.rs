@@ -4,7 +4,7 @@
 //! agreement of IJCSA with the monolithic model. (The cable-only and free-body stress tests are
 //! in the test suite.)
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use feedcore::scene::{Scene, Start};
@@ -12,19 +12,19 @@ use master::cosim::{Extrapolation, JacobianUpdate, Options, Relaxation, Scheme};
 use master::simulate::{Method, Trace, simulate, write_variant};
 use master::table::Table;
 
-use super::CmdResult;
+use super::{CmdResult, load_scene};
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Scene C (the centre of the workspace) …
     #[arg(long, default_value = "scenes/lt50m_C.toml")]
-    pub scene_c: PathBuf,
+    pub(crate) scene_c: PathBuf,
     /// … and scene B (the edge, with the nearly slack cable).
     #[arg(long, default_value = "scenes/lt50m_B.toml")]
-    pub scene_b: PathBuf,
+    pub(crate) scene_b: PathBuf,
     /// Durations divided by 50 (a check that every case runs, for the test suite).
     #[arg(long)]
-    pub quick: bool,
+    pub(crate) quick: bool,
 }
 
 fn ijcsa() -> Method {
@@ -75,19 +75,19 @@ fn fast_part(t: &Trace) -> f64 {
     (total / power).sqrt()
 }
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let quiet = !std::io::stderr().is_terminal();
     let scale = if args.quick { 1.0 / 50.0 } else { 1.0 };
-    let c = Scene::load(&args.scene_c)?;
-    let b = Scene::load(&args.scene_b)?;
+    let c = load_scene(&args.scene_c)?;
+    let b = load_scene(&args.scene_b)?;
     let mut table = Table::new(["case", "result", "figures"]);
     let mut failures = 0;
-    let mut report = |case: &str, r: Result<String, Box<dyn std::error::Error>>| {
+    let mut report = |case: &str, r: anyhow::Result<String>| {
         match r {
             Ok(figures) => table.row([case.to_string(), "ok".into(), figures]),
             Err(e) => {
                 failures += 1;
-                table.row([case.to_string(), "FAILED".into(), e.to_string()]);
+                table.row([case.to_string(), "FAILED".into(), format!("{e:#}")]);
             }
         }
         eprintln!("{case}: done");
@@ -117,7 +117,8 @@ pub fn run(args: &Args) -> CmdResult {
             let (early, late) = thirds(&t);
             Ok(format!(
                 "constraint residual ≤ {:.1e} m; peak first third {early:.3} mm, last third {late:.3} mm; {:.1} s wall",
-                t.constraint_residual, t.wall_time_s
+                t.constraint_residual(),
+                t.wall_time_s
             ))
         })(),
     );
@@ -136,7 +137,7 @@ pub fn run(args: &Args) -> CmdResult {
                     m.peak_mm(),
                     j.error_against(&m).0,
                     j.mean_iterations(),
-                    m.constraint_residual
+                    m.constraint_residual()
                 ))
             })(),
         );
@@ -176,9 +177,9 @@ pub fn run(args: &Args) -> CmdResult {
             Ok(format!("drift: ijcsa {:.1e} mm, monolithic {:.1e} mm", j.peak_mm(), m.peak_mm()))
         })(),
     );
-    print!("{}", table.render());
+    write!(std::io::stdout().lock(), "{}", table.render())?;
     if failures > 0 {
-        return Err(format!("{failures} stress case(s) failed").into());
+        anyhow::bail!("{failures} stress case(s) failed");
     }
     Ok(())
 }

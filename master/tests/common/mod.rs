@@ -22,7 +22,7 @@ fn library(name: &str) -> PathBuf {
 }
 
 /// Both FMUs, packaged once per test binary.
-pub fn fmu_dir() -> &'static Path {
+pub(crate) fn fmu_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("master-tests-{}", std::process::id()));
@@ -32,13 +32,13 @@ pub fn fmu_dir() -> &'static Path {
     })
 }
 
-pub fn scene_path(name: &str) -> PathBuf {
+pub(crate) fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR")))
 }
 
 /// A reference scene, edited by `edit`, written to a private file whose [system] names the
 /// packaged FMUs; returns the scene and its file.
-pub fn scene(name: &str, tag: &str, edit: impl FnOnce(&mut Scene)) -> (Scene, PathBuf) {
+pub(crate) fn scene(name: &str, tag: &str, edit: impl FnOnce(&mut Scene)) -> (Scene, PathBuf) {
     let mut s = Scene::load(scene_path(name)).unwrap();
     edit(&mut s);
     let dir = fmu_dir();

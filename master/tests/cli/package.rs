@@ -26,7 +26,7 @@ fn scratch(name: &str) -> PathBuf {
 #[test]
 fn package_writes_every_exportable_fmu_and_they_run() {
     let out = scratch("ok");
-    let status = Command::new(env!("CARGO_BIN_EXE_master"))
+    let status = Command::new(crate::MASTER)
         .args(["package", "--out"])
         .arg(&out)
         .arg("--lib-dir")
@@ -55,13 +55,8 @@ fn a_missing_library_names_the_cargo_command() {
     let out = scratch("missing");
     let empty = scratch("empty-libs");
     std::fs::create_dir_all(&empty).unwrap();
-    let r = Command::new(env!("CARGO_BIN_EXE_master"))
-        .args(["package", "--out"])
-        .arg(&out)
-        .arg("--lib-dir")
-        .arg(&empty)
-        .output()
-        .unwrap();
+    let r =
+        Command::new(crate::MASTER).args(["package", "--out"]).arg(&out).arg("--lib-dir").arg(&empty).output().unwrap();
     assert!(!r.status.success());
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(

@@ -1,7 +1,7 @@
 //! IJCSA with the FMUs' step-map extension (`feedsimGetStepMapDerivative`) against IJCSA with
 //! finite differences and rollback (the same cable FMU with the extension not announced).
 
-mod common;
+use crate::common;
 
 use master::cosim::{Extrapolation, JacobianUpdate, Options, Relaxation, Scheme};
 use master::simulate::{Method, simulate};

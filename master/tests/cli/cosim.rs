@@ -1,6 +1,6 @@
 //! The co-simulation schemes on the packaged FMUs against the monolithic model.
 
-mod common;
+use crate::common;
 
 use master::cosim::{Coupled, Extrapolation, FmuSystem, JacobianUpdate, Options, Relaxation, Scheme, Units};
 use master::simulate::{Method, Trace, simulate};

@@ -1,12 +1,6 @@
 //! `master run` and `master compare` from the command line: outputs, files and exit codes.
 
-mod common;
-
-use std::process::Command;
-
-fn master(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_master")).args(args).output().unwrap()
-}
+use crate::{common, master};
 
 #[test]
 fn run_writes_json_csv_and_plot() {
@@ -69,7 +63,8 @@ fn failures_exit_non_zero_with_a_reason() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("did not converge in 2 iterations"));
     let out = master(&["run", "--scene", f, "--scheme", "newton", "--quiet"]);
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown scheme `newton`"));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("'newton'") && err.contains("ijcsa") && err.contains("monolithic"), "{err}");
     let out = master(&["run", "--scene", f, "--scheme", "ijcsa", "--plot", "x.png", "--t-end", "0.02", "--quiet"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("only SVG"));
@@ -163,4 +158,60 @@ fn every_stress_case_runs() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}\n{}", String::from_utf8_lossy(&out.stderr));
     assert_eq!(text.lines().filter(|l| l.contains("  ok  ")).count(), 7, "{text}");
+}
+
+/// The peak and every summary figure come from every step, not from the samples: sampled every
+/// 0.3 s (at h = 0.1 s), the JSON peak is that of the same run sampled at every step, which
+/// the CSV of the latter confirms.
+#[test]
+fn the_summary_comes_from_every_step() {
+    let dir = common::fmu_dir();
+    let run = |interval: f64, csv: &std::path::Path| {
+        let (_, file) =
+            common::scene("lt50m_C.toml", &format!("every-{interval}"), |s| s.outputs.sample_interval_s = interval);
+        let out = master(&[
+            "run",
+            "--scene",
+            file.to_str().unwrap(),
+            "--scheme",
+            "monolithic",
+            "--dt",
+            "0.1",
+            "--t-end",
+            "20",
+            "--json",
+            "--out",
+            csv.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let (coarse_csv, fine_csv) = (dir.join("every-coarse.csv"), dir.join("every-fine.csv"));
+    let coarse = run(0.25, &coarse_csv);
+    let fine = run(0.1, &fine_csv);
+    assert_eq!(coarse["sample_interval_s"].as_f64(), Some(0.30000000000000004));
+    assert_eq!(fine["sample_interval_s"].as_f64(), Some(0.1));
+    // per axis, the largest |displacement| in a CSV; and the largest distance
+    let maxima = |csv: &std::path::Path| {
+        let mut m = [0.0f64; 4];
+        for l in std::fs::read_to_string(csv).unwrap().lines().skip(1) {
+            let v: Vec<f64> = l.split(',').skip(1).take(3).map(|x| x.parse().unwrap()).collect();
+            for k in 0..3 {
+                m[k] = m[k].max(v[k].abs());
+            }
+            m[3] = m[3].max((v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt());
+        }
+        m
+    };
+    let (every_step, sampled) = (maxima(&fine_csv), maxima(&coarse_csv));
+    for v in [&coarse, &fine] {
+        let peak = v["peak_disp_mm"].as_f64().unwrap();
+        assert!((peak - every_step[3]).abs() <= 1e-12 * peak, "{peak} against {every_step:?}");
+        for k in 0..3 {
+            assert_eq!(v["max_abs_disp_mm"][k].as_f64().unwrap(), every_step[k]);
+        }
+    }
+    assert!((0..4).all(|k| sampled[k] <= every_step[k]));
+    assert!((0..3).any(|k| sampled[k] < every_step[k]), "the samples miss a peak here: {sampled:?} {every_step:?}");
+    assert_eq!(coarse["max_abs_disp_mm"], fine["max_abs_disp_mm"]);
 }

@@ -10,7 +10,7 @@ fn scene_path(name: &str) -> String {
 }
 
 fn run_json(args: &[&str]) -> serde_json::Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_master")).args(args).output().unwrap();
+    let out = Command::new(crate::MASTER).args(args).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     serde_json::from_slice(&out.stdout).unwrap()
 }
@@ -57,10 +57,7 @@ fn a_bad_scene_fails_with_the_key_and_value() {
     let text =
         std::fs::read_to_string(scene_path("lt50m_C.toml")).unwrap().replace("mass_kg = 720.0", "mass_kg = -720.0");
     std::fs::write(&bad, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_master"))
-        .args(["statics", "--scene", bad.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let out = Command::new(crate::MASTER).args(["statics", "--scene", bad.to_str().unwrap()]).output().unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("bad.toml") && err.contains("cabin.mass_kg") && err.contains("-720"), "{err}");

@@ -274,3 +274,141 @@ fn run_system_writes_every_output() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("runs only the LT50m scene"));
 }
+
+/// The pair with `a` ending the run after 50 steps (fmi2Discard): the run ends there, at the last
+/// communication point, with exit 0, a note, the JSON saying so, and the CSV up to that point.
+#[test]
+fn run_system_ends_early_when_a_component_says_so() {
+    let dir = test_dir("discard");
+    let ssd = pair_ssd(&dir, "");
+    let text = std::fs::read_to_string(&ssd).unwrap();
+    let ends = r#"<ssv:Parameter name="substeps"><ssv:Integer value="3"/></ssv:Parameter>
+                  <ssv:Parameter name="max_steps"><ssv:Integer value="50"/></ssv:Parameter>"#;
+    std::fs::write(
+        &ssd,
+        text.replace(r#"<ssv:Parameter name="substeps"><ssv:Integer value="3"/></ssv:Parameter>"#, ends),
+    )
+    .unwrap();
+    let csv = dir.join("early.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_master"))
+        .args(["run", "--system", ssd.to_str().unwrap(), "--scheme", "jacobi", "--dt", "0.01", "--json", "--out"])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("note: the run ended early at t = 0.5 s") && err.contains("component `a`"), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!((v["stopped_early"].as_bool(), v["stopped_at"].as_f64()), (Some(true), Some(0.5)), "{v}");
+    assert!(v["note"].as_str().unwrap().contains("fmi2Discard"), "{v}");
+    assert_eq!(v["steps"], 50);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert_eq!(text.lines().count(), 1 + 51);
+    assert!(text.lines().last().unwrap().starts_with("0.5,"), "{}", text.lines().last().unwrap());
+}
+
+/// The outputs and the steps of a system run are checked before it starts (an input as output,
+/// a plot that is not SVG, an end time that is no whole number of steps, --dt with --adaptive);
+/// a run that fails removes an earlier result of the same name.
+#[test]
+fn run_system_checks_before_running_and_leaves_no_stale_output() {
+    let dir = test_dir("misuse");
+    let ssd = pair_ssd(&dir, "");
+    let run = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_master"))
+            .args(["run", "--system", ssd.to_str().unwrap(), "--quiet"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let refused = |out: std::process::Output, needles: &[&str]| {
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "`{n}` missing: {err}");
+        }
+    };
+    let ssd_text = std::fs::read(&ssd).unwrap();
+    refused(run(&["--scheme", "jacobi", "--dt", "0.01", "--out", ssd.to_str().unwrap()]), &["input of the run"]);
+    let fmu = dir.join("oscillator.fmu");
+    refused(run(&["--scheme", "jacobi", "--dt", "0.01", "--out", fmu.to_str().unwrap()]), &["input of the run"]);
+    assert_eq!(std::fs::read(&ssd).unwrap(), ssd_text);
+    let png = dir.join("x.png");
+    refused(run(&["--scheme", "jacobi", "--dt", "0.01", "--plot", png.to_str().unwrap()]), &["SVG"]);
+    refused(run(&["--scheme", "jacobi", "--dt", "0.3"]), &["not a whole number of steps", "1.8 s or 2.1 s"]);
+    refused(run(&["--scheme", "ijcsa", "--adaptive", "--dt", "0.01"]), &["--dt", "adaptive"]);
+    refused(run(&["--scheme", "jacobi", "--adaptive"]), &["--adaptive", "jacobi"]);
+    refused(run(&["--scheme", "jacobi"]), &["--dt"]);
+    // a coupling a thousand times stiffer: Jacobi runs away, and the earlier CSV goes
+    let csv = dir.join("r.csv");
+    std::fs::write(&csv, "earlier").unwrap();
+    let text = std::fs::read_to_string(&ssd).unwrap();
+    std::fs::write(&ssd, text.replace(r#"factor="15""#, r#"factor="15000""#)).unwrap();
+    let out = run(&["--scheme", "jacobi", "--dt", "0.01", "--out", csv.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr).to_string();
+    refused(out, &["stopped at t = ", "unstable", "removed"]);
+    assert!(!csv.exists(), "{err}");
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "temporary files left: {left:?}");
+}
+
+/// The pair with the adaptive step: it lands on the end time of the DefaultExperiment, its
+/// response approaches a fine fixed step as the tolerance tightens, and the plot shows every
+/// Real output, a panel per component. (Not within rtol × range: this pair's coupling converges
+/// at first order in the step — the fixed steps show it — and the step's error estimate assumes
+/// second order; b.x ends 9.8e-3, 2.7e-3, 7.3e-4 of its range off at rtol 1e-2, 1e-3, 1e-4.)
+#[test]
+fn run_system_with_the_adaptive_step_and_a_plot() {
+    let dir = test_dir("adaptive");
+    let ssd = pair_ssd(&dir, "");
+    let run = |csv: &Path, extra: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_master"))
+            .args(["run", "--system", ssd.to_str().unwrap(), "--scheme", "ijcsa", "--json", "--out"])
+            .arg(csv)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v = serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap();
+        let rows: Vec<Vec<f64>> = std::fs::read_to_string(csv)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
+        (v, rows)
+    };
+    let (_, fine) = run(&dir.join("fixed.csv"), &["--dt", "0.000125"]);
+    // columns: time, a.x, a.v, a.a, a.steps, b.x, …: the positions at the end against the fine run
+    let end = fine.last().unwrap();
+    let range = |col: usize| fine.iter().map(|r| (r[col] - fine[0][col]).abs()).fold(0.0, f64::max);
+    let mut errors = Vec::new();
+    for rtol in ["1e-2", "1e-3", "1e-4"] {
+        let svg = dir.join(format!("pair-{rtol}.svg"));
+        let (v, rows) = run(
+            &dir.join(format!("adaptive-{rtol}.csv")),
+            &["--adaptive", "--rtol", rtol, "--plot", svg.to_str().unwrap()],
+        );
+        assert_eq!((v["adaptive"].as_bool(), v["t_end"].as_f64()), (Some(true), Some(2.0)));
+        assert!(v["dt"].is_null());
+        assert_eq!(rows.len() as u64, v["steps"].as_u64().unwrap() + 1);
+        assert_eq!(rows.last().unwrap()[0], 2.0, "the last step lands on the end time");
+        let error =
+            [1, 5].iter().map(|&col| (rows.last().unwrap()[col] - end[col]).abs() / range(col)).fold(0.0, f64::max);
+        eprintln!("rtol {rtol}: {} steps, end positions off by {error:.2e} of their ranges", rows.len() - 1);
+        errors.push(error);
+        let text = std::fs::read_to_string(&svg).unwrap();
+        let doc = roxmltree::Document::parse(&text).unwrap();
+        let labels: Vec<&str> =
+            doc.descendants().filter(|n| n.is_text()).filter_map(|n| n.text()).map(str::trim).collect();
+        for label in ["a", "b", "a.x", "a.v", "a.a", "b.x", "b.v", "b.a", "time (s)"] {
+            assert!(labels.contains(&label), "{label} missing from the plot: {labels:?}");
+        }
+    }
+    // every tenfold tighter tolerance at least halves the error
+    assert!(errors[1] < errors[0] / 2.0 && errors[2] < errors[1] / 2.0, "{errors:?}");
+}

@@ -16,8 +16,7 @@ fn vector(v: &serde_json::Value) -> Vec<f64> {
 #[test]
 fn stewart_json_matches_the_library() {
     let path = scene_path("lt50m_B.toml");
-    let out =
-        Command::new(env!("CARGO_BIN_EXE_master")).args(["stewart", "--scene", &path, "--json"]).output().unwrap();
+    let out = Command::new(crate::MASTER).args(["stewart", "--scene", &path, "--json"]).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     for key in ["added_mass", "static_wrench", "wrench_min", "wrench_max", "actuator_force_max_n", "actuator_forces_n"]
@@ -51,10 +50,7 @@ fn stewart_json_matches_the_library() {
 
 #[test]
 fn stewart_tables_and_errors_are_readable() {
-    let out = Command::new(env!("CARGO_BIN_EXE_master"))
-        .args(["stewart", "--scene", &scene_path("lt50m_C.toml")])
-        .output()
-        .unwrap();
+    let out = Command::new(crate::MASTER).args(["stewart", "--scene", &scene_path("lt50m_C.toml")]).output().unwrap();
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
     for part in ["Added mass", "Wrench on the cabin", "Actuator forces", "peak actuator force"] {
@@ -68,10 +64,7 @@ fn stewart_tables_and_errors_are_readable() {
     let text = scene.replacen("length_m = 0.8", "length_m = 1.5", 1);
     assert_ne!(text, scene);
     std::fs::write(&bad, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_master"))
-        .args(["stewart", "--scene", bad.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let out = Command::new(crate::MASTER).args(["stewart", "--scene", bad.to_str().unwrap()]).output().unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains("Stewart leg") && err.contains("t = 0 s"), "{err}");

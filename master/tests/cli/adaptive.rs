@@ -1,0 +1,145 @@
+//! The adaptive macro step from the command line: `run --adaptive` (its JSON and CSV against
+//! each other, the end time reached exactly, the accuracy against the monolithic model) and
+//! `bench --adaptive-rtols` (its table against the fixed-step one).
+
+use crate::{common, master};
+
+/// Rows of a CSV file: the header and the values.
+fn csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(str::to_string).collect();
+    let rows = lines.map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    (header, rows)
+}
+
+/// IQN-ILS with the adaptive step over 5 s at C: a CSV row per accepted step with the step that
+/// ended there, the steps adding up to the end time, which the last row reaches exactly; the
+/// JSON figures are those of the rows; and the response agrees with the monolithic model within
+/// rtol of the peak.
+#[test]
+fn an_adaptive_run_lands_on_the_end_time_and_meets_its_tolerance() {
+    let (_, file) = common::scene("lt50m_C.toml", "adaptive-cli", |_| {});
+    let f = file.to_str().unwrap();
+    let out_csv = common::fmu_dir().join("adaptive-cli.csv");
+    let out = master(&[
+        "run",
+        "--scene",
+        f,
+        "--scheme",
+        "iqn-ils",
+        "--adaptive",
+        "--rtol",
+        "1e-3",
+        "--t-end",
+        "5",
+        "--json",
+        "--out",
+        out_csv.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["adaptive"], true);
+    assert!(v["dt"].is_null() && v["sample_interval_s"].is_null(), "{v}");
+    let (header, rows) = csv(&out_csv);
+    assert_eq!(&header[..3], ["t", "h_s", "dx_mm"]);
+    let steps = v["steps"].as_u64().unwrap();
+    assert_eq!(rows.len() as u64, steps + 1, "a row per accepted step and the start");
+    assert_eq!((rows[0][0], rows[0][1]), (0.0, 0.0));
+    assert_eq!(rows.last().unwrap()[0], 5.0, "the last step lands on the end time");
+    for w in rows.windows(2) {
+        assert!((w[1][0] - w[0][0] - w[1][1]).abs() <= 1e-12, "{:?} → {:?}", w[0], w[1]);
+    }
+    let h: Vec<f64> = rows[1..].iter().map(|r| r[1]).collect();
+    let (h_min, h_max) = h.iter().fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(*x), b.max(*x)));
+    assert_eq!((v["h_min_used"].as_f64(), v["h_max_used"].as_f64()), (Some(h_min), Some(h_max)));
+    assert!(h_min >= 1e-5 && h_max <= 0.1 && h_max > 100.0 * h_min, "the step adapts: {h_min} … {h_max}");
+    assert!(v["rejected_steps"].as_u64().is_some());
+    // every accepted step is a row: the JSON maxima are the CSV's
+    for k in 0..3 {
+        let m = rows.iter().map(|r| r[2 + k].abs()).fold(0.0, f64::max);
+        assert_eq!(v["max_abs_disp_mm"][k].as_f64(), Some(m), "axis {k}");
+    }
+
+    // against the monolithic model at a fine fixed step
+    let out = master(&[
+        "compare",
+        "--scene",
+        f,
+        "--schemes",
+        "iqn-ils",
+        "--adaptive",
+        "--rtol",
+        "1e-3",
+        "--dt",
+        "0.0025",
+        "--t-end",
+        "5",
+        "--json",
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let c: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let peak = c["monolithic"]["peak_disp_mm"].as_f64().unwrap();
+    let error = c["schemes"][0]["max_error_mm"].as_f64().unwrap();
+    eprintln!(
+        "adaptive iqn-ils: {steps} steps, h {h_min:.1e} … {h_max:.1e}; {error:.2e} mm from monolithic, peak {peak:.2} mm"
+    );
+    assert!(peak > 1.0 && error <= 1e-3 * peak, "{error} mm at a peak of {peak} mm");
+    assert_eq!(c["schemes"][0]["peak_disp_mm"], v["peak_disp_mm"], "the same run");
+}
+
+/// `bench --adaptive-rtols`: a row per scheme that iterates and tolerance; the fixed step it
+/// names is the cheapest of the same scheme in bench.csv that is as accurate, and the cost
+/// ratio is the ratio of their wall times.
+#[test]
+fn bench_compares_the_adaptive_step_with_the_fixed_ones() {
+    let (_, file) = common::scene("lt50m_C.toml", "adaptive-bench", |_| {});
+    let dir = std::env::temp_dir().join(format!("master-adaptive-bench-{}", std::process::id()));
+    let out = master(&[
+        "bench",
+        "--scene",
+        file.to_str().unwrap(),
+        "--schemes",
+        "ijcsa,jacobi",
+        "--dts",
+        "0.04,0.02,0.01",
+        "--t-end",
+        "2",
+        "--repeats",
+        "1",
+        "--adaptive-rtols",
+        "1e-2",
+        "--out",
+        dir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let field = |line: &str, k: usize| line.split(',').nth(k).unwrap().to_string();
+    let adaptive = std::fs::read_to_string(dir.join("bench_adaptive.csv")).unwrap();
+    let lines: Vec<&str> = adaptive.lines().collect();
+    assert!(lines[0].starts_with("scheme,rtol,wall_time_s,max_error_mm"), "{}", lines[0]);
+    assert_eq!(lines.len(), 2, "ijcsa only (jacobi does not iterate): {adaptive}");
+    let row = lines[1];
+    assert_eq!((field(row, 0).as_str(), field(row, 1).as_str()), ("ijcsa", "1e-2"));
+    let (wall, error): (f64, f64) = (field(row, 2).parse().unwrap(), field(row, 3).parse().unwrap());
+    assert!(field(row, 5).parse::<u64>().unwrap() > 0);
+    let fixed = std::fs::read_to_string(dir.join("bench.csv")).unwrap();
+    // (dt, wall, max error) of the fixed ijcsa runs
+    let ijcsa: Vec<(f64, f64, f64)> = fixed
+        .lines()
+        .filter(|l| l.starts_with("ijcsa,"))
+        .map(|l| (field(l, 1).parse().unwrap(), field(l, 2).parse().unwrap(), field(l, 3).parse().unwrap()))
+        .collect();
+    assert_eq!(ijcsa.len(), 3);
+    let cheapest = ijcsa.iter().filter(|r| r.2 <= error).min_by(|a, b| a.1.total_cmp(&b.1));
+    match cheapest {
+        Some(&(dt, fixed_wall, _)) => {
+            assert_eq!(field(row, 9).parse::<f64>().unwrap(), dt);
+            assert_eq!(field(row, 10).parse::<f64>().unwrap(), fixed_wall);
+            assert_eq!(field(row, 11).parse::<f64>().unwrap(), wall / fixed_wall);
+        }
+        None => assert_eq!(field(row, 9), "", "no fixed step is as accurate: {row}"),
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,0 +1,39 @@
+//! The `master` command line as its users drive it, the figures it draws, and the methods
+//! behind it on the packaged FMUs; one test binary (one link instead of one per file, and the
+//! tests of every module share the cores).
+//!
+//! * `run`, `analyses`, `stewart`, `package`: what each command prints and writes;
+//! * `adaptive`: the adaptive macro step through `run`, `compare` and `bench`;
+//! * `plots`: the SVG figures read back;
+//! * `misuse`: careless and hostile use of the command line;
+//! * `mutants`: every scene key set to hostile values, each outcome classified;
+//! * `monolithic`: the eq. (7) reference model (rest, constraint drift, convergence in h);
+//! * `cosim`: the coupling schemes and the adaptive step against the monolithic model;
+//! * `step_map`: IJCSA with the FMUs' step-map extension against finite differences;
+//! * `ssp_system`: SSP systems of FMUs that know nothing of the project's physics.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod adaptive;
+mod analyses;
+mod cosim;
+mod misuse;
+mod monolithic;
+mod mutants;
+mod package;
+mod plots;
+mod run;
+mod ssp_system;
+mod step_map;
+mod stewart;
+
+use std::process::{Command, Output};
+
+/// The `master` binary under test.
+pub(crate) const MASTER: &str = env!("CARGO_BIN_EXE_master");
+
+/// Runs `master` with `args` and waits for it.
+pub(crate) fn master(args: &[&str]) -> Output {
+    Command::new(MASTER).args(args).output().unwrap()
+}
