@@ -80,7 +80,11 @@ impl CableCabin {
         let cfg = locked.config_from(&equilibrium);
         let d = &scene.damping;
         let needed = d.fit_modes.map_or(0, |m| m[1]).max(mode_count);
-        let modes = if needed > 0 { Some(modes(&locked, &cfg, needed).map_err(ModelError::Modes)?) } else { None };
+        let modes = if needed > 0 {
+            Some(modes(&locked, &cfg, needed).map_err(|e| ModelError::Modes(e.to_string()))?)
+        } else {
+            None
+        };
         let frequencies_hz = match (d.fit_modes, d.fit_frequencies_hz, &modes) {
             (Some([a, b]), _, Some(md)) => {
                 if b > md.frequencies_hz.len() {
