@@ -5,11 +5,15 @@
 //! * [`plot`]: SVG figures (time histories like the paper's Figs. 4–5, log–log work–precision);
 //! * [`simulate`]: one run of a method (monolithic, a co-simulation scheme, decoupled) as a trace;
 //! * [`progress`]: a progress bar for long runs on a terminal;
-//! * [`table`]: plain-text tables.
+//! * [`table`]: plain-text tables;
+//! * [`parallel`]: independent cases on every core, results in order;
+//! * [`sweep`]: grids over the workspace and the parameters, their tables and maps.
 
 pub mod cosim;
 pub mod monolithic;
+pub mod parallel;
 pub mod plot;
 pub mod progress;
 pub mod simulate;
+pub mod sweep;
 pub mod table;

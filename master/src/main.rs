@@ -39,6 +39,8 @@ enum Command {
     Bench(commands::bench::Args),
     /// Stability map of the coupling schemes over the platform's mass and the macro step.
     Stability(commands::stability::Args),
+    /// Statics, first frequencies and short coupled runs over a grid of poses and parameters, on every core.
+    Sweep(commands::sweep::Args),
     /// Long and hard runs (1000 s, stiff cables, fine nets, slack cable, abrupt start) with their bounds.
     Stress(commands::stress::Args),
     /// Build the FMI 2.0 Co-Simulation archives cable_fmu.fmu and stewart_fmu.fmu.
@@ -58,6 +60,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => commands::compare::run(&args),
         Command::Bench(args) => commands::bench::run(&args),
         Command::Stability(args) => commands::stability::run(&args),
+        Command::Sweep(args) => commands::sweep::run(&args),
         Command::Stress(args) => commands::stress::run(&args),
         Command::Package(args) => commands::package::run(&args),
         Command::Replay(args) => commands::replay::run(&args),

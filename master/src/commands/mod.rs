@@ -11,6 +11,7 @@ pub mod stability;
 pub mod statics;
 pub mod stewart;
 pub mod stress;
+pub mod sweep;
 
 /// Errors reach the user as one readable message.
 pub type CmdResult = Result<(), Box<dyn std::error::Error>>;
