@@ -37,6 +37,9 @@ pub struct Args {
     /// No progress bars.
     #[arg(long)]
     pub quiet: bool,
+    /// Worker threads: the runs are independent (default: one per core).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    pub jobs: Option<u16>,
     #[command(flatten)]
     pub options: SchemeOptions,
 }
@@ -84,48 +87,50 @@ pub fn run(args: &Args) -> CmdResult {
     let dts = list(&args.dts, "--dts")?;
     let quiet = args.quiet || !std::io::stderr().is_terminal();
     let schemes: Vec<&str> = args.schemes.split(',').map(str::trim).filter(|s| !s.is_empty()).collect();
-    let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
+    let mut cases = Vec::new(); // (scheme, ratio, dt, method, variant scene, its file)
     for (ir, &f) in ratios.iter().enumerate() {
         let (variant, file) =
             write_variant(&scaled(&scene, f), &args.scene, &format!("stability-{}-{ir}", scene.name))?;
         for name in &schemes {
             let method = args.options.method(name)?;
             for &dt in &dts {
-                eprintln!("{name}, mass ×{f}, h = {dt} s …");
-                let (verdict, iterations, note) = match simulate(&variant, &file, method, dt, args.t_end, quiet) {
-                    Ok(t) => {
-                        // a run that ends but keeps growing is not stable either
-                        let n = t.disp_mm.len();
-                        let peak = |r: std::ops::Range<usize>| {
-                            t.disp_mm[r].iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()))
-                        };
-                        let (early, late) = (peak(0..n / 3), peak(2 * n / 3..n));
-                        if late > 10.0 * early.max(1e-9) {
-                            (
-                                Verdict::Unstable,
-                                t.mean_iterations(),
-                                format!("growing: peak {early:.2e} → {late:.2e} mm"),
-                            )
-                        } else {
-                            (Verdict::Stable, t.mean_iterations(), String::new())
-                        }
-                    }
-                    Err(e) => {
-                        let e = e.to_string();
-                        let v = if e.contains("infeasible") {
-                            Verdict::Infeasible
-                        } else if e.contains("did not converge in") && !e.contains("unstable") {
-                            Verdict::NotConverged
-                        } else {
-                            Verdict::Unstable
-                        };
-                        (v, f64::NAN, e)
-                    }
-                };
-                rows.push((name.to_string(), f, dt, verdict, iterations, note));
+                cases.push((name.to_string(), f, dt, method, variant.clone(), file.clone()));
             }
         }
     }
+    // every case on its own core; progress bars only when one case runs at a time
+    let jobs = args.jobs.map(usize::from);
+    let quiet = quiet || master::parallel::threads(jobs) > 1;
+    let rows = master::parallel::map_in_order(&cases, jobs, |_, (name, f, dt, method, variant, file)| {
+        let (f, dt) = (*f, *dt);
+        eprintln!("{name}, mass ×{f}, h = {dt} s …");
+        let (verdict, iterations, note) = match simulate(variant, file, *method, dt, args.t_end, quiet) {
+            Ok(t) => {
+                // a run that ends but keeps growing is not stable either
+                let n = t.disp_mm.len();
+                let peak =
+                    |r: std::ops::Range<usize>| t.disp_mm[r].iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+                let (early, late) = (peak(0..n / 3), peak(2 * n / 3..n));
+                if late > 10.0 * early.max(1e-9) {
+                    (Verdict::Unstable, t.mean_iterations(), format!("growing: peak {early:.2e} → {late:.2e} mm"))
+                } else {
+                    (Verdict::Stable, t.mean_iterations(), String::new())
+                }
+            }
+            Err(e) => {
+                let e = e.to_string();
+                let v = if e.contains("infeasible") {
+                    Verdict::Infeasible
+                } else if e.contains("did not converge in") && !e.contains("unstable") {
+                    Verdict::NotConverged
+                } else {
+                    Verdict::Unstable
+                };
+                (v, f64::NAN, e)
+            }
+        };
+        (name.clone(), f, dt, verdict, iterations, note)
+    })?;
     std::fs::create_dir_all(&args.out)?;
     let csv_path = args.out.join("stability.csv");
     let mut csv = std::fs::File::create(&csv_path)?;
