@@ -41,6 +41,8 @@ enum Command {
     Stability(commands::stability::Args),
     /// Statics, first frequencies and short coupled runs over a grid of poses and parameters, on every core.
     Sweep(commands::sweep::Args),
+    /// Run time and peak memory against elements per cable, set-up and stepping apart.
+    Scaling(commands::scaling::Args),
     /// Long and hard runs (1000 s, stiff cables, fine nets, slack cable, abrupt start) with their bounds.
     Stress(commands::stress::Args),
     /// Build the FMI 2.0 Co-Simulation archives cable_fmu.fmu and stewart_fmu.fmu.
@@ -61,6 +63,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => commands::bench::run(&args),
         Command::Stability(args) => commands::stability::run(&args),
         Command::Sweep(args) => commands::sweep::run(&args),
+        Command::Scaling(args) => commands::scaling::run(&args),
         Command::Stress(args) => commands::stress::run(&args),
         Command::Package(args) => commands::package::run(&args),
         Command::Replay(args) => commands::replay::run(&args),

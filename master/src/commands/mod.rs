@@ -6,6 +6,7 @@ pub mod modes;
 pub mod package;
 pub mod replay;
 pub mod run;
+pub mod scaling;
 pub mod scheme_args;
 pub mod stability;
 pub mod statics;
