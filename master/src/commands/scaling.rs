@@ -39,12 +39,13 @@ pub struct Args {
     pub out: PathBuf,
 }
 
-/// One process: wall time (s) and peak resident memory (MB).
-fn measure(exe: &Path, args: &[String]) -> Result<(f64, f64), String> {
+/// One process: wall time (s), peak resident memory (MB) and CPU time (user + system, s; on a
+/// busy machine closer to the program's own cost than the wall time).
+fn measure(exe: &Path, args: &[String]) -> Result<(f64, f64, f64), String> {
     let start = std::time::Instant::now();
     let out = Command::new("/usr/bin/time")
         .arg("-f")
-        .arg("scaling: %M")
+        .arg("scaling: %M %U %S")
         .arg(exe)
         .args(args)
         .output()
@@ -55,8 +56,11 @@ fn measure(exe: &Path, args: &[String]) -> Result<(f64, f64), String> {
         return Err(format!("`master {}` failed: {}", args.join(" "), err.trim()));
     }
     let line = err.lines().rev().find_map(|l| l.strip_prefix("scaling: ")).ok_or("no GNU time report")?;
-    let kb: f64 = line.trim().parse().map_err(|_| format!("cannot read GNU time's report `{line}`"))?;
-    Ok((wall, kb / 1024.0))
+    let v: Vec<f64> = line.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+    match v.as_slice() {
+        [kb, user, system] => Ok((wall, kb / 1024.0, user + system)),
+        _ => Err(format!("cannot read GNU time's report `{line}`")),
+    }
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -65,8 +69,9 @@ fn median(mut v: Vec<f64>) -> f64 {
     if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
 }
 
-/// A measured row: scheme, elements, set-up s, set-up MB, stepping s, peak MB.
-type Row = (String, usize, f64, f64, f64, f64);
+/// A measured row: scheme, elements, set-up s, set-up MB, stepping s, peak MB, set-up CPU s,
+/// stepping CPU s.
+type Row = (String, usize, f64, f64, f64, f64, f64, f64);
 
 pub fn run(args: &Args) -> CmdResult {
     if args.repeats == 0 || args.elements.is_empty() || !(args.t_end > 0.0) {
@@ -93,16 +98,18 @@ pub fn run(args: &Args) -> CmdResult {
                 setup.push(measure(&exe, &run(s.solver.dt_s))?);
                 full.push(measure(&exe, &run(args.t_end))?);
             }
-            let (ts, ms) = (median(setup.iter().map(|x| x.0).collect()), median(setup.iter().map(|x| x.1).collect()));
-            let (tf, mf) = (median(full.iter().map(|x| x.0).collect()), median(full.iter().map(|x| x.1).collect()));
+            let med = |v: &[(f64, f64, f64)], f: fn(&(f64, f64, f64)) -> f64| median(v.iter().map(f).collect());
+            let (ts, ms, cs) = (med(&setup, |x| x.0), med(&setup, |x| x.1), med(&setup, |x| x.2));
+            let (tf, mf, cf) = (med(&full, |x| x.0), med(&full, |x| x.1), med(&full, |x| x.2));
             eprintln!("{scheme}, {n} elements per cable: set-up {ts:.2} s ({ms:.0} MB), full {tf:.2} s ({mf:.0} MB)");
-            rows.push((scheme.clone(), n, ts, ms, (tf - ts).max(0.0), mf));
+            rows.push((scheme.clone(), n, ts, ms, (tf - ts).max(0.0), mf, cs, (cf - cs).max(0.0)));
         }
     }
     let csv = args.out.join("scaling.csv");
-    let mut text = String::from("scheme,elements_per_cable,setup_s,setup_mb,stepping_s,peak_mb\n");
-    for (s, n, ts, ms, st, mf) in &rows {
-        text += &format!("{s},{n},{ts},{ms},{st},{mf}\n");
+    let mut text =
+        String::from("scheme,elements_per_cable,setup_s,setup_mb,stepping_s,peak_mb,setup_cpu_s,stepping_cpu_s\n");
+    for (s, n, ts, ms, st, mf, cs, cst) in &rows {
+        text += &format!("{s},{n},{ts},{ms},{st},{mf},{cs},{cst}\n");
     }
     std::fs::write(&csv, text)?;
     println!(
@@ -110,10 +117,12 @@ pub fn run(args: &Args) -> CmdResult {
         args.repeats, args.t_end
     );
     println!();
-    println!("| method | elements per cable | set-up (s) | set-up memory (MB) | stepping (s) | peak memory (MB) |");
-    println!("|---|---:|---:|---:|---:|---:|");
-    for (s, n, ts, ms, st, mf) in &rows {
-        println!("| {s} | {n} | {ts:.2} | {ms:.0} | {st:.2} | {mf:.0} |");
+    println!(
+        "| method | elements per cable | set-up (s) | set-up CPU (s) | set-up memory (MB) | stepping (s) | stepping CPU (s) | peak memory (MB) |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    for (s, n, ts, ms, st, mf, cs, cst) in &rows {
+        println!("| {s} | {n} | {ts:.2} | {cs:.2} | {ms:.0} | {st:.2} | {cst:.2} | {mf:.0} |");
     }
     let svg = args.out.join("scaling.svg");
     draw(&rows, &args.schemes, &svg).map_err(|e| format!("{}: cannot draw: {e}", svg.display()))?;
