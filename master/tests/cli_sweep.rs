@@ -28,6 +28,11 @@ fn master(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_master")).args(args).output().unwrap()
 }
 
+/// A command line split at spaces (the paths used here have none).
+fn words(line: &str) -> Vec<&str> {
+    line.split_whitespace().collect()
+}
+
 fn ok(args: &[&str]) {
     let out = master(args);
     assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
@@ -106,20 +111,10 @@ fn shards_merge_to_the_whole_sweep_and_every_number_is_the_librarys() {
 fn an_incomplete_set_of_parts_is_refused() {
     let scene = scene_path("lt50m_C.toml");
     let parts = dir("incomplete");
-    ok(&[
-        "sweep",
-        "--scene",
-        &scene,
-        "--modes",
-        "0",
-        "--quiet",
-        "--shard",
-        "0/2",
-        "--grid",
-        "x=-1:1:3",
-        "--out",
-        parts.to_str().unwrap(),
-    ]);
+    ok(&words(&format!(
+        "sweep --scene {scene} --modes 0 --quiet --shard 0/2 --grid x=-1:1:3 --out {}",
+        parts.display()
+    )));
     let out = master(&["sweep", "--merge", parts.to_str().unwrap(), "--out", dir("incomplete-out").to_str().unwrap()]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
@@ -135,24 +130,10 @@ fn an_incomplete_set_of_parts_is_refused() {
 fn coupled_runs_per_point_are_the_librarys() {
     let scene = scene_path("lt50m_C.toml");
     let out = dir("runs");
-    ok(&[
-        "sweep",
-        "--scene",
-        &scene,
-        "--modes",
-        "0",
-        "--quiet",
-        "--run",
-        "monolithic",
-        "--t-end",
-        "0.3",
-        "--grid",
-        "mass=0.5,2",
-        "--grid",
-        "dt=0.01,0.02",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    ok(&words(&format!(
+        "sweep --scene {scene} --modes 0 --quiet --run monolithic --t-end 0.3 --grid mass=0.5,2 --grid dt=0.01,0.02 --out {}",
+        out.display()
+    )));
     let t = Table::read(&out.join("sweep.csv")).unwrap();
     assert_eq!(t.rows.len(), 4);
     let base = Scene::load(&scene).unwrap();

@@ -65,22 +65,6 @@ fn list(text: &str, what: &str) -> Result<Vec<f64>, String> {
     Ok(v)
 }
 
-/// The scene with every mass and inertia of the platform scaled by `f`.
-fn scaled(scene: &Scene, f: f64) -> Scene {
-    let mut s = scene.clone();
-    let st = &mut s.stewart;
-    st.platform.mass_kg *= f;
-    for row in st.platform.inertia_kg_m2.iter_mut() {
-        row.iter_mut().for_each(|x| *x *= f);
-    }
-    for part in [&mut st.upper_leg, &mut st.lower_leg] {
-        part.mass_kg *= f;
-        part.inertia_transverse_kg_m2 *= f;
-        part.inertia_axial_kg_m2 *= f;
-    }
-    s
-}
-
 pub fn run(args: &Args) -> CmdResult {
     let scene = Scene::load(&args.scene)?;
     let ratios = list(&args.ratios, "--ratios")?;
@@ -89,8 +73,11 @@ pub fn run(args: &Args) -> CmdResult {
     let schemes: Vec<&str> = args.schemes.split(',').map(str::trim).filter(|s| !s.is_empty()).collect();
     let mut cases = Vec::new(); // (scheme, ratio, dt, method, variant scene, its file)
     for (ir, &f) in ratios.iter().enumerate() {
-        let (variant, file) =
-            write_variant(&scaled(&scene, f), &args.scene, &format!("stability-{}-{ir}", scene.name))?;
+        let (variant, file) = write_variant(
+            &master::sweep::with_platform_mass_factor(&scene, f),
+            &args.scene,
+            &format!("stability-{}-{ir}", scene.name),
+        )?;
         for name in &schemes {
             let method = args.options.method(name)?;
             for &dt in &dts {
