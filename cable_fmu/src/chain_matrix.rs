@@ -266,6 +266,21 @@ impl ChainFactor {
         self.set_cabin(Matrix6::from_column_slice(&rest[36 * self.cables..]), data[0] == 0.0)
     }
 
+    /// The number of negative eigenvalues of the factorized matrix, when it is symmetric: block
+    /// elimination is a congruence, so by Sylvester's law of inertia the pivot blocks (the
+    /// eliminated node blocks and the condensed cabin block) carry the matrix's inertia. With the
+    /// cabin held fixed, of the node part only. Eigen solvers use it as a Sturm count.
+    pub fn negative_eigenvalues(&self) -> usize {
+        let negative = |eig: &[f64]| eig.iter().filter(|&&l| l < 0.0).count();
+        let nodes: usize =
+            self.dinv.iter().map(|d| negative((d + d.transpose()).symmetric_eigenvalues().as_slice())).sum();
+        let cabin = match self.cabin_lu {
+            Some(_) => negative((self.condensed + self.condensed.transpose()).symmetric_eigenvalues().as_slice()),
+            None => 0,
+        };
+        nodes + cabin
+    }
+
     /// Overwrites `b` with the solution of `S x = b`.
     pub fn solve_in_place(&self, b: &mut [f64]) {
         let m = self.nodes;

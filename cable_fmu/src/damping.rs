@@ -7,35 +7,20 @@
 //! C is frozen at the equilibrium: the damping forces are linear in the velocities, and
 //! exactly Rayleigh for the small motions about the equilibrium that the scenes describe.
 
-use nalgebra::Vector6;
-
 use crate::chain_matrix::ChainMatrix;
-use crate::system::{Coefficients, Config, System};
+use crate::modes::tangent;
+use crate::system::{Config, System};
 
 /// Rayleigh coefficients for damping ratio `zeta` at the angular frequencies `w1 < w2` (rad/s).
 pub fn rayleigh_coefficients(zeta: f64, w1: f64, w2: f64) -> (f64, f64) {
     (2.0 * zeta * w1 * w2 / (w1 + w2), 2.0 * zeta / (w1 + w2))
 }
 
-/// `α M + β K` of `sys` at `cfg` (at rest), with K symmetrized.
+/// `α M + β K` of `sys` at `cfg` (at rest), with K symmetrized (see [`crate::modes`]).
 pub fn rayleigh_matrix(sys: &System, cfg: &Config, alpha: f64, beta: f64) -> ChainMatrix {
-    let n = sys.dim();
-    let zero = vec![0.0; n];
-    let mut r = vec![0.0; n];
-    let mut k = sys.new_matrix();
-    sys.assemble(cfg, &zero, &zero, &Vector6::zeros(), &mut r, Some((&mut k, Coefficients::STIFFNESS)));
-    // The node blocks are symmetric by construction; symmetrize the cabin's coupling and block
-    // (their asymmetry is of the order of the static residual).
-    for (nc, cn) in k.node_cabin.iter_mut().zip(k.cabin_node.iter_mut()) {
-        let s = (*nc + cn.transpose()) * 0.5;
-        *nc = s;
-        *cn = s.transpose();
-    }
-    k.cabin = (k.cabin + k.cabin.transpose()) * 0.5;
-    let mut m = sys.new_matrix();
-    sys.assemble(cfg, &zero, &zero, &Vector6::zeros(), &mut r, Some((&mut m, Coefficients::MASS)));
+    let t = tangent(sys, cfg);
     let mut out = sys.new_matrix();
-    out.add_scaled(alpha, &m);
-    out.add_scaled(beta, &k);
+    out.add_scaled(alpha, &t.mass);
+    out.add_scaled(beta, &t.stiffness);
     out
 }

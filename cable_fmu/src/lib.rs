@@ -8,6 +8,7 @@
 //! * [`statics`]: form finding of the unstretched lengths for a target cabin pose;
 //! * [`chain_matrix`]: the chain sparsity, factorized at linear cost onto the cabin;
 //! * [`system`]: residual of the equations of motion and its exact tangent;
+//! * [`eigen`]: lowest eigenpairs of a symmetric pencil (shift-invert Lanczos);
 //! * [`modes`]: natural frequencies and mode shapes;
 //! * [`damping`]: Rayleigh damping fitted at two frequencies;
 //! * [`dynamics`]: generalized-α time integration;
@@ -17,6 +18,7 @@ pub mod catenary;
 pub mod chain_matrix;
 pub mod damping;
 pub mod dynamics;
+pub mod eigen;
 pub mod element;
 pub mod fmu;
 pub mod model;

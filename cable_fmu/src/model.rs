@@ -79,8 +79,12 @@ impl CableCabin {
         let mut locked = System::new(net.clone(), equilibrium.lengths(), true, Support::Free);
         let cfg = locked.config_from(&equilibrium);
         let d = &scene.damping;
-        let needed = d.fit_modes.map_or(0, |m| m[1]).max(mode_count);
-        let modes = if needed > 0 { Some(modes(&locked, &cfg, needed).map_err(ModelError::Modes)?) } else { None };
+        let needed = Self::modes_built(scene, mode_count);
+        let modes = if needed > 0 {
+            Some(modes(&locked, &cfg, needed).map_err(|e| ModelError::Modes(e.to_string()))?)
+        } else {
+            None
+        };
         let frequencies_hz = match (d.fit_modes, d.fit_frequencies_hz, &modes) {
             (Some([a, b]), _, Some(md)) => {
                 if b > md.frequencies_hz.len() {
@@ -145,17 +149,22 @@ impl CableCabin {
         })
     }
 
+    /// The number of modes [`CableCabin::build`] computes for `scene` asked for `mode_count`:
+    /// those of the damping fit, or more.
+    pub fn modes_built(scene: &Scene, mode_count: usize) -> usize {
+        scene.damping.fit_modes.map_or(0, |m| m[1]).max(mode_count)
+    }
+
     /// Bytes [`CableCabin::build`] and the dynamics would allocate for `scene` with at least
-    /// `mode_count` modes, as a float (it may not fit any integer for absurd sizes). Keep it in
-    /// step with the algorithms: the modal analysis is dense now (about ten n × n matrices,
-    /// n the number of unknowns); the chain matrices and states grow linearly.
+    /// `mode_count` modes, as a float (it may not fit any integer for absurd sizes). Everything
+    /// grows linearly in n, the number of unknowns: the modal analysis
+    /// ([`crate::modes::memory_estimate`]), the chain matrices and the states.
     pub fn memory_estimate(scene: &Scene, mode_count: usize) -> f64 {
         let n = 3.0 * scene.cable_count() as f64 * (scene.cables.elements as f64 - 1.0) + 6.0;
-        let modes = scene.damping.fit_modes.map_or(0, |m| m[1]).max(mode_count);
-        let dense = if modes > 0 { 10.0 * n * n } else { 0.0 };
+        let modal = crate::modes::memory_estimate(n, Self::modes_built(scene, mode_count));
         // chain blocks (3×3 and 3×6 per node) in a handful of matrices and factors, vectors
         let linear = 400.0 * n;
-        8.0 * (dense + linear)
+        modal + 8.0 * linear
     }
 
     pub fn equilibrium_config(&self) -> Config {

@@ -115,8 +115,11 @@ fn step_map_derivatives_match_finite_differences_with_rollback() {
         let (p, q) = (step_with(&mut m, &wp), step_with(&mut m, &wm));
         for (i, a) in analytic.iter().enumerate() {
             let fd = (p[i] - q[i]) / (2.0 * eps);
+            // The differences cannot resolve less than the outputs' round-off: tensions come
+            // from ~30 m world coordinates through EA/l0 ≈ 6e6 N/m, ~1e-11 of their value.
+            let floor = 1e-11 * p[i].abs().max(q[i].abs()) / eps;
             assert!(
-                (a - fd).abs() <= 1e-6 * a.abs().max(fd.abs()).max(1e-12) + 1e-13,
+                (a - fd).abs() <= 1e-6 * a.abs().max(fd.abs()).max(1e-12) + 1e-13 + floor,
                 "input {k}, output {i}: {a:e} vs {fd:e}"
             );
         }
@@ -244,7 +247,7 @@ fn initialization_keeps_the_inputs_it_was_given() {
 #[test]
 fn misuse_is_refused_with_the_reason() {
     let mut m = CableFmu::instantiate(None).unwrap();
-    for n in [2000, i32::MAX] {
+    for n in [10_000_000, i32::MAX] {
         let e = m.set_integer(vr::ELEMENTS, n).unwrap_err().to_string();
         assert!(e.contains(&format!("{n} elements per cable would need about")) && e.contains("GB"), "{e}");
     }

@@ -9,14 +9,18 @@
 //! * [`stepping`]: the step loop of every run (fixed or adaptive steps, caps, totals);
 //! * [`system`]: the scene's `[system]` as a system description, and runs of any FMU system;
 //! * [`progress`]: a progress bar for long runs on a terminal;
-//! * [`table`]: plain-text tables.
+//! * [`table`]: plain-text tables;
+//! * [`parallel`]: independent cases on every core, results in order;
+//! * [`sweep`]: grids over the workspace and the parameters, their tables and maps.
 
 pub use cosim;
 pub mod limits;
 pub mod monolithic;
+pub mod parallel;
 pub mod plot;
 pub mod progress;
 pub mod simulate;
 pub mod stepping;
+pub mod sweep;
 pub mod system;
 pub mod table;

@@ -164,18 +164,16 @@ pub enum Footprint {
     Coupled,
 }
 
-/// Fixed cost of the process and the models (measured 5.5 MB for `master statics`).
-const BASE_BYTES: u64 = 16_000_000;
+/// Fixed cost of the process and the models: measured 6.1 MB for `master statics` and 6.3 MB
+/// for `master modes` at 20 elements per cable; the FMUs of a co-simulation (two libraries,
+/// their unpacked archives) add a few MB more.
+const BASE_BYTES_CABLE: u64 = 8_000_000;
+const BASE_BYTES_COUPLED: u64 = 16_000_000;
 /// Bytes per cable node (3 unknowns, element data, the block-tridiagonal matrix and its factor,
 /// states kept for rollback). Measured on pose C with 2000 and 8000 elements per cable:
 /// 1.2 kB for the cable model alone, 5.2 kB for the monolithic model.
 const NODE_BYTES_CABLE: u64 = 1_500;
 const NODE_BYTES_COUPLED: u64 = 6_000;
-/// The dense eigen solve of the damping fit (or `master modes`) holds about this many n×n
-/// matrices of f64 (stiffness, mass, their transforms, faer's copy and eigenvectors); measured
-/// 9.7–11 at 60 and 120 elements per cable.
-const DENSE_MATRICES: u64 = 12;
-
 /// Elements per cable the run will build: the scene's, or a larger override set on an FMU
 /// through `[system.parameters]` (`<fmu>.elements_per_cable`).
 pub fn elements_per_cable(scene: &Scene) -> u64 {
@@ -187,26 +185,26 @@ pub fn elements_per_cable(scene: &Scene) -> u64 {
     overridden.fold(scene.cables.elements as u64, u64::max)
 }
 
-/// Estimated peak memory (bytes) of a run or analysis of `scene`, and what dominates it.
-/// `eigen`: whether a dense eigen solve is needed (damping fitted at mode frequencies, or the
-/// modes asked for).
-pub fn memory_needed(scene: &Scene, footprint: Footprint, eigen: bool) -> (u64, String) {
+/// Estimated peak memory (bytes) of a run or analysis of `scene` that computes `modes` natural
+/// modes (0: none; the damping fit's own modes are counted anyway), and what dominates it.
+pub fn memory_needed(scene: &Scene, footprint: Footprint, modes: usize) -> (u64, String) {
     let cables = scene.cable_count() as u64;
     let elements = elements_per_cable(scene);
     let nodes = cables.saturating_mul(elements);
-    let per_node = match footprint {
-        Footprint::CableModel => NODE_BYTES_CABLE,
-        Footprint::Coupled => NODE_BYTES_COUPLED,
+    let (base, per_node) = match footprint {
+        Footprint::CableModel => (BASE_BYTES_CABLE, NODE_BYTES_CABLE),
+        Footprint::Coupled => (BASE_BYTES_COUPLED, NODE_BYTES_COUPLED),
     };
     let linear = nodes.saturating_mul(per_node);
-    let mut total = BASE_BYTES.saturating_add(linear);
+    let mut total = base.saturating_add(linear);
     let mut what = format!("{cables} cables × {elements} elements");
-    if eigen {
+    let modes = scene.damping.fit_modes.map_or(0, |m| m[1]).max(modes);
+    if modes > 0 {
         // unknowns of the free nodes and the cabin
         let n = 3u64.saturating_mul(cables).saturating_mul(elements.saturating_sub(1)).saturating_add(6);
-        let dense = DENSE_MATRICES.saturating_mul(8).saturating_mul(n.saturating_mul(n));
-        total = total.saturating_add(dense);
-        what.push_str(&format!(", a dense {n}×{n} eigenproblem"));
+        let basis = cable_fmu::modes::memory_estimate(n as f64, modes);
+        total = total.saturating_add(basis as u64);
+        what.push_str(&format!(", {modes} modes of {n} unknowns"));
     }
     (total, what)
 }
@@ -219,8 +217,28 @@ pub fn available_memory() -> Option<u64> {
     Some(kb.saturating_mul(1024))
 }
 
+/// The peak resident memory of this process so far (`VmHWM` of /proc/self/status), bytes.
+pub fn peak_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = text.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb.saturating_mul(1024))
+}
+
 /// Refuses a run whose estimated memory exceeds the limit (or what is available).
-pub fn check_memory(scene: &Scene, footprint: Footprint, eigen: bool, limits: &Limits) -> Result<(), PlanError> {
+pub fn check_memory(scene: &Scene, footprint: Footprint, modes: usize, limits: &Limits) -> Result<(), PlanError> {
+    check_memory_of(scene, footprint, modes, 1, limits)
+}
+
+/// Refuses `copies` runs at once (parallel workers) whose estimated memory together exceeds
+/// the limit (or what is available).
+pub fn check_memory_of(
+    scene: &Scene,
+    footprint: Footprint,
+    modes: usize,
+    copies: u64,
+    limits: &Limits,
+) -> Result<(), PlanError> {
     let (limit, source_of_limit) = match limits.max_memory_bytes {
         Some(b) => (b, "allowed by --max-memory-mb"),
         None => match available_memory() {
@@ -228,11 +246,17 @@ pub fn check_memory(scene: &Scene, footprint: Footprint, eigen: bool, limits: &L
             None => return Ok(()),
         },
     };
-    let (needed, what) = memory_needed(scene, footprint, eigen);
+    let (one, mut what) = memory_needed(scene, footprint, modes);
+    let needed = one.saturating_mul(copies.max(1));
+    if copies > 1 {
+        what.push_str(&format!(", on {copies} workers at once"));
+    }
     if needed <= limit {
         return Ok(());
     }
-    let hint = if eigen && scene.damping.fit_modes.is_some() {
+    let hint = if copies > 1 {
+        " (or fewer workers with --jobs)"
+    } else if scene.damping.fit_modes.is_some() {
         " (or damping.fit_frequencies_hz instead of fit_modes: no eigen solve)"
     } else {
         ""

@@ -58,6 +58,10 @@ enum Command {
     Bench(commands::bench::Args),
     /// Stability map of the coupling schemes over the platform's mass and the macro step.
     Stability(commands::stability::Args),
+    /// Statics, first frequencies and short coupled runs over a grid of poses and parameters, on every core.
+    Sweep(commands::sweep::Args),
+    /// Run time and peak memory against elements per cable, set-up and stepping apart.
+    Scaling(commands::scaling::Args),
     /// Long and hard runs (1000 s, stiff cables, fine nets, slack cable, abrupt start) with their bounds.
     Stress(commands::stress::Args),
     /// Write the scene's co-simulated system (FMUs, connections, parameters) as an SSP 1.0 archive.
@@ -86,6 +90,8 @@ fn main() -> ExitCode {
         Command::Compare(args) => commands::compare::run(&args),
         Command::Bench(args) => commands::bench::run(&args),
         Command::Stability(args) => commands::stability::run(&args),
+        Command::Sweep(args) => commands::sweep::run(&args),
+        Command::Scaling(args) => commands::scaling::run(&args),
         Command::Stress(args) => commands::stress::run(&args),
         Command::ExportSsp(args) => commands::export_ssp::run(&args),
         Command::Package(args) => commands::boxed(commands::package::run(&args)),

@@ -407,7 +407,7 @@ impl<'a> Run<'a> {
             _ => Schedule::Fixed(Plan::new(dt, t_end, limits).map_err(|e| refused(e.to_string()))?),
         };
         let footprint = if method == Method::CableOnly { Footprint::CableModel } else { Footprint::Coupled };
-        check_memory(scene, footprint, scene.damping.fit_modes.is_some(), limits)
+        check_memory(scene, footprint, cable_fmu::model::CableCabin::modes_built(scene, 0), limits)
             .map_err(|e: PlanError| refused(format!("{}: {e}", scene_file.display())))?;
         let coupled = scene.analyses.stewart == StewartMode::Coupled;
         match method {

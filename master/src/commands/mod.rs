@@ -18,11 +18,13 @@ pub(crate) mod package;
 pub(crate) mod replay;
 pub(crate) mod run;
 pub(crate) mod run_system;
+pub(crate) mod scaling;
 pub(crate) mod scheme_args;
 pub(crate) mod stability;
 pub(crate) mod statics;
 pub(crate) mod stewart;
 pub(crate) mod stress;
+pub(crate) mod sweep;
 
 /// Errors reach the user with their whole chain of causes.
 pub(crate) type CmdResult = anyhow::Result<()>;

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use cable_fmu::model::CableCabin;
-use master::limits::{Footprint, check_memory};
+use master::limits::{Footprint, check_memory, memory_needed, peak_memory};
 use master::table::Table;
 use nalgebra::Vector6;
 use serde_json::json;
@@ -43,9 +43,14 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     if count == 0 {
         anyhow::bail!("{}: the scene asks for no modes (analyses.modes = 0); give --count N", args.scene.display());
     }
-    check_memory(&scene, Footprint::CableModel, true, &caps().run)
+    let built = CableCabin::modes_built(&scene, count);
+    check_memory(&scene, Footprint::CableModel, built, &caps().run)
         .with_context(|| format!("{}: the modal analysis cannot start", args.scene.display()))?;
+    let (estimate, _) = memory_needed(&scene, Footprint::CableModel, built);
+    let start = std::time::Instant::now();
     let model = CableCabin::build(&scene, count)?;
+    let setup_s = start.elapsed().as_secs_f64();
+    let peak = peak_memory();
     let modes = model.modes.as_ref().expect("modes were asked for");
     let sys = model.system(cable_fmu::model::Payload::Locked);
     let cabin_mass = sys
@@ -70,6 +75,12 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             "modes": list,
             "damping": {"ratio": model.damping.ratio, "fit_frequencies_hz": model.damping.frequencies_hz,
                         "alpha_per_s": model.damping.alpha, "beta_s": model.damping.beta},
+            "eigen_solver": {"method": "shift-invert Lanczos (M inner product) with a Sturm count",
+                             "relative_residual": modes.residual, "stiffness_asymmetry": modes.stiffness_asymmetry,
+                             "solves": modes.stats.solves, "passes": modes.stats.passes},
+            "setup_s": setup_s,
+            "peak_memory_bytes": peak,
+            "memory_estimate_bytes": estimate,
         });
         writeln!(out, "{}", serde_json::to_string_pretty(&json_out)?)?;
         return Ok(());
@@ -99,6 +110,22 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     writeln!(
         out,
         "\"cabin share\": fraction of the mode's kinetic energy carried by the cabin (the rest is in the cables)."
+    )?;
+    writeln!(
+        out,
+        "Shift-invert Lanczos: {} solves in {} pass(es); frequencies within {:.1e} relative (residual bound), \
+         stiffness asymmetry {:.1e} (the equilibrium's residual moment).",
+        modes.stats.solves,
+        modes.stats.passes,
+        0.5 * modes.residual,
+        modes.stiffness_asymmetry
+    )?;
+    let peak = peak.map_or("unknown".to_string(), |b| format!("{:.1} MB", b as f64 / 1e6));
+    writeln!(
+        out,
+        "Form-finding and modal analysis {setup_s:.3} s; peak memory of the process {peak} (estimated before \
+         the start: {:.1} MB).",
+        estimate as f64 / 1e6
     )?;
     Ok(())
 }

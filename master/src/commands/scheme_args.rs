@@ -233,3 +233,16 @@ impl SchemeOptions {
         })
     }
 }
+
+impl Default for SchemeOptions {
+    /// Every option at its default, as an empty command line gives them (the defaults live in
+    /// one place: the attributes above).
+    fn default() -> Self {
+        #[derive(clap::Parser)]
+        struct Empty {
+            #[command(flatten)]
+            options: SchemeOptions,
+        }
+        <Empty as clap::Parser>::parse_from(["master"]).options
+    }
+}

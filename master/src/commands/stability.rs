@@ -8,7 +8,6 @@ use std::path::PathBuf;
 use anyhow::Context;
 use cable_fmu::net::CableNet;
 use cable_fmu::statics::{StaticsError, form_find};
-use feedcore::scene::Scene;
 use master::plot::{CATEGORY_COLORS, Cell, MapPanel, stability_map};
 use master::simulate::{Run, RunError, write_variant};
 use master::table::Table;
@@ -47,6 +46,10 @@ pub(crate) struct Args {
     /// No progress bars.
     #[arg(long)]
     pub(crate) quiet: bool,
+    /// Worker threads: the runs are independent (default: one per core; progress bars only
+    /// with one).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    pub(crate) jobs: Option<u16>,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
 }
@@ -71,32 +74,19 @@ fn stopped_verdict(reason: &str) -> Verdict {
     }
 }
 
-/// The scene with every mass and inertia of the platform scaled by `f`.
-fn scaled(scene: &Scene, f: f64) -> Scene {
-    let mut s = scene.clone();
-    let st = &mut s.stewart;
-    st.platform.mass_kg *= f;
-    for row in st.platform.inertia_kg_m2.iter_mut() {
-        row.iter_mut().for_each(|x| *x *= f);
-    }
-    for part in [&mut st.upper_leg, &mut st.lower_leg] {
-        part.mass_kg *= f;
-        part.inertia_transverse_kg_m2 *= f;
-        part.inertia_axial_kg_m2 *= f;
-    }
-    s
-}
-
 pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let (ratios, dts) = (&args.ratios, &args.dts);
-    let quiet = args.quiet || !std::io::stderr().is_terminal();
     let limits = caps().run;
     // every variant is form-found and every run checked before the first one starts
     let mut scaled_scenes = Vec::new();
     for (ir, &f) in ratios.iter().enumerate() {
-        let (variant, file) = write_variant(&scaled(&scene, f), &args.scene, &format!("stability-{}-{ir}", scene.name))
-            .context("writing the scaled scenes")?;
+        let (variant, file) = write_variant(
+            &master::sweep::with_platform_mass_factor(&scene, f),
+            &args.scene,
+            &format!("stability-{}-{ir}", scene.name),
+        )
+        .context("writing the scaled scenes")?;
         let net = CableNet::from_scene(&variant);
         let feasible = match form_find(&net, variant.target_position(), variant.target_orientation()) {
             Ok(_) => true,
@@ -105,53 +95,56 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         };
         scaled_scenes.push((f, feasible, variant, file));
     }
-    let mut variants = Vec::new();
+    let mut cases = Vec::new(); // (scheme, ratio, dt, feasible, run)
     for (f, feasible, variant, file) in &scaled_scenes {
-        let mut runs = Vec::new();
         for &name in &args.schemes {
             for &dt in dts {
                 let context = || format!("{}, mass ×{f}, h = {dt} s", name.as_str());
                 let method = args.options.method(name).with_context(context)?;
                 let run = Run::prepare(variant, file, method, dt, args.t_end, &limits).with_context(context)?;
-                runs.push((name, dt, run));
+                cases.push((name, *f, dt, *feasible, run));
             }
         }
-        variants.push((*f, *feasible, runs));
     }
     let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
     let csv_id = outputs.declare("--out", &args.out.join("stability.csv"), Some("csv"))?;
     let svg_id = outputs.declare("--out", &args.out.join("stability.svg"), Some("svg"))?;
     outputs.open()?;
 
-    let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
-    for (f, feasible, runs) in &variants {
-        for (name, dt, run) in runs {
-            if !feasible {
-                rows.push((*name, *f, *dt, Verdict::Infeasible, f64::NAN, "a cable would have to push".to_string()));
-                continue;
-            }
-            eprintln!("{}, mass ×{f}, h = {dt} s …", name.as_str());
-            let (verdict, iterations, note) = match run.execute(quiet) {
-                Ok(t) => {
-                    // a run that ends but keeps growing is not stable either
-                    let n = t.disp_mm.len();
-                    let peak =
-                        |r: std::ops::Range<usize>| t.disp_mm[r].iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
-                    let (early, late) = (peak(0..n / 3), peak(2 * n / 3..n));
-                    if late > 10.0 * early.max(1e-9) {
-                        (Verdict::Unstable, t.mean_iterations(), format!("growing: peak {early:.2e} → {late:.2e} mm"))
-                    } else {
-                        (Verdict::Stable, t.mean_iterations(), String::new())
-                    }
-                }
-                Err(RunError::Stopped { time, reason, .. }) => {
-                    (stopped_verdict(&reason), f64::NAN, format!("stopped at t = {time:.6} s: {reason}"))
-                }
-                // a missing FMU or a model that cannot be set up is no verdict on the scheme
-                Err(e) => return Err(e).with_context(|| format!("{}, mass ×{f}, h = {dt} s", name.as_str())),
-            };
-            rows.push((*name, *f, *dt, verdict, iterations, note));
+    // the runs are independent: every one on its own core, results in input order; progress
+    // bars only when one runs at a time
+    let jobs = args.jobs.map(usize::from);
+    let quiet = args.quiet || !std::io::stderr().is_terminal() || master::parallel::threads(jobs) > 1;
+    let results = master::parallel::map_in_order(&cases, jobs, |_, (name, f, dt, feasible, run)| {
+        if !feasible {
+            return Ok((Verdict::Infeasible, f64::NAN, "a cable would have to push".to_string()));
         }
+        eprintln!("{}, mass ×{f}, h = {dt} s …", name.as_str());
+        match run.execute(quiet) {
+            Ok(t) => {
+                // a run that ends but keeps growing is not stable either
+                let n = t.disp_mm.len();
+                let peak =
+                    |r: std::ops::Range<usize>| t.disp_mm[r].iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+                let (early, late) = (peak(0..n / 3), peak(2 * n / 3..n));
+                if late > 10.0 * early.max(1e-9) {
+                    Ok((Verdict::Unstable, t.mean_iterations(), format!("growing: peak {early:.2e} → {late:.2e} mm")))
+                } else {
+                    Ok((Verdict::Stable, t.mean_iterations(), String::new()))
+                }
+            }
+            Err(RunError::Stopped { time, reason, .. }) => {
+                Ok((stopped_verdict(&reason), f64::NAN, format!("stopped at t = {time:.6} s: {reason}")))
+            }
+            // a missing FMU or a model that cannot be set up is no verdict on the scheme
+            Err(e) => Err(e),
+        }
+    })?;
+    let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
+    for ((name, f, dt, _, _), result) in cases.iter().zip(results) {
+        let (verdict, iterations, note) =
+            result.with_context(|| format!("{}, mass ×{f}, h = {dt} s", name.as_str()))?;
+        rows.push((*name, *f, *dt, verdict, iterations, note));
     }
     let label = |v: Verdict| match v {
         Verdict::Stable => "stable",

@@ -27,7 +27,7 @@ pub(crate) struct Args {
 pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let mut out = std::io::stdout().lock();
-    check_memory(&scene, Footprint::CableModel, false, &caps().run)
+    check_memory(&scene, Footprint::CableModel, 0, &caps().run)
         .with_context(|| format!("{}: the form-finding cannot start", args.scene.display()))?;
     let net = CableNet::from_scene(&scene);
     let eq = form_find(&net, scene.target_position(), scene.target_orientation())?;

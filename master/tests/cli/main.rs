@@ -10,7 +10,8 @@
 //! * `monolithic`: the eq. (7) reference model (rest, constraint drift, convergence in h);
 //! * `cosim`: the coupling schemes and the adaptive step against the monolithic model;
 //! * `step_map`: IJCSA with the FMUs' step-map extension against finite differences;
-//! * `ssp_system`: SSP systems of FMUs that know nothing of the project's physics.
+//! * `ssp_system`: SSP systems of FMUs that know nothing of the project's physics;
+//! * `sweep`: sweeps and their shards against the library, point by point.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -27,6 +28,7 @@ mod run;
 mod ssp_system;
 mod step_map;
 mod stewart;
+mod sweep;
 
 use std::process::{Command, Output};
 
