@@ -231,7 +231,10 @@ impl<'a, P: Pencil> Pass<'a, P> {
             }
         }
         Err(EigenError::Breakdown {
-            detail: format!("no start vector M-orthogonal to the {} found in {TRIES} tries", basis.len() + self.locked.len()),
+            detail: format!(
+                "no start vector M-orthogonal to the {} found in {TRIES} tries",
+                basis.len() + self.locked.len()
+            ),
         })
     }
 
@@ -277,7 +280,10 @@ impl<'a, P: Pencil> Pass<'a, P> {
                 if !(beta.is_finite() && norm0.is_finite()) {
                     // NaN in H would keep the symmetric eigensolver below from converging
                     return Err(EigenError::Breakdown {
-                        detail: format!("the M-norm of a Lanczos vector is {:e}", if norm0.is_finite() { beta } else { norm0 }),
+                        detail: format!(
+                            "the M-norm of a Lanczos vector is {:e}",
+                            if norm0.is_finite() { beta } else { norm0 }
+                        ),
                     });
                 }
                 if beta > 1e-12 * norm0 {
