@@ -12,10 +12,12 @@
 //! The node–node blocks are symmetric (they come from bar elements, lumped masses and a
 //! symmetric damping matrix); the cabin blocks need not be. Factorizing eliminates each chain
 //! from the tower end towards the cabin (block Thomas algorithm) and condenses it onto the
-//! cabin: the cost is linear in the number of nodes.
+//! cabin ([`ChainElimination`]): the cost is linear in the number of nodes. The condensed 6×6
+//! cabin block is then factorized alone ([`ChainFactor`]) or inside a larger system (the
+//! monolithic model's, with the Stewart platform).
 
 use feedcore::Mat3;
-use nalgebra::{Matrix3x6, Matrix6, Matrix6x3, SVector, Vector6};
+use nalgebra::{Matrix3x6, Matrix6, Matrix6x3, Vector6};
 
 use feedcore::Vec3;
 
@@ -84,25 +86,26 @@ impl ChainMatrix {
         let m = self.nodes;
         let c0 = 3 * self.cables * m;
         let xc = Vector6::from_column_slice(&x[c0..c0 + 6]);
-        let mut yc = Vector6::zeros();
+        let mut yc = self.cabin * xc;
         for c in 0..self.cables {
+            let (xs, ys) = (&x[3 * c * m..3 * (c + 1) * m], &mut y[3 * c * m..3 * (c + 1) * m]);
+            let (diag, upper) = (&self.diag[c * m..(c + 1) * m], &self.upper[c * m.saturating_sub(1)..]);
+            // ȳ_j += D_j x_j + U_j x_{j+1}, and the mirrored block: y_{j+1} += U_jᵀ x_j
             for j in 0..m {
-                let k = c * m + j;
-                let mut acc = self.diag[k] * get3(x, k);
+                let xj = get3(xs, j);
+                let mut acc = diag[j] * xj;
                 if j + 1 < m {
-                    acc += self.upper[c * (m - 1) + j] * get3(x, k + 1);
+                    let u = &upper[j];
+                    acc += u * get3(xs, j + 1);
+                    add3(ys, j + 1, &u.tr_mul(&xj));
                 }
-                if j > 0 {
-                    acc += self.upper[c * (m - 1) + j - 1].tr_mul(&get3(x, k - 1));
-                }
-                if j + 1 == m {
-                    acc += self.node_cabin[c] * xc;
-                    yc += self.cabin_node[c] * get3(x, k);
-                }
-                add3(y, k, &acc);
+                add3(ys, j, &acc);
+            }
+            if m > 0 {
+                add3(ys, m - 1, &(self.node_cabin[c] * xc));
+                yc += self.cabin_node[c] * get3(xs, m - 1);
             }
         }
-        yc += self.cabin * xc;
         for i in 0..6 {
             y[c0 + i] += yc[i];
         }
@@ -136,57 +139,181 @@ impl ChainMatrix {
 
     /// Factorizes by block elimination of each chain towards the cabin, then LU of the
     /// condensed 6×6 cabin block. With `cabin_fixed` the cabin's unknowns are held at zero.
-    pub fn factorize(&self, cabin_fixed: bool) -> Result<ChainFactor, String> {
+    pub fn factorize(&self, cabin_fixed: bool) -> Result<ChainFactor, FactorError> {
         let mut f = ChainFactor::new(self.cables, self.nodes);
         self.factorize_into(cabin_fixed, &mut f)?;
         Ok(f)
     }
 
     /// As [`ChainMatrix::factorize`], reusing the storage of `f` (no allocation).
-    pub fn factorize_into(&self, cabin_fixed: bool, f: &mut ChainFactor) -> Result<(), String> {
-        let m = self.nodes;
-        assert!(f.cables == self.cables && f.nodes == m, "factor storage of the wrong shape");
-        let mut condensed = self.cabin;
-        for c in 0..self.cables {
-            for j in 0..m {
-                let k = c * m + j;
-                let d = if j == 0 {
-                    self.diag[k]
-                } else {
-                    let u = &self.upper[c * (m - 1) + j - 1];
-                    self.diag[k] - f.forward[c * (m - 1) + j - 1] * u
-                };
-                let dinv = d.try_inverse().ok_or_else(|| format!("singular block at cable {c}, node {j}"))?;
-                f.dinv[k] = dinv;
-                if j + 1 < m {
-                    let u = &self.upper[c * (m - 1) + j];
-                    f.forward[c * (m - 1) + j] = u.transpose() * dinv;
-                    f.backward[c * (m - 1) + j] = dinv * u;
-                }
-            }
-            if m > 0 {
-                let dinv = f.dinv[c * m + m - 1];
-                f.dinv_p[c] = dinv * self.node_cabin[c];
-                f.q_dinv[c] = self.cabin_node[c] * dinv;
-                condensed -= f.q_dinv[c] * self.node_cabin[c];
-            }
-        }
+    pub fn factorize_into(&self, cabin_fixed: bool, f: &mut ChainFactor) -> Result<(), FactorError> {
+        let condensed = f.chains.eliminate(self)?;
         f.set_cabin(condensed, cabin_fixed)
     }
 }
 
-/// A factorized [`ChainMatrix`]; solves in place, without allocating.
+/// Why a chain matrix cannot be factorized or a factorization cannot be restored.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FactorError {
+    #[error("singular block at cable {cable}, node {node}")]
+    SingularNode { cable: usize, node: usize },
+    #[error("singular condensed cabin block")]
+    SingularCabin,
+    #[error("factorization data has {found} numbers, expected {expected}")]
+    DataLength { found: usize, expected: usize },
+}
+
+/// Callers that report errors as text keep using `?`.
+impl From<FactorError> for String {
+    fn from(e: FactorError) -> String {
+        e.to_string()
+    }
+}
+
+/// The chains of a [`ChainMatrix`] eliminated onto the cabin (block Thomas algorithm along each
+/// chain, from the tower towards the cabin). What is left is the condensed 6×6 cabin block (the
+/// Schur complement), which the caller factorizes — alone, or inside a larger system.
+///
+/// The node–node blocks are symmetric, so the eliminated chain is too: one block per link,
+/// `D'⁻¹_j U_j`, serves the forward elimination (as its transpose) and the back substitution.
 #[derive(Clone, Debug)]
-pub struct ChainFactor {
+pub struct ChainElimination {
     cables: usize,
     nodes: usize,
+    /// D'⁻¹_j: inverse pivot blocks.
     dinv: Vec<Mat3>,
-    /// Uᵀ_{j} D'⁻¹_{j}: eliminates node j from the row of node j+1.
-    forward: Vec<Mat3>,
-    /// D'⁻¹_{j} U_{j}: back substitution from node j+1 to node j.
-    backward: Vec<Mat3>,
+    /// D'⁻¹_j U_j: back substitution from node j+1 to node j; its transpose eliminates node j
+    /// from the row of node j+1.
+    link: Vec<Mat3>,
+    /// D'⁻¹ P and Q D'⁻¹ of each chain's last node.
     dinv_p: Vec<Matrix3x6<f64>>,
     q_dinv: Vec<Matrix6x3<f64>>,
+}
+
+impl ChainElimination {
+    pub fn new(cables: usize, nodes: usize) -> ChainElimination {
+        ChainElimination {
+            cables,
+            nodes,
+            dinv: vec![Mat3::zeros(); cables * nodes],
+            link: vec![Mat3::zeros(); cables * nodes.saturating_sub(1)],
+            dinv_p: vec![Matrix3x6::zeros(); cables],
+            q_dinv: vec![Matrix6x3::zeros(); cables],
+        }
+    }
+
+    /// Eliminates the chains of `a`; returns its cabin block condensed onto the cabin.
+    pub fn eliminate(&mut self, a: &ChainMatrix) -> Result<Matrix6<f64>, FactorError> {
+        let m = self.nodes;
+        assert!(a.cables == self.cables && a.nodes == m, "factor storage of the wrong shape");
+        let mut condensed = a.cabin;
+        let l = m.saturating_sub(1);
+        for c in 0..self.cables {
+            let (diag, upper) = (&a.diag[c * m..(c + 1) * m], &a.upper[c * l..(c + 1) * l]);
+            let (dinv, link) = (&mut self.dinv[c * m..(c + 1) * m], &mut self.link[c * l..(c + 1) * l]);
+            for j in 0..m {
+                // D'_j = D_j − U_{j−1}ᵀ D'⁻¹_{j−1} U_{j−1}
+                let d = if j == 0 { diag[0] } else { diag[j] - upper[j - 1].tr_mul(&link[j - 1]) };
+                let inv = d.try_inverse().ok_or(FactorError::SingularNode { cable: c, node: j })?;
+                dinv[j] = inv;
+                if j + 1 < m {
+                    link[j] = inv * upper[j];
+                }
+            }
+            if m > 0 {
+                let inv = dinv[m - 1];
+                self.dinv_p[c] = inv * a.node_cabin[c];
+                self.q_dinv[c] = a.cabin_node[c] * inv;
+                condensed -= self.q_dinv[c] * a.node_cabin[c];
+            }
+        }
+        Ok(condensed)
+    }
+
+    /// Forward elimination of the right-hand side `b` along every chain (in place); returns the
+    /// cabin's right-hand side condensed like the matrix.
+    pub fn forward(&self, b: &mut [f64]) -> Vector6<f64> {
+        let m = self.nodes;
+        let c0 = 3 * self.cables * m;
+        let l = m.saturating_sub(1);
+        let mut bc = Vector6::from_column_slice(&b[c0..c0 + 6]);
+        for c in 0..self.cables {
+            let bs = &mut b[3 * c * m..3 * (c + 1) * m];
+            let link = &self.link[c * l..(c + 1) * l];
+            if m == 0 {
+                continue;
+            }
+            let mut y = get3(bs, 0);
+            for j in 1..m {
+                y = get3(bs, j) - link[j - 1].tr_mul(&y);
+                set3(bs, j, &y);
+            }
+            bc -= self.q_dinv[c] * y;
+        }
+        bc
+    }
+
+    /// Back substitution (in place) from the cabin's solution `xc` to the towers; the cabin's
+    /// entries of `b` are set to `xc`.
+    pub fn backward(&self, b: &mut [f64], xc: &Vector6<f64>) {
+        let m = self.nodes;
+        let c0 = 3 * self.cables * m;
+        let l = m.saturating_sub(1);
+        b[c0..c0 + 6].copy_from_slice(xc.as_slice());
+        for c in 0..self.cables {
+            if m == 0 {
+                continue;
+            }
+            let bs = &mut b[3 * c * m..3 * (c + 1) * m];
+            let (dinv, link) = (&self.dinv[c * m..(c + 1) * m], &self.link[c * l..(c + 1) * l]);
+            let mut x = dinv[m - 1] * get3(bs, m - 1) - self.dinv_p[c] * xc;
+            set3(bs, m - 1, &x);
+            for j in (0..m - 1).rev() {
+                x = dinv[j] * get3(bs, j) - link[j] * x;
+                set3(bs, j, &x);
+            }
+        }
+    }
+
+    /// Numbers of [`ChainElimination::encode`].
+    fn encoded_len(&self) -> usize {
+        9 * (self.dinv.len() + self.link.len()) + 36 * self.cables
+    }
+
+    fn encode(&self, out: &mut Vec<f64>) {
+        for b in self.dinv.iter().chain(&self.link) {
+            out.extend_from_slice(b.as_slice());
+        }
+        for b in &self.dinv_p {
+            out.extend_from_slice(b.as_slice());
+        }
+        for b in &self.q_dinv {
+            out.extend_from_slice(b.as_slice());
+        }
+    }
+
+    /// Reads what [`ChainElimination::encode`] wrote (length checked by the caller).
+    fn decode(&mut self, data: &[f64]) {
+        let mut blocks = data.chunks_exact(9);
+        for b in self.dinv.iter_mut().chain(self.link.iter_mut()) {
+            b.copy_from_slice(blocks.next().expect("length checked"));
+        }
+        let rest = &data[9 * (self.dinv.len() + self.link.len())..];
+        let mut blocks = rest.chunks_exact(18);
+        for b in self.dinv_p.iter_mut() {
+            b.copy_from_slice(blocks.next().expect("length checked"));
+        }
+        for b in self.q_dinv.iter_mut() {
+            b.copy_from_slice(blocks.next().expect("length checked"));
+        }
+    }
+}
+
+/// A factorized [`ChainMatrix`]: the chains eliminated and the condensed cabin block's LU;
+/// solves in place, without allocating.
+#[derive(Clone, Debug)]
+pub struct ChainFactor {
+    chains: ChainElimination,
     /// The cabin block after condensing the chains onto it; its LU follows from it.
     condensed: Matrix6<f64>,
     /// `None` when the cabin is held fixed.
@@ -195,26 +322,16 @@ pub struct ChainFactor {
 
 impl ChainFactor {
     pub fn new(cables: usize, nodes: usize) -> ChainFactor {
-        ChainFactor {
-            cables,
-            nodes,
-            dinv: vec![Mat3::zeros(); cables * nodes],
-            forward: vec![Mat3::zeros(); cables * nodes.saturating_sub(1)],
-            backward: vec![Mat3::zeros(); cables * nodes.saturating_sub(1)],
-            dinv_p: vec![Matrix3x6::zeros(); cables],
-            q_dinv: vec![Matrix6x3::zeros(); cables],
-            condensed: Matrix6::zeros(),
-            cabin_lu: None,
-        }
+        ChainFactor { chains: ChainElimination::new(cables, nodes), condensed: Matrix6::zeros(), cabin_lu: None }
     }
 
-    fn set_cabin(&mut self, condensed: Matrix6<f64>, cabin_fixed: bool) -> Result<(), String> {
+    fn set_cabin(&mut self, condensed: Matrix6<f64>, cabin_fixed: bool) -> Result<(), FactorError> {
         self.condensed = condensed;
         self.cabin_lu = None;
         if !cabin_fixed {
             let lu = condensed.lu();
             if !lu.is_invertible() {
-                return Err("singular condensed cabin block".into());
+                return Err(FactorError::SingularCabin);
             }
             self.cabin_lu = Some(lu);
         }
@@ -224,83 +341,37 @@ impl ChainFactor {
     /// Every number of the factorization, for saving a simulation state.
     pub fn encode(&self, out: &mut Vec<f64>) {
         out.push(if self.cabin_lu.is_some() { 1.0 } else { 0.0 });
-        for b in self.dinv.iter().chain(&self.forward).chain(&self.backward) {
-            out.extend_from_slice(b.as_slice());
-        }
-        for b in &self.dinv_p {
-            out.extend_from_slice(b.as_slice());
-        }
-        for b in &self.q_dinv {
-            out.extend_from_slice(b.as_slice());
-        }
+        self.chains.encode(out);
         out.extend_from_slice(self.condensed.as_slice());
     }
 
     /// Rebuilds a factorization from [`ChainFactor::encode`]d numbers (the cabin LU is
     /// recomputed from the condensed block: the same bits).
-    pub fn decode(cables: usize, nodes: usize, data: &[f64]) -> Result<ChainFactor, String> {
+    pub fn decode(cables: usize, nodes: usize, data: &[f64]) -> Result<ChainFactor, FactorError> {
         let mut f = ChainFactor::new(cables, nodes);
         f.decode_into(data)?;
         Ok(f)
     }
 
     /// As [`ChainFactor::decode`], into this factorization's storage (same shape; no allocation).
-    pub fn decode_into(&mut self, data: &[f64]) -> Result<(), String> {
-        let blocks3 = self.dinv.len() + self.forward.len() + self.backward.len();
-        let expected = 1 + 9 * blocks3 + 36 * self.cables + 36;
+    pub fn decode_into(&mut self, data: &[f64]) -> Result<(), FactorError> {
+        let chain_len = self.chains.encoded_len();
+        let expected = 1 + chain_len + 36;
         if data.len() != expected {
-            return Err(format!("factorization data has {} numbers, expected {expected}", data.len()));
+            return Err(FactorError::DataLength { found: data.len(), expected });
         }
-        let mut it = data[1..].chunks_exact(9);
-        for b in self.dinv.iter_mut().chain(self.forward.iter_mut()).chain(self.backward.iter_mut()) {
-            b.copy_from_slice(it.next().expect("length checked"));
-        }
-        let rest = &data[1 + 9 * blocks3..];
-        let mut it = rest.chunks_exact(18);
-        for b in self.dinv_p.iter_mut() {
-            b.copy_from_slice(it.next().expect("length checked"));
-        }
-        for b in self.q_dinv.iter_mut() {
-            b.copy_from_slice(it.next().expect("length checked"));
-        }
-        self.set_cabin(Matrix6::from_column_slice(&rest[36 * self.cables..]), data[0] == 0.0)
+        self.chains.decode(&data[1..1 + chain_len]);
+        self.set_cabin(Matrix6::from_column_slice(&data[1 + chain_len..]), data[0] == 0.0)
     }
 
     /// Overwrites `b` with the solution of `S x = b`.
     pub fn solve_in_place(&self, b: &mut [f64]) {
-        let m = self.nodes;
-        let c0 = 3 * self.cables * m;
-        // forward elimination along each chain, condensing onto the cabin
-        let mut bc: SVector<f64, 6> = Vector6::from_column_slice(&b[c0..c0 + 6]);
-        for c in 0..self.cables {
-            for j in 1..m {
-                let k = c * m + j;
-                let y = get3(b, k) - self.forward[c * (m - 1) + j - 1] * get3(b, k - 1);
-                set3(b, k, &y);
-            }
-            if m > 0 {
-                bc -= self.q_dinv[c] * get3(b, c * m + m - 1);
-            }
-        }
+        let bc = self.chains.forward(b);
         let xc = match &self.cabin_lu {
             Some(lu) => lu.solve(&bc).unwrap_or_else(Vector6::zeros),
             None => Vector6::zeros(),
         };
-        b[c0..c0 + 6].copy_from_slice(xc.as_slice());
-        // back substitution from the cabin to the towers
-        for c in 0..self.cables {
-            if m == 0 {
-                continue;
-            }
-            let last = c * m + m - 1;
-            let x = self.dinv[last] * get3(b, last) - self.dinv_p[c] * xc;
-            set3(b, last, &x);
-            for j in (0..m - 1).rev() {
-                let k = c * m + j;
-                let x = self.dinv[k] * get3(b, k) - self.backward[c * (m - 1) + j] * get3(b, k + 1);
-                set3(b, k, &x);
-            }
-        }
+        self.chains.backward(b, &xc);
     }
 }
 
@@ -319,6 +390,13 @@ pub fn add3(v: &mut [f64], node: usize, x: &Vec3) {
     v[3 * node] += x.x;
     v[3 * node + 1] += x.y;
     v[3 * node + 2] += x.z;
+}
+
+#[inline]
+pub fn sub3(v: &mut [f64], node: usize, x: &Vec3) {
+    v[3 * node] -= x.x;
+    v[3 * node + 1] -= x.y;
+    v[3 * node + 2] -= x.z;
 }
 
 #[cfg(test)]

@@ -516,7 +516,7 @@ impl Model for CableFmu {
         self.ensure_built()?;
         let result = if has_dynamics {
             let dy = self.dynamics.as_mut().expect("built");
-            let r = dy.decode_state(&numbers);
+            let r = dy.decode_state(&numbers).map_err(|e| e.to_string());
             dy.end_tensions(&mut self.tensions);
             r
         } else {

@@ -1,8 +1,6 @@
 //! The cable–cabin model of a scene: form-found equilibrium, Rayleigh damping fitted to its
 //! modes, and ready-to-run dynamics. This is the entry point for the CLI and the FMU.
 
-use std::fmt;
-
 use feedcore::scene::{Scene, SceneError};
 use nalgebra::Vector6;
 
@@ -13,26 +11,17 @@ use crate::net::CableNet;
 use crate::statics::{Equilibrium, StaticsError, form_find};
 use crate::system::{Config, Support, System};
 
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum ModelError {
-    Scene(SceneError),
-    Statics(StaticsError),
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error("form-finding statics: {0}")]
+    Statics(#[from] StaticsError),
+    #[error("modal analysis: {0}")]
     Modes(String),
-    Dynamics(DynamicsError),
+    #[error(transparent)]
+    Dynamics(#[from] DynamicsError),
 }
-
-impl fmt::Display for ModelError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ModelError::Scene(e) => e.fmt(f),
-            ModelError::Statics(e) => write!(f, "form-finding statics: {e}"),
-            ModelError::Modes(e) => write!(f, "modal analysis: {e}"),
-            ModelError::Dynamics(e) => e.fmt(f),
-        }
-    }
-}
-
-impl std::error::Error for ModelError {}
 
 /// Rayleigh coefficients and where they came from.
 #[derive(Clone, Copy, Debug, PartialEq)]

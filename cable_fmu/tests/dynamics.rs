@@ -150,10 +150,10 @@ fn rayleigh_damped_mode_decays_at_the_fitted_rate() {
     // sample the modal coordinate and fit the envelope through successive maxima
     let h = 0.005;
     let mut peaks: Vec<(f64, f64)> = Vec::new();
-    let (mut q_prev2, mut q_prev) = (f64::NAN, modal_coordinate(&sys_copy, &eq, &dy.state.config, &shape));
+    let (mut q_prev2, mut q_prev) = (f64::NAN, modal_coordinate(&sys_copy, &eq, dy.config(), &shape));
     for k in 0..6000 {
         dy.step(h, &Vector6::zeros()).unwrap();
-        let q = modal_coordinate(&sys_copy, &eq, &dy.state.config, &shape);
+        let q = modal_coordinate(&sys_copy, &eq, dy.config(), &shape);
         if q_prev > q && q_prev > q_prev2 {
             peaks.push((h * k as f64, q_prev));
         }

@@ -136,17 +136,13 @@ impl BodyTerms {
         alpha: &Vec3,
         gravity: &Vec3,
     ) -> BodyTerms {
+        let residual = Self::residual(body, origin, omega, accel, alpha, gravity);
         let m = body.mass;
         let c = body.com - origin;
         let jo = body.inertia_about(origin);
         let (sc, sw, sa, sal) = (skew(&c), skew(omega), skew(accel), skew(alpha));
         let jw = jo * omega;
         let mg = gravity * m;
-        let f = accel * m + alpha.cross(&c) * m + omega.cross(&omega.cross(&c)) * m - mg;
-        let t = jo * alpha + c.cross(accel) * m + omega.cross(&jw) - c.cross(&mg);
-        let mut residual = nalgebra::Vector6::zeros();
-        residual.fixed_rows_mut::<3>(0).copy_from(&f);
-        residual.fixed_rows_mut::<3>(3).copy_from(&t);
         let mut mass = nalgebra::Matrix6::zeros();
         mass.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Mat3::identity() * m));
         mass.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-sc * m));
@@ -161,6 +157,28 @@ impl BodyTerms {
         let krr = -skew(&(jo * alpha)) + jo * sal + sa * sc * m + sw * (jo * sw - skew(&jw)) - skew(&mg) * sc;
         stiffness.fixed_view_mut::<3, 3>(3, 3).copy_from(&krr);
         BodyTerms { residual, mass, gyroscopic, stiffness }
+    }
+}
+
+impl BodyTerms {
+    /// The residual contribution alone (force; moment about O), for Newton iterations that
+    /// keep their matrix; arguments as for [`BodyTerms::new`].
+    pub fn residual(
+        body: &MassProperties,
+        origin: &Vec3,
+        omega: &Vec3,
+        accel: &Vec3,
+        alpha: &Vec3,
+        gravity: &Vec3,
+    ) -> nalgebra::Vector6<f64> {
+        let m = body.mass;
+        let c = body.com - origin;
+        let jo = body.inertia_about(origin);
+        let jw = jo * omega;
+        let mg = gravity * m;
+        let f = accel * m + alpha.cross(&c) * m + omega.cross(&omega.cross(&c)) * m - mg;
+        let t = jo * alpha + c.cross(accel) * m + omega.cross(&jw) - c.cross(&mg);
+        nalgebra::Vector6::new(f.x, f.y, f.z, t.x, t.y, t.z)
     }
 }
 

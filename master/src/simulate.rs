@@ -272,7 +272,7 @@ pub fn simulate(
                 &Probe { position: s.cabin.position, orientation: s.cabin.orientation, wrench: vec6(&s.wrench) },
             );
             for k in 1..=steps {
-                let iterations = m.step(dt)?;
+                let iterations = m.step(dt)?.iterations;
                 rec.trace.iterations.push(iterations);
                 rec.trace.residual.push(0.0);
                 let s = m.sample();

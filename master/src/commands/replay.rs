@@ -91,7 +91,7 @@ fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathB
     cols_out.extend(axes("cable.tension_anchor", 6));
     cols_out.extend(axes("cable.tension_cabin", 6));
     writeln!(f, "{}", cols_out.join(","))?;
-    let mut tensions = vec![(0.0, 0.0); dy.system.cables()];
+    let mut tensions = vec![(0.0, 0.0); dy.system().cables()];
     let mut write_row =
         |dy: &cable_fmu::dynamics::Dynamics, f: &mut std::io::BufWriter<std::fs::File>| -> std::io::Result<()> {
             let c = dy.cabin();
