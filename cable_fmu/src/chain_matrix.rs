@@ -85,25 +85,34 @@ impl ChainMatrix {
     pub fn mul_add(&self, x: &[f64], y: &mut [f64]) {
         let m = self.nodes;
         let c0 = 3 * self.cables * m;
+        let l = m.saturating_sub(1);
         let xc = Vector6::from_column_slice(&x[c0..c0 + 6]);
         let mut yc = self.cabin * xc;
         for c in 0..self.cables {
-            let (xs, ys) = (&x[3 * c * m..3 * (c + 1) * m], &mut y[3 * c * m..3 * (c + 1) * m]);
-            let (diag, upper) = (&self.diag[c * m..(c + 1) * m], &self.upper[c * m.saturating_sub(1)..]);
-            // ȳ_j += D_j x_j + U_j x_{j+1}, and the mirrored block: y_{j+1} += U_jᵀ x_j
-            for j in 0..m {
-                let xj = get3(xs, j);
-                let mut acc = diag[j] * xj;
-                if j + 1 < m {
-                    let u = &upper[j];
-                    acc += u * get3(xs, j + 1);
-                    add3(ys, j + 1, &u.tr_mul(&xj));
-                }
-                add3(ys, j, &acc);
+            if m == 0 {
+                continue;
             }
-            if m > 0 {
-                add3(ys, m - 1, &(self.node_cabin[c] * xc));
-                yc += self.cabin_node[c] * get3(xs, m - 1);
+            let (xs, ys) = (&x[3 * c * m..3 * (c + 1) * m], &mut y[3 * c * m..3 * (c + 1) * m]);
+            let (diag, upper) = (&self.diag[c * m..(c + 1) * m], &self.upper[c * l..(c + 1) * l]);
+            // y_j += D_j x_j + U_j x_{j+1} + U_{j−1}ᵀ x_{j−1}; the last term is carried over
+            let mut xs = xs.chunks_exact(3).map(vec3);
+            let mut x_cur = xs.next().expect("m > 0");
+            let mut carry = Vec3::zeros();
+            for (j, (yj, d)) in ys.chunks_exact_mut(3).zip(diag).enumerate() {
+                let mut acc = d * x_cur + carry;
+                match xs.next() {
+                    Some(x_next) => {
+                        let u = &upper[j];
+                        acc += u * x_next;
+                        carry = u.tr_mul(&x_cur);
+                        x_cur = x_next;
+                    }
+                    None => {
+                        acc += self.node_cabin[c] * xc;
+                        yc += self.cabin_node[c] * x_cur;
+                    }
+                }
+                add_to(yj, &acc);
             }
         }
         for i in 0..6 {
@@ -237,16 +246,16 @@ impl ChainElimination {
         let c0 = 3 * self.cables * m;
         let l = m.saturating_sub(1);
         let mut bc = Vector6::from_column_slice(&b[c0..c0 + 6]);
-        for c in 0..self.cables {
-            let bs = &mut b[3 * c * m..3 * (c + 1) * m];
+        if m == 0 {
+            return bc;
+        }
+        for (c, bs) in b[..c0].chunks_exact_mut(3 * m).enumerate() {
             let link = &self.link[c * l..(c + 1) * l];
-            if m == 0 {
-                continue;
-            }
-            let mut y = get3(bs, 0);
-            for j in 1..m {
-                y = get3(bs, j) - link[j - 1].tr_mul(&y);
-                set3(bs, j, &y);
+            let mut nodes = bs.chunks_exact_mut(3);
+            let mut y = vec3(nodes.next().expect("m > 0"));
+            for (bj, link) in nodes.zip(link) {
+                y = vec3(bj) - link.tr_mul(&y);
+                bj.copy_from_slice(y.as_slice());
             }
             bc -= self.q_dinv[c] * y;
         }
@@ -260,19 +269,35 @@ impl ChainElimination {
         let c0 = 3 * self.cables * m;
         let l = m.saturating_sub(1);
         b[c0..c0 + 6].copy_from_slice(xc.as_slice());
-        for c in 0..self.cables {
-            if m == 0 {
-                continue;
-            }
-            let bs = &mut b[3 * c * m..3 * (c + 1) * m];
+        if m == 0 {
+            return;
+        }
+        for (c, bs) in b[..c0].chunks_exact_mut(3 * m).enumerate() {
             let (dinv, link) = (&self.dinv[c * m..(c + 1) * m], &self.link[c * l..(c + 1) * l]);
-            let mut x = dinv[m - 1] * get3(bs, m - 1) - self.dinv_p[c] * xc;
-            set3(bs, m - 1, &x);
-            for j in (0..m - 1).rev() {
-                x = dinv[j] * get3(bs, j) - link[j] * x;
-                set3(bs, j, &x);
+            let mut nodes = bs.chunks_exact_mut(3).rev();
+            let last = nodes.next().expect("m > 0");
+            let mut x = dinv[m - 1] * vec3(last) - self.dinv_p[c] * xc;
+            last.copy_from_slice(x.as_slice());
+            for ((bj, dinv), link) in nodes.zip(dinv[..m - 1].iter().rev()).zip(link.iter().rev()) {
+                x = dinv * vec3(bj) - link * x;
+                bj.copy_from_slice(x.as_slice());
             }
         }
+    }
+
+    /// How the first and the last free node of `cable` follow the cabin's unknowns `x_c` when
+    /// no node carries a right-hand side (a load on the cabin alone): `x_first = F·x_c`,
+    /// `x_last = L·x_c`; returns (F, L). The back substitution with a zero right-hand side,
+    /// multiplied out once.
+    pub fn end_response(&self, cable: usize) -> (Matrix3x6<f64>, Matrix3x6<f64>) {
+        let m = self.nodes;
+        if m == 0 {
+            return (Matrix3x6::zeros(), Matrix3x6::zeros());
+        }
+        let l = m - 1;
+        let last = -self.dinv_p[cable];
+        let first = self.link[cable * l..(cable + 1) * l].iter().rev().fold(last, |t, link| -(link * t));
+        (first, last)
     }
 
     /// Numbers of [`ChainElimination::encode`].
@@ -364,6 +389,20 @@ impl ChainFactor {
         self.set_cabin(Matrix6::from_column_slice(&data[1 + chain_len..]), data[0] == 0.0)
     }
 
+    /// The cabin's part of the solution of `S x = b` when `b` is zero on every node and `load`
+    /// on the cabin (its nodes follow from [`ChainFactor::end_response`]).
+    pub fn solve_cabin_load(&self, load: &Vector6<f64>) -> Vector6<f64> {
+        match &self.cabin_lu {
+            Some(lu) => lu.solve(load).unwrap_or_else(Vector6::zeros),
+            None => Vector6::zeros(),
+        }
+    }
+
+    /// See [`ChainElimination::end_response`].
+    pub fn end_response(&self, cable: usize) -> (Matrix3x6<f64>, Matrix3x6<f64>) {
+        self.chains.end_response(cable)
+    }
+
     /// Overwrites `b` with the solution of `S x = b`.
     pub fn solve_in_place(&self, b: &mut [f64]) {
         let bc = self.chains.forward(b);
@@ -373,6 +412,22 @@ impl ChainFactor {
         };
         self.chains.backward(b, &xc);
     }
+}
+
+/// A 3-vector from a slice of three.
+#[inline]
+pub fn vec3(v: &[f64]) -> Vec3 {
+    let v: &[f64; 3] = v.try_into().expect("three entries");
+    Vec3::new(v[0], v[1], v[2])
+}
+
+/// Adds a 3-vector to a slice of three.
+#[inline]
+pub fn add_to(v: &mut [f64], x: &Vec3) {
+    let v: &mut [f64; 3] = v.try_into().expect("three entries");
+    v[0] += x.x;
+    v[1] += x.y;
+    v[2] += x.z;
 }
 
 #[inline]
@@ -440,6 +495,21 @@ mod tests {
             f.solve_in_place(&mut y);
             for i in 0..n {
                 assert!((y[i] - x[i]).abs() < 1e-11, "solve row {i}: {} vs {}", y[i], x[i]);
+            }
+            // a load on the cabin alone: the cabin's solution and the chain ends' response
+            let load = Vector6::from_fn(|_, _| rnd());
+            let mut full = vec![0.0; n];
+            full[n - 6..].copy_from_slice(load.as_slice());
+            f.solve_in_place(&mut full);
+            let xc = f.solve_cabin_load(&load);
+            assert!((xc - Vector6::from_column_slice(&full[n - 6..])).amax() < 1e-12);
+            for c in 0..3 {
+                let (first, last) = f.end_response(c);
+                if nodes > 0 {
+                    let (k0, k1) = (c * nodes, c * nodes + nodes - 1);
+                    assert!((first * xc - get3(&full, k0)).amax() < 1e-12, "first node of cable {c}");
+                    assert!((last * xc - get3(&full, k1)).amax() < 1e-12, "last node of cable {c}");
+                }
             }
         }
     }

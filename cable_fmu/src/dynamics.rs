@@ -10,7 +10,7 @@
 use feedcore::genalpha::{self, Failure, Integrator, Iterate, IterationMatrix, Newton, OptionsError, StepError};
 use feedcore::rigid::left_jacobian_so3;
 use feedcore::{Quat, Vec3};
-use nalgebra::Vector6;
+use nalgebra::{Matrix3x6, Vector6};
 
 use crate::chain_matrix::{ChainFactor, ChainMatrix, FactorError};
 use crate::system::{Coefficients, Config, Energy, Support, System};
@@ -138,8 +138,10 @@ pub struct Dynamics {
     matrix: ChainMatrix,
     /// Scratch of the sensitivity solves.
     scratch: Vec<f64>,
-    /// Exact iteration matrix at the current state, factorized when a sensitivity is asked for.
+    /// Exact iteration matrix at the current state, factorized when a sensitivity is asked for,
+    /// and how each cable's end nodes follow the cabin in it.
     sensitivity: Option<ChainFactor>,
+    ends: Vec<(Matrix3x6<f64>, Matrix3x6<f64>)>,
 }
 
 /// The model side of one generalized-α step (see [`genalpha::Problem`]).
@@ -155,6 +157,11 @@ impl genalpha::Problem for Step<'_> {
     type Config = Config;
     type Input = Vector6<f64>;
     type Error = CableFault;
+
+    /// Nodes and cabin move smoothly (no constraints at index 3).
+    fn extrapolated_unknowns(&self) -> usize {
+        self.system.dim()
+    }
 
     fn place(&self, base: &Config, increment: &[f64], trial: &mut Config) {
         trial.set_displaced(base, increment);
@@ -254,7 +261,7 @@ impl Dynamics {
             factor_step: None,
             last_step: None,
         };
-        Ok(Dynamics { system, integrator, state, work, matrix, scratch: residual, sensitivity: None })
+        Ok(Dynamics { system, integrator, state, work, matrix, scratch: residual, sensitivity: None, ends: Vec::new() })
     }
 
     pub fn time(&self) -> f64 {
@@ -336,29 +343,37 @@ impl Dynamics {
             );
             let f =
                 self.matrix.factorize(fixed).map_err(|source| DynamicsError::Sensitivity { time: st.time, source })?;
+            self.ends.clear();
+            self.ends.extend((0..self.system.cables()).map(|c| f.end_response(c)));
             self.sensitivity = Some(f);
         }
-        // r contains −W on the cabin rows: S δu = δW there.
-        let du = &mut self.scratch;
-        du.fill(0.0);
-        du[c0..c0 + 6].copy_from_slice(seed.as_slice());
-        self.sensitivity.as_ref().expect("factorized above").solve_in_place(du);
-        let v3 = |k: usize| Vec3::new(du[c0 + k], du[c0 + k + 1], du[c0 + k + 2]);
-        let cables = self.system.cables();
+        // r contains −W on the cabin rows: S δu = δW there, and zero on the nodes, whose
+        // response follows the cabin's (only the chain ends matter, for the end tensions).
+        let factor = self.sensitivity.as_ref().expect("factorized above");
+        let xc = factor.solve_cabin_load(seed);
+        let (dr, dth) = (xc.fixed_rows::<3>(0).into_owned(), xc.fixed_rows::<3>(3).into_owned());
         if self.state.last_step.is_none() {
             return Ok(CabinDelta {
                 position: Vec3::zeros(),
                 rotation: Vec3::zeros(),
                 velocity: Vec3::zeros(),
                 angular_velocity: Vec3::zeros(),
-                acceleration: v3(0),
-                angular_acceleration: v3(3),
-                tensions: vec![(0.0, 0.0); cables],
+                acceleration: dr,
+                angular_acceleration: dth,
+                tensions: vec![(0.0, 0.0); self.system.cables()],
             });
         }
-        let (dr, dth) = (v3(0), v3(3));
+        let m = self.system.free_nodes();
+        let du = &mut self.scratch;
+        for (c, (first, last)) in self.ends.iter().enumerate() {
+            if m > 0 {
+                du[3 * c * m..3 * c * m + 3].copy_from_slice((first * xc).as_slice());
+                du[3 * (c * m + m - 1)..3 * (c * m + m)].copy_from_slice((last * xc).as_slice());
+            }
+        }
         // the rotation coordinate is an increment inside exp(); the world rotation it makes:
         let dphi = left_jacobian_so3(&theta) * dth;
+        du[c0..c0 + 3].copy_from_slice(dr.as_slice());
         du[c0 + 3..c0 + 6].copy_from_slice(dphi.as_slice());
         let tensions = self.system.end_tension_sensitivity(&st.config, du);
         Ok(CabinDelta {
@@ -385,6 +400,8 @@ impl Dynamics {
         out.extend_from_slice(&st.velocity);
         out.extend_from_slice(&st.acceleration);
         out.extend_from_slice(&st.pseudo_acceleration);
+        out.extend_from_slice(&st.previous_acceleration);
+        out.push(st.previous_step);
         match &self.state.last_step {
             Some(l) => {
                 out.push(l.h);
@@ -406,7 +423,7 @@ impl Dynamics {
     pub fn decode_state(&mut self, data: &[f64]) -> Result<(), DynamicsError> {
         let n = self.dim();
         let nodes = self.state.motion.config.nodes.len();
-        let fixed_len = 1 + 3 * nodes + 7 + 3 * n + 10 + 1;
+        let fixed_len = 1 + 3 * nodes + 7 + 4 * n + 1 + 10 + 1;
         if data.len() < fixed_len {
             return Err(SavedStateError::TooShort { found: data.len(), expected: fixed_len }.into());
         }
@@ -438,6 +455,8 @@ impl Dynamics {
         st.velocity.copy_from_slice(take(n));
         st.acceleration.copy_from_slice(take(n));
         st.pseudo_acceleration.copy_from_slice(take(n));
+        st.previous_acceleration.copy_from_slice(take(n));
+        st.previous_step = take(1)[0];
         let l = take(10);
         self.state.last_step = (l[0] != 0.0).then(|| LastStep {
             h: l[0],

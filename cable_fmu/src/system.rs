@@ -16,7 +16,7 @@ use feedcore::rigid::{BodyTerms, MassProperties, skew};
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{Matrix3x6, Matrix6, Vector6};
 
-use crate::chain_matrix::{ChainMatrix, add3, get3, set3, sub3};
+use crate::chain_matrix::{ChainMatrix, get3, vec3};
 use crate::element::Bar;
 use crate::net::CableNet;
 use crate::statics::Equilibrium;
@@ -53,8 +53,8 @@ impl Config {
     /// Moves by a velocity-level increment `du` (nodes, cabin translation, world rotation vector)
     /// applied to `base`: `x = x₀ + du`, `R = exp(du_θ) R₀`. Writes into `self` (no allocation).
     pub fn set_displaced(&mut self, base: &Config, du: &[f64]) {
-        for (k, (x, x0)) in self.nodes.iter_mut().zip(&base.nodes).enumerate() {
-            *x = x0 + get3(du, k);
+        for ((x, x0), d) in self.nodes.iter_mut().zip(&base.nodes).zip(du.chunks_exact(3)) {
+            *x = x0 + vec3(d);
         }
         let c0 = 3 * base.nodes.len();
         self.position = base.position + Vec3::new(du[c0], du[c0 + 1], du[c0 + 2]);
@@ -323,34 +323,39 @@ impl System {
         let attach = cfg.position + d;
         let nodes = &cfg.nodes[i * m..(i + 1) * m];
         let (r, a) = (&mut residual[3 * i * m..3 * (i + 1) * m], &acc[3 * i * m..3 * (i + 1) * m]);
-        // free nodes: inertia and gravity
-        for j in 0..m {
-            set3(r, j, &(get3(a, j) * mn - g * mn));
-        }
-        if let Some((mat, coef)) = matrix.as_mut() {
-            for b in &mut mat.diag[i * m..(i + 1) * m] {
-                *b += Mat3::identity() * (coef.mass * mn);
-            }
-        }
-        // elements e = 0 … m, from point e to point e + 1 (point 0: the anchor, m + 1: the
-        // attachment)
+        // Elements e = 0 … m run from point e to point e + 1 (point 0: the anchor, m + 1: the
+        // attachment); free node j is point j + 1. Element e completes node e − 1: its inertia
+        // and weight, the pull of the element before it (`carry`) and of this one.
         let mut from = self.net.anchors[i];
+        let mut carry = Vec3::zeros();
+        let mut rows = r.chunks_exact_mut(3).zip(a.chunks_exact(3));
         for e in 0..=m {
             let to = if e < m { nodes[e] } else { attach };
-            let bar = Bar::new(&(to - from), ea, l0);
+            let delta = to - from;
             from = to;
-            let pull = bar.dir * bar.force; // force on the first point; minus on the second
+            // the force on the element's first point; minus on its second
+            let (pull, bar) = match matrix {
+                Some(_) => {
+                    let bar = Bar::new(&delta, ea, l0);
+                    (bar.dir * bar.force, Some(bar))
+                }
+                None => (Bar::pull(&delta, ea, l0), None),
+            };
             if e > 0 {
-                sub3(r, e - 1, &pull);
+                let (rj, aj) = rows.next().expect("one row per free node");
+                let f = vec3(aj) * mn - g * mn + carry - pull;
+                rj.copy_from_slice(f.as_slice());
             }
-            if e < m {
-                add3(r, e, &pull);
-            } else {
+            carry = pull;
+            if e == m {
                 // the second point is the attachment: generalized force on the cabin
                 let mom = d.cross(&pull);
                 *cabin_res += Vector6::new(pull.x, pull.y, pull.z, mom.x, mom.y, mom.z);
             }
-            let Some((mat, coef)) = matrix.as_mut() else { continue };
+            let (Some((mat, coef)), Some(bar)) = (matrix.as_mut(), bar) else { continue };
+            if e > 0 {
+                mat.diag[i * m + e - 1] += Mat3::identity() * (coef.mass * mn);
+            }
             let ke = if coef.slack_as_taut && bar.is_slack() {
                 bar.dir * bar.dir.transpose() * (ea / l0)
             } else {

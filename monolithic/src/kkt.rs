@@ -13,23 +13,19 @@
 //!    6×6 blocks of their own, mass-dominated and invertible: they are eliminated too, which
 //!    leaves the constraints' Schur complement `W = s·G·T·A⁻¹·Gᵀ` (78×78; two rows couple only
 //!    when they share a body).
-//! 3. W is factorized densely (LU with partial pivoting, faer): at 78 unknowns a dense
-//!    factorization beats a sparse one, whose fill and bookkeeping cost more (measured, see
-//!    docs/ARCHITECTURE.md). The two triangular solves with one right-hand side are written
-//!    here on a row-major copy of the factors: faer's blocked solve costs about five times the
-//!    arithmetic at this size, and solves are what every Newton iteration does.
+//! 3. W is assembled densely and factorized in the platform's structure ([`crate::schur`]).
 //!
 //! Vectors are laid out as the model's unknowns: the cable–cabin model's (nodes, cabin), the
 //! Stewart bodies' 6 each (platform, upper parts, lower parts), then the multipliers.
 
 use cable_fmu::chain_matrix::{ChainElimination, ChainMatrix, FactorError};
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::lu::partial_pivoting::factor;
-use faer::{Mat, Par};
+use faer::Mat;
 use feedcore::Mat3;
 use feedcore::stewart_geometry::BODIES;
 use nalgebra::{Matrix6, Vector6};
 use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ConstraintRow, SYSTEM_BODIES};
+
+use crate::schur::Schur;
 
 /// A block that cannot be factorized.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -38,7 +34,7 @@ pub enum KktError {
     Chains(#[from] FactorError),
     #[error("singular block of {0}")]
     SingularBody(&'static str),
-    #[error("singular constraint matrix (pivot {0}): the Stewart joints are in a singular pose")]
+    #[error("singular constraint matrix (at Stewart constraint row {0}): the joints are in a singular pose")]
     SingularConstraints(usize),
 }
 
@@ -81,14 +77,9 @@ pub struct Kkt {
     rows: Vec<Row>,
     /// The rows that act on each body: (row, which of its two bodies).
     touching: Vec<Vec<(usize, usize)>>,
-    /// W, and its LU factors (in place) after factorizing.
-    schur: Mat<f64>,
-    perm: Vec<usize>,
-    perm_inv: Vec<usize>,
-    stack: MemBuffer,
-    /// Column-major copy of the LU factors (unit L below the diagonal, U on and above it, the
-    /// diagonal replaced by its inverse), and the solve's scratch.
-    lu: Vec<f64>,
+    /// W, and its factorization.
+    w: Mat<f64>,
+    schur: Schur,
     rhs: Vec<f64>,
     /// Reduced right-hand sides of the bodies.
     z: [Vector6<f64>; SYSTEM_BODIES],
@@ -105,7 +96,6 @@ impl Kkt {
             }
         }
         let cable = 3 * cables * nodes + 6;
-        let stack = factor::lu_in_place_scratch::<usize, f64>(CONSTRAINTS, CONSTRAINTS, Par::Seq, Default::default());
         Kkt {
             cable,
             cabin: cable - 6,
@@ -121,11 +111,8 @@ impl Kkt {
                 })
                 .collect(),
             touching,
-            schur: Mat::zeros(CONSTRAINTS, CONSTRAINTS),
-            perm: vec![0; CONSTRAINTS],
-            perm_inv: vec![0; CONSTRAINTS],
-            stack: MemBuffer::new(stack),
-            lu: vec![0.0; CONSTRAINTS * CONSTRAINTS],
+            w: Mat::zeros(CONSTRAINTS, CONSTRAINTS),
+            schur: Schur::new(rows),
             rhs: vec![0.0; CONSTRAINTS],
             z: [Vector6::zeros(); SYSTEM_BODIES],
         }
@@ -163,34 +150,17 @@ impl Kkt {
             }
         }
         // W_jk = Σ over the bodies rows j and k share of Ĝ_j · Y_k
-        self.schur.fill(0.0);
+        self.w.fill(0.0);
         for touching in &self.touching {
             for &(j, nj) in touching {
                 let g_hat = &self.rows[j].g_hat[nj];
                 for &(k, nk) in touching {
-                    self.schur[(j, k)] += g_hat.dot(&self.rows[k].y[nk]);
+                    self.w[(j, k)] += g_hat.dot(&self.rows[k].y[nk]);
                 }
             }
         }
-        factor::lu_in_place(
-            self.schur.as_mut(),
-            &mut self.perm,
-            &mut self.perm_inv,
-            Par::Seq,
-            MemStack::new(&mut self.stack),
-            Default::default(),
-        );
-        for j in 0..CONSTRAINTS {
-            for i in 0..CONSTRAINTS {
-                self.lu[CONSTRAINTS * j + i] = self.schur[(i, j)];
-            }
-            let pivot = self.schur[(j, j)];
-            if !(pivot.abs() > 0.0 && pivot.is_finite()) {
-                return Err(KktError::SingularConstraints(j));
-            }
-            self.lu[CONSTRAINTS * j + j] = 1.0 / pivot;
-        }
-        Ok(())
+        let w = &self.w;
+        self.schur.factorize(|j, k| w[(j, k)]).map_err(KktError::SingularConstraints)
     }
 
     /// Overwrites `x` (right-hand side, laid out as the unknowns) with the solution.
@@ -202,29 +172,12 @@ impl Kkt {
             let rb = if b == CABIN { bc } else { Vector6::from_column_slice(&x[cable + 6 * b..cable + 6 * b + 6]) };
             self.z[b] = self.inverse[b] * rb;
         }
-        // W λ = Ĝ z − r_λ, rows permuted as in P W = L U
-        for (i, p) in self.perm.iter().enumerate() {
-            let row = &self.rows[*p];
+        // W λ = Ĝ z − r_λ
+        for (k, row) in self.rows.iter().enumerate() {
             let reduced = row.g_hat[0].dot(&self.z[row.bodies[0]]) + row.g_hat[1].dot(&self.z[row.bodies[1]]);
-            self.rhs[i] = reduced - x[motion + p];
+            self.rhs[k] = reduced - x[motion + k];
         }
-        // column by column (each an axpy on a contiguous column, which vectorizes)
-        let (lu, y) = (&self.lu, &mut self.rhs);
-        for j in 0..CONSTRAINTS {
-            let yj = y[j];
-            let column = &lu[CONSTRAINTS * j + j + 1..CONSTRAINTS * (j + 1)];
-            for (yi, l) in y[j + 1..].iter_mut().zip(column) {
-                *yi -= l * yj;
-            }
-        }
-        for j in (0..CONSTRAINTS).rev() {
-            let column = &lu[CONSTRAINTS * j..CONSTRAINTS * j + j + 1];
-            let xj = y[j] * column[j];
-            y[j] = xj;
-            for (yi, u) in y[..j].iter_mut().zip(column) {
-                *yi -= u * xj;
-            }
-        }
+        self.schur.solve(&mut self.rhs);
         for (k, row) in self.rows.iter().enumerate() {
             let lambda = self.rhs[k];
             x[motion + k] = lambda;

@@ -12,6 +12,8 @@
 //! * [`config`]: the configuration (cable–cabin configuration and the Stewart bodies' poses);
 //! * [`kkt`]: the linear algebra of a Newton iteration — the cable chains condensed onto the
 //!   cabin, the rigid bodies eliminated, and the constraints' dense Schur complement;
+//! * [`schur`]: the constraints' Schur complement, factorized leg by leg onto the joints that
+//!   touch the cabin or the platform;
 //! * [`problem`]: residual and iteration matrix, as the integrator asks for them;
 //! * [`run`]: the model in time ([`Monolithic`]): stepping, samples, snapshots.
 //!
@@ -28,5 +30,6 @@ pub mod kkt;
 pub mod model;
 pub mod problem;
 pub mod run;
+pub mod schur;
 
 pub use run::{Monolithic, MonolithicError, Sample, Snapshot};

@@ -1,6 +1,7 @@
 //! One generalized-α step with its Newton controller.
 //!
-//! Predictor: constant acceleration. Corrector: Newton on the position increment Δq (and the
+//! Predictor: the acceleration extrapolated linearly from the last two steps where the model
+//! says it is smooth, constant elsewhere. Corrector: Newton on the position increment Δq (and the
 //! multipliers), with `v̇ = v̇* + β′ δ` and `v = v* + γ′ δ` following each correction δ. The
 //! iteration matrix is factorized by the model and kept from step to step while Newton converges
 //! quickly with it:
@@ -172,12 +173,18 @@ impl Integrator {
         let n = state.velocity.len();
         let Workspace { trial, increment, velocity, acceleration, multipliers, residual, delta } = work;
 
-        // Predictor: constant acceleration; a, v and the increment follow from v̇.
+        // Predictor: the acceleration extrapolated linearly from the last two steps (where the
+        // model allows; constant before the first step and elsewhere); a, v and the increment
+        // follow from v̇.
         let c_acc = 1.0 / (1.0 - ga.alpha_m);
-        for (i, (vd, a)) in state.acceleration.iter().zip(&state.pseudo_acceleration).enumerate().take(n) {
+        let slope = if state.previous_step > 0.0 { h / state.previous_step } else { 0.0 };
+        let smooth = p.extrapolated_unknowns().min(n);
+        let last = state.acceleration.iter().zip(&state.previous_acceleration).zip(&state.pseudo_acceleration);
+        for (i, ((vd, vd0), a)) in last.enumerate() {
             let (vd, a, v) = (*vd, *a, state.velocity[i]);
-            let a1 = c_acc * ((1.0 - ga.alpha_f) * vd + ga.alpha_f * vd - ga.alpha_m * a);
-            acceleration[i] = vd;
+            let vd1 = if i < smooth { vd + slope * (vd - vd0) } else { vd };
+            let a1 = c_acc * ((1.0 - ga.alpha_f) * vd1 + ga.alpha_f * vd - ga.alpha_m * a);
+            acceleration[i] = vd1;
             velocity[i] = v + h * (1.0 - ga.gamma) * a + h * ga.gamma * a1;
             increment[i] = h * v + h * h * (0.5 - ga.beta) * a + h * h * ga.beta * a1;
         }
@@ -248,9 +255,10 @@ impl Integrator {
                 return Err(not_finite(p, Quantity::Residual, residual, 0));
             }
             previous_residual = rmax;
-            for (d, r) in delta.iter_mut().zip(residual.iter()) {
-                *d = -r;
-            }
+            // δ = −S⁻¹ r: negate the residual and solve in its place (the buffers swap roles;
+            // the old correction is not needed any more)
+            residual.iter_mut().for_each(|r| *r = -*r);
+            std::mem::swap(residual, delta);
             p.solve(delta);
             if !max_abs(&delta[n..]).is_finite() {
                 return Err(not_finite(p, Quantity::Correction, delta, 0));
@@ -260,10 +268,15 @@ impl Integrator {
                 return Err(not_finite(p, Quantity::Correction, delta, 0));
             }
             let (motion, lambda) = delta.split_at(n);
-            update(increment, motion, 1.0);
-            update(acceleration, motion, bp);
-            update(velocity, motion, gp);
-            update(multipliers, lambda, 1.0);
+            let moved = increment.iter_mut().zip(acceleration.iter_mut()).zip(velocity.iter_mut());
+            for (((x, a), v), d) in moved.zip(motion) {
+                *x += d;
+                *a += bp * d;
+                *v += gp * d;
+            }
+            for (l, d) in multipliers.iter_mut().zip(lambda) {
+                *l += d;
+            }
             p.place(&state.config, increment, trial);
             report.iterations = it + 1;
             let rate = dmax / previous;
@@ -293,23 +306,29 @@ impl Integrator {
             return Err(StepError::ConstraintResidual { residual: violation, bound });
         }
         let pseudo = &mut delta[..n];
-        for (((p, vd1), vd), a) in
-            pseudo.iter_mut().zip(&acceleration[..]).zip(&state.acceleration).zip(&state.pseudo_acceleration)
-        {
+        let new = pseudo.iter_mut().zip(&acceleration[..]).zip(&state.acceleration).zip(&state.pseudo_acceleration);
+        for (((p, vd1), vd), a) in new {
             *p = c_acc * ((1.0 - ga.alpha_f) * vd1 + ga.alpha_f * vd - ga.alpha_m * a);
         }
-        for (quantity, values, offset) in [
-            (Quantity::Increment, &increment[..], 0),
-            (Quantity::Velocity, &velocity[..], 0),
-            (Quantity::Acceleration, &acceleration[..], 0),
-            (Quantity::PseudoAcceleration, &delta[..n], 0),
-            (Quantity::Multiplier, &multipliers[..], n),
-        ] {
-            if !max_abs(values).is_finite() {
-                return Err(not_finite(p, quantity, values, offset));
+        // one pass over everything new: a sum of finite numbers times zero is zero
+        let all = increment.iter().zip(&velocity[..]).zip(&acceleration[..]).zip(&delta[..n]);
+        let zero = all.fold(0.0, |z, (((x, v), a), p)| z + (x + v + a + p) * 0.0);
+        if !(zero == 0.0 && max_abs(multipliers).is_finite()) {
+            for (quantity, values, offset) in [
+                (Quantity::Increment, &increment[..], 0),
+                (Quantity::Velocity, &velocity[..], 0),
+                (Quantity::Acceleration, &acceleration[..], 0),
+                (Quantity::PseudoAcceleration, &delta[..n], 0),
+                (Quantity::Multiplier, &multipliers[..], n),
+            ] {
+                if values.iter().any(|x| !x.is_finite()) {
+                    return Err(not_finite(p, quantity, values, offset));
+                }
             }
         }
         state.pseudo_acceleration.copy_from_slice(&delta[..n]);
+        std::mem::swap(&mut state.previous_acceleration, &mut state.acceleration);
+        state.previous_step = h;
         state.acceleration.copy_from_slice(acceleration);
         state.velocity.copy_from_slice(velocity);
         state.multipliers.copy_from_slice(multipliers);
@@ -338,13 +357,6 @@ pub fn max_abs(v: &[f64]) -> f64 {
         }
     }
     if (zero[0] + zero[1]) + (zero[2] + zero[3]) == 0.0 { m[0].max(m[1]).max(m[2].max(m[3])) } else { f64::NAN }
-}
-
-/// `x += s·d`, entry by entry.
-fn update(x: &mut [f64], d: &[f64], s: f64) {
-    for (x, d) in x.iter_mut().zip(d) {
-        *x += s * d;
-    }
 }
 
 /// The error for the first entry of `values` that is not finite (`offset`: index of its first

@@ -14,6 +14,14 @@ pub trait Problem {
     /// Why the model cannot go on.
     type Error: std::error::Error + 'static;
 
+    /// How many leading motion unknowns have accelerations smooth enough in time to be
+    /// predicted by linear extrapolation from the last two steps; the others (and the
+    /// multipliers) are predicted constant. Unknowns tied to constraints at index 3 carry the
+    /// method's spurious oscillations in their accelerations, which extrapolation amplifies.
+    fn extrapolated_unknowns(&self) -> usize {
+        0
+    }
+
     /// Moves `base` by the velocity-level `increment` into `trial` (positions add; rotations
     /// compose through the exponential map).
     fn place(&self, base: &Self::Config, increment: &[f64], trial: &mut Self::Config);

@@ -13,13 +13,26 @@ pub struct State<C> {
     pub pseudo_acceleration: Vec<f64>,
     /// Lagrange multipliers (empty without constraints).
     pub multipliers: Vec<f64>,
+    /// The acceleration one step back, and that step's size (0 before the first step): the
+    /// predictor extrapolates from them.
+    pub previous_acceleration: Vec<f64>,
+    pub previous_step: f64,
 }
 
 impl<C> State<C> {
     /// A state whose pseudo-acceleration equals its acceleration (a consistent start).
     pub fn new(time: f64, config: C, velocity: Vec<f64>, acceleration: Vec<f64>, multipliers: Vec<f64>) -> Self {
         assert_eq!(velocity.len(), acceleration.len(), "velocity and acceleration differ in length");
-        State { time, config, velocity, pseudo_acceleration: acceleration.clone(), acceleration, multipliers }
+        State {
+            time,
+            config,
+            velocity,
+            pseudo_acceleration: acceleration.clone(),
+            previous_acceleration: acceleration.clone(),
+            acceleration,
+            multipliers,
+            previous_step: 0.0,
+        }
     }
 
     /// Number of motion unknowns.
@@ -37,6 +50,8 @@ impl<C: Clone> Clone for State<C> {
             acceleration: self.acceleration.clone(),
             pseudo_acceleration: self.pseudo_acceleration.clone(),
             multipliers: self.multipliers.clone(),
+            previous_acceleration: self.previous_acceleration.clone(),
+            previous_step: self.previous_step,
         }
     }
 
@@ -48,6 +63,8 @@ impl<C: Clone> Clone for State<C> {
         self.acceleration.clone_from(&source.acceleration);
         self.pseudo_acceleration.clone_from(&source.pseudo_acceleration);
         self.multipliers.clone_from(&source.multipliers);
+        self.previous_acceleration.clone_from(&source.previous_acceleration);
+        self.previous_step = source.previous_step;
     }
 }
 
