@@ -214,16 +214,17 @@ impl Joints {
             let f = &frames;
             let hooke = &mut out[HOOKE_POSITION..HOOKE_POSITION + 3];
             points::<GAMMA>(f, c, &leg.base_point, u, &leg.hooke_in_upper, hooke);
-            out[HOOKE_ROTATION] = dot::<GAMMA>(f, c, &leg.hooke_axis, u, &ey);
+            dot::<GAMMA>(f, c, &leg.hooke_axis, u, &ey, &mut out[HOOKE_ROTATION]);
             let none = Stroke::default();
             for (n, axis) in [ex, ey].iter().enumerate() {
-                out[PRISMATIC_TRANSLATION + n] =
-                    along::<GAMMA>(f, u, axis, &leg.hooke_in_upper, d, &leg.sphere_in_lower, &none);
+                let row = &mut out[PRISMATIC_TRANSLATION + n];
+                along::<GAMMA>(f, u, axis, &leg.hooke_in_upper, d, &leg.sphere_in_lower, &none, row);
             }
             for (n, (x, y)) in [(ey, ez), (ez, ex), (ex, ey)].iter().enumerate() {
-                out[PRISMATIC_ROTATION + n] = dot::<GAMMA>(f, u, x, d, y);
+                dot::<GAMMA>(f, u, x, d, y, &mut out[PRISMATIC_ROTATION + n]);
             }
-            out[DRIVING] = along::<GAMMA>(f, u, &ez, &leg.hooke_in_upper, d, &leg.sphere_in_lower, &strokes[k]);
+            let row = &mut out[DRIVING];
+            along::<GAMMA>(f, u, &ez, &leg.hooke_in_upper, d, &leg.sphere_in_lower, &strokes[k], row);
             let sphere = &mut out[SPHERICAL..SPHERICAL + 3];
             points::<GAMMA>(f, d, &leg.sphere_in_lower, p, &leg.sphere_in_platform, sphere);
         }
@@ -231,6 +232,7 @@ impl Joints {
 }
 
 /// Coincident points: p_i(s_i) − p_j(s_j) = 0, three rows (world x, y, z).
+#[inline]
 fn points<const GAMMA: bool>(f: &[Frame], i: usize, s_i: &Vec3, j: usize, s_j: &Vec3, out: &mut [ConstraintRow]) {
     let (a, b) = (&f[i], &f[j]);
     let (si, sj) = (a.rot * s_i, b.rot * s_j);
@@ -250,7 +252,8 @@ fn points<const GAMMA: bool>(f: &[Frame], i: usize, s_i: &Vec3, j: usize, s_j: &
 }
 
 /// Perpendicular body axes: (R_i x) · (R_j y) = 0.
-fn dot<const GAMMA: bool>(f: &[Frame], i: usize, x: &Vec3, j: usize, y: &Vec3) -> ConstraintRow {
+#[inline]
+fn dot<const GAMMA: bool>(f: &[Frame], i: usize, x: &Vec3, j: usize, y: &Vec3, out: &mut ConstraintRow) {
     let (a, b) = (&f[i], &f[j]);
     let (xw, yw) = (a.rot * x, b.rot * y);
     let gamma = if GAMMA {
@@ -259,16 +262,18 @@ fn dot<const GAMMA: bool>(f: &[Frame], i: usize, x: &Vec3, j: usize, y: &Vec3) -
     } else {
         0.0
     };
-    ConstraintRow {
+    *out = ConstraintRow {
         bodies: [i, j],
         jacobian: [block(Vec3::zeros(), xw.cross(&yw)), block(Vec3::zeros(), yw.cross(&xw))],
         value: xw.dot(&yw),
         time_derivative: 0.0,
         gamma,
-    }
+    };
 }
 
 /// A point of body j seen along an axis of body i: (R_i e) · (p_j(s_j) − p_i(s_i)) − ℓ(t) = 0.
+#[inline]
+#[allow(clippy::too_many_arguments)]
 fn along<const GAMMA: bool>(
     f: &[Frame],
     i: usize,
@@ -277,7 +282,8 @@ fn along<const GAMMA: bool>(
     j: usize,
     s_j: &Vec3,
     stroke: &Stroke,
-) -> ConstraintRow {
+    out: &mut ConstraintRow,
+) {
     let (a, b) = (&f[i], &f[j]);
     let (ew, si, sj) = (a.rot * e, a.rot * s_i, b.rot * s_j);
     let delta = b.r + sj - a.r - si;
@@ -289,11 +295,11 @@ fn along<const GAMMA: bool>(
     } else {
         0.0
     };
-    ConstraintRow {
+    *out = ConstraintRow {
         bodies: [i, j],
         jacobian: [block(-ew, ew.cross(&(b.r + sj - a.r))), block(ew, sj.cross(&ew))],
         value: ew.dot(&delta) - stroke.length,
         time_derivative: -stroke.rate,
         gamma,
-    }
+    };
 }
