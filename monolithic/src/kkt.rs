@@ -32,8 +32,12 @@ use crate::schur::Schur;
 pub enum KktError {
     #[error("cable chains: {0}")]
     Chains(#[from] FactorError),
-    #[error("singular block of {0}")]
+    #[error(
+        "block of {0} is singular: its inertia no longer outweighs its gyroscopic and geometric terms (the body turns too fast for the step); reduce the step size or check the motion"
+    )]
     SingularBody(&'static str),
+    #[error("block of {0} is not finite (the motion diverged)")]
+    NotFinite(&'static str),
     #[error("singular constraint matrix (at Stewart constraint row {0}): the joints are in a singular pose")]
     SingularConstraints(usize),
 }
@@ -135,9 +139,15 @@ impl Kkt {
         scale: f64,
     ) -> Result<(), KktError> {
         let condensed = self.chains.eliminate(chain)?;
-        self.inverse[CABIN] = condensed.try_inverse().ok_or(KktError::SingularBody(BODY_NAMES[CABIN]))?;
+        let invert = |block: &Matrix6<f64>, b: usize| {
+            if block.iter().any(|x| !x.is_finite()) {
+                return Err(KktError::NotFinite(BODY_NAMES[b]));
+            }
+            block.try_inverse().ok_or(KktError::SingularBody(BODY_NAMES[b]))
+        };
+        self.inverse[CABIN] = invert(&condensed, CABIN)?;
         for (b, block) in bodies.iter().enumerate() {
-            self.inverse[b] = block.try_inverse().ok_or(KktError::SingularBody(BODY_NAMES[b]))?;
+            self.inverse[b] = invert(block, b)?;
         }
         for (row, r) in self.rows.iter_mut().zip(rows) {
             debug_assert_eq!(row.bodies, r.bodies, "the joints' structure is fixed");
