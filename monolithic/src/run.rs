@@ -108,6 +108,16 @@ impl Monolithic {
         self.state.time
     }
 
+    /// The cable–cabin system (its cables, for element forces).
+    pub fn cable_system(&self) -> &cable_fmu::system::System {
+        &self.model.system
+    }
+
+    /// The cable–cabin part of the configuration now: free nodes and the cabin pose.
+    pub fn cable_config(&self) -> &cable_fmu::system::Config {
+        &self.state.config.cable
+    }
+
     /// One step of size `h` (halved internally should Newton fail).
     pub fn step(&mut self, h: f64) -> Result<StepReport, MonolithicError> {
         let mut problem = Step { model: &self.model, scratch: &mut self.scratch };
