@@ -161,6 +161,89 @@ impl ChainMatrix {
     }
 }
 
+/// A [`ChainMatrix`] whose link blocks are symmetric — a stiffness or damping matrix assembled
+/// from two-node elements — held with its products in fewer operations: with
+/// `R_j = D_j + U_{j−1} + U_j` and `f_j = U_j (x_{j+1} − x_j)`, node j gets
+/// `R_j x_j + f_j − f_{j−1}` (two 3×3 products per node instead of three). Exact.
+#[derive(Clone, Debug)]
+pub struct LinkedChain {
+    matrix: ChainMatrix,
+    nodal: Vec<Mat3>,
+}
+
+impl LinkedChain {
+    /// The matrix in link form; without symmetric link blocks, a plain [`ChainMatrix::mul_add`]
+    /// is kept (`nodal` empty).
+    pub fn new(matrix: ChainMatrix) -> LinkedChain {
+        let symmetric = matrix.upper.iter().all(|u| *u == u.transpose());
+        let (m, l) = (matrix.nodes, matrix.nodes.saturating_sub(1));
+        let nodal = if symmetric {
+            (0..matrix.cables * m)
+                .map(|k| {
+                    let (c, j) = (k / m.max(1), k % m.max(1));
+                    let mut r = matrix.diag[k];
+                    if j > 0 {
+                        r += matrix.upper[c * l + j - 1];
+                    }
+                    if j + 1 < m {
+                        r += matrix.upper[c * l + j];
+                    }
+                    r
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        LinkedChain { matrix, nodal }
+    }
+
+    pub fn matrix(&self) -> &ChainMatrix {
+        &self.matrix
+    }
+
+    /// `y += self · x`.
+    pub fn mul_add(&self, x: &[f64], y: &mut [f64]) {
+        let a = &self.matrix;
+        if self.nodal.is_empty() {
+            return a.mul_add(x, y);
+        }
+        let m = a.nodes;
+        let c0 = 3 * a.cables * m;
+        let l = m.saturating_sub(1);
+        let xc = Vector6::from_column_slice(&x[c0..c0 + 6]);
+        let mut yc = a.cabin * xc;
+        for c in 0..a.cables {
+            if m == 0 {
+                continue;
+            }
+            let (xs, ys) = (&x[3 * c * m..3 * (c + 1) * m], &mut y[3 * c * m..3 * (c + 1) * m]);
+            let (nodal, upper) = (&self.nodal[c * m..(c + 1) * m], &a.upper[c * l..(c + 1) * l]);
+            let mut xs = xs.chunks_exact(3).map(vec3);
+            let mut x_cur = xs.next().expect("m > 0");
+            let mut f_before = Vec3::zeros();
+            for (j, (yj, r)) in ys.chunks_exact_mut(3).zip(nodal).enumerate() {
+                let mut acc = r * x_cur - f_before;
+                match xs.next() {
+                    Some(x_next) => {
+                        let f = upper[j] * (x_next - x_cur);
+                        acc += f;
+                        f_before = f;
+                        x_cur = x_next;
+                    }
+                    None => {
+                        acc += a.node_cabin[c] * xc;
+                        yc += a.cabin_node[c] * x_cur;
+                    }
+                }
+                add_to(yj, &acc);
+            }
+        }
+        for i in 0..6 {
+            y[c0 + i] += yc[i];
+        }
+    }
+}
+
 /// Why a chain matrix cannot be factorized or a factorization cannot be restored.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum FactorError {
@@ -486,6 +569,15 @@ mod tests {
             let x: Vec<f64> = (0..n).map(|_| rnd()).collect();
             let mut y = vec![0.0; n];
             s.mul_add(&x, &mut y);
+            // the link form of its symmetric part multiplies the same
+            let mut sym = s.clone();
+            sym.upper.iter_mut().for_each(|u| *u = (*u + u.transpose()) * 0.5);
+            let (mut ys, mut yl) = (vec![0.0; n], vec![0.0; n]);
+            sym.mul_add(&x, &mut ys);
+            LinkedChain::new(sym).mul_add(&x, &mut yl);
+            for i in 0..n {
+                assert!((ys[i] - yl[i]).abs() < 1e-12, "link form row {i}");
+            }
             let dense = s.to_dense();
             let yd = &dense * nalgebra::DVector::from_column_slice(&x);
             for i in 0..n {

@@ -4,6 +4,7 @@
 use feedcore::scene::{Scene, SceneError};
 use nalgebra::Vector6;
 
+use crate::chain_matrix::LinkedChain;
 use crate::damping::{rayleigh_coefficients, rayleigh_matrix};
 use crate::dynamics::{Dynamics, DynamicsError, DynamicsOptions};
 use crate::modes::{Modes, modes};
@@ -91,7 +92,7 @@ impl CableCabin {
         }
         let w = frequencies_hz.map(|f| 2.0 * std::f64::consts::PI * f);
         let (alpha, beta) = rayleigh_coefficients(d.ratio, w[0], w[1]);
-        locked.damping = Some(rayleigh_matrix(&locked, &cfg, alpha, beta));
+        locked.damping = Some(LinkedChain::new(rayleigh_matrix(&locked, &cfg, alpha, beta)));
         Ok(CableCabin {
             scene: scene.clone(),
             net,

@@ -16,7 +16,7 @@ use feedcore::rigid::{BodyTerms, MassProperties, skew};
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{Matrix3x6, Matrix6, Vector6};
 
-use crate::chain_matrix::{ChainMatrix, get3, vec3};
+use crate::chain_matrix::{ChainMatrix, LinkedChain, get3, vec3};
 use crate::element::Bar;
 use crate::net::CableNet;
 use crate::statics::Equilibrium;
@@ -114,7 +114,7 @@ pub struct System {
     pub body: MassProperties,
     pub support: Support,
     /// Constant damping matrix (Rayleigh), if any.
-    pub damping: Option<ChainMatrix>,
+    pub damping: Option<LinkedChain>,
 }
 
 /// Elastic and gravitational potential energy, and kinetic energy.
@@ -292,7 +292,7 @@ impl System {
         if let Some(cd) = &self.damping {
             cd.mul_add(vel, residual);
             if let Some((mat, coef)) = matrix.as_mut() {
-                mat.add_scaled(coef.damping, cd);
+                mat.add_scaled(coef.damping, cd.matrix());
             }
         }
         if self.support == Support::Fixed {

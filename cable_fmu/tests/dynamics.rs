@@ -130,7 +130,7 @@ fn rayleigh_damped_mode_decays_at_the_fitted_rate() {
     let (w1, w6) = (2.0 * PI * md.frequencies_hz[0], 2.0 * PI * md.frequencies_hz[5]);
     let zeta = 0.005;
     let (alpha, beta) = rayleigh_coefficients(zeta, w1, w6);
-    sys.damping = Some(rayleigh_matrix(&sys, &eq, alpha, beta));
+    sys.damping = Some(cable_fmu::chain_matrix::LinkedChain::new(rayleigh_matrix(&sys, &eq, alpha, beta)));
     // modal damping ratios of modes 1 and 6 from the matrix itself
     for (k, w) in [(0, w1), (5, w6)] {
         let mut cphi = vec![0.0; sys.dim()];
