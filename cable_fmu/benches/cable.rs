@@ -20,17 +20,24 @@ fn main() {
     let mut mat = sys.new_matrix();
     let w = Vector6::zeros();
     println!("cable–cabin model, {} unknowns ({} elements per cable)", n, scene.cables.elements);
-    bench("residual", 1.0, || sys.assemble(&cfg, &v, &a, &w, &mut r, None));
+    bench("residual (no matrix)", 1.0, || sys.residual(&cfg, &v, &a, &w, &mut r));
+    let damping = sys.damping.clone().expect("the scene's model carries its damping");
+    bench("  of which the damping force C·v (link form)", 1.0, || damping.mul_add(&v, &mut r));
+    bench("  the same, as a plain chain matrix", 1.0, || damping.matrix().mul_add(&v, &mut r));
     bench("residual + tangent assembly", 1.0, || {
         sys.assemble(&cfg, &v, &a, &w, &mut r, Some((&mut mat, Coefficients::STIFFNESS)))
     });
-    let factor = mat.factorize(false).unwrap();
-    bench("factorization (chain elimination + 6×6 LU)", 1.0, || mat.factorize(false).unwrap());
+    let mut factor = mat.factorize(false).unwrap();
+    bench("factorization (chain elimination + 6×6 LU)", 1.0, || mat.factorize_into(false, &mut factor).unwrap());
     bench("solve with a kept factorization", 1.0, || factor.solve_in_place(&mut r));
 
     let wrench =
         |t: f64| Vector6::new(50.0 * (0.2 * t).sin(), 50.0 * (0.2 * t).cos(), 0.0, 0.0, 0.0, 5.0 * (1.3 * t).sin());
     let mut dy = model.dynamics(Payload::Locked, 0.0).unwrap();
+    let (mut ext, seed) = (model.dynamics(Payload::External, 0.0).unwrap(), Vector6::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0));
+    ext.step(0.01, &model.static_payload_wrench()).unwrap();
+    ext.wrench_sensitivity(&seed).unwrap();
+    bench("wrench sensitivity, factorization kept", 1.0, || ext.wrench_sensitivity(&seed).unwrap());
     let mut t = 0.0;
     bench("one step h = 0.01 s (forced)", 1.0, || {
         t += 0.01;

@@ -1,21 +1,18 @@
-//! Implicit time integration of the cable–cabin system: generalized-α (Chung–Hulbert
-//! coefficients, Arnold–Brüls form on the rotation group, see [`feedcore::genalpha`]) with
-//! Newton iterations on the position increment.
+//! Time integration of the cable–cabin system with the shared generalized-α integrator
+//! ([`feedcore::genalpha`]): this module is the model side of a step — residual, iteration
+//! matrix `S = β′ M + γ′ C + K T` factorized in the chain structure (linear cost in the nodes),
+//! and placing a trial configuration — plus what the co-simulation needs on top: the sensitivity
+//! of a step to the wrench, and saving and restoring the state bit for bit.
 //!
-//! Each step solves `r(q_{n+1}, v_{n+1}, v̇_{n+1}) = 0` with the iteration matrix
-//! `S = β′ M + γ′ C + K T`, factorized in the chain structure (linear cost in the nodes). The
-//! factorization is kept from step to step while Newton converges quickly with it and is
-//! refreshed when the contraction slows down; it is part of the state, so a rollback
-//! reproduces the same bits.
+//! The factorization is kept from step to step while Newton converges quickly with it; it is
+//! part of the state, so a rollback reproduces the same bits.
 
-use std::fmt;
-
-use feedcore::genalpha::GenAlpha;
+use feedcore::genalpha::{self, Failure, Integrator, Iterate, IterationMatrix, Newton, OptionsError, StepError};
 use feedcore::rigid::left_jacobian_so3;
 use feedcore::{Quat, Vec3};
-use nalgebra::Vector6;
+use nalgebra::{Matrix3x6, Vector6};
 
-use crate::chain_matrix::{ChainFactor, ChainMatrix};
+use crate::chain_matrix::{ChainFactor, ChainMatrix, FactorError};
 use crate::system::{Coefficients, Config, Energy, Support, System};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -27,33 +24,78 @@ pub struct DynamicsOptions {
     pub newton_max_iter: usize,
 }
 
-/// A simulation that cannot go on: when and why.
-#[derive(Clone, Debug, PartialEq)]
-pub struct DynamicsError {
-    pub time: f64,
-    pub reason: String,
+/// What the cable–cabin model itself can object to during a step.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CableFault {
+    #[error("the external wrench is not finite: {0:?} (force N, moment N·m)")]
+    Wrench([f64; 6]),
+    #[error("iteration matrix: {0}")]
+    Factor(#[from] FactorError),
 }
 
-impl fmt::Display for DynamicsError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "cable–cabin dynamics stopped at t = {:.6} s: {}", self.time, self.reason)
+/// A simulation that cannot start or go on.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DynamicsError {
+    #[error("cable–cabin dynamics stopped at t = {time:.6} s: {reason}")]
+    Stopped { time: f64, reason: StepError<CableFault> },
+    #[error("cable–cabin dynamics: {0}")]
+    Options(#[from] OptionsError),
+    #[error("cable–cabin dynamics at t = {time:.6} s: {what}")]
+    Start { time: f64, what: StartError },
+    #[error("cable–cabin dynamics at t = {time:.6} s: sensitivity matrix: {source}")]
+    Sensitivity { time: f64, source: FactorError },
+    #[error("saved cable–cabin state: {0}")]
+    Saved(#[from] SavedStateError),
+}
+
+impl DynamicsError {
+    /// The time a step failed at, if it was a step.
+    pub fn time(&self) -> Option<f64> {
+        match self {
+            DynamicsError::Stopped { time, .. }
+            | DynamicsError::Start { time, .. }
+            | DynamicsError::Sensitivity { time, .. } => Some(*time),
+            _ => None,
+        }
     }
 }
 
-impl std::error::Error for DynamicsError {}
+impl From<Failure<CableFault>> for DynamicsError {
+    fn from(f: Failure<CableFault>) -> Self {
+        DynamicsError::Stopped { time: f.time, reason: f.reason }
+    }
+}
+
+/// Why the initial state cannot be set up.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum StartError {
+    #[error("the velocity vector has {found} entries; the system has {expected} unknowns")]
+    VelocityLength { found: usize, expected: usize },
+    #[error("mass matrix: {0}")]
+    Mass(FactorError),
+    #[error("the initial {0} is not finite")]
+    NotFinite(&'static str),
+}
+
+/// A saved state that does not fit this system.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SavedStateError {
+    #[error("state has {found} numbers, at least {expected} expected")]
+    TooShort { found: usize, expected: usize },
+    #[error("state has trailing numbers")]
+    Trailing,
+    #[error("{0}")]
+    Factor(#[from] FactorError),
+}
 
 /// Everything that determines the future of a simulation (what a rollback restores).
 #[derive(Clone, Debug)]
 pub struct State {
-    pub time: f64,
-    pub config: Config,
-    pub velocity: Vec<f64>,
-    /// True acceleration v̇.
-    pub acceleration: Vec<f64>,
-    /// The generalized-α pseudo-acceleration.
-    pub pseudo_acceleration: Vec<f64>,
-    /// Iteration matrix factorization and the step size it was built for.
-    pub factor: Option<(ChainFactor, f64)>,
+    /// Time, configuration, velocities and accelerations.
+    pub motion: genalpha::State<Config>,
+    /// The kept iteration matrix factorization and the step size it was built for.
+    factor: ChainFactor,
+    factor_step: Option<f64>,
     /// The step that led here (what its sensitivity to the wrench needs).
     pub last_step: Option<LastStep>,
 }
@@ -84,290 +126,184 @@ pub struct CabinDelta {
 pub use feedcore::rigid::RigidMotion as CabinKinematics;
 
 /// Work done in one step.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct StepStats {
-    pub iterations: usize,
-    pub factorizations: usize,
-}
+pub use feedcore::genalpha::StepReport as StepStats;
 
+/// The cable–cabin model in time: the system (immutable), the integrator, the state, and the
+/// scratch of steps and sensitivities.
 pub struct Dynamics {
-    pub system: System,
-    pub options: DynamicsOptions,
-    coef: GenAlpha,
-    pub state: State,
-    // scratch, reused every step
-    trial: Config,
-    increment: Vec<f64>,
-    velocity: Vec<f64>,
-    acceleration: Vec<f64>,
-    residual: Vec<f64>,
-    /// The last Newton correction.
-    delta: Vec<f64>,
+    system: System,
+    integrator: Integrator,
+    state: State,
+    work: genalpha::Workspace<Config>,
     matrix: ChainMatrix,
-    /// Exact iteration matrix at the current state, factorized when a sensitivity is asked for.
+    /// Scratch of the sensitivity solves.
+    scratch: Vec<f64>,
+    /// Exact iteration matrix at the current state, factorized when a sensitivity is asked for,
+    /// and how each cable's end nodes follow the cabin in it.
     sensitivity: Option<ChainFactor>,
+    ends: Vec<(Matrix3x6<f64>, Matrix3x6<f64>)>,
 }
 
-fn vec_max_abs(v: &[f64]) -> f64 {
-    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+/// The model side of one generalized-α step (see [`genalpha::Problem`]).
+struct Step<'a> {
+    system: &'a System,
+    wrench: Vector6<f64>,
+    matrix: &'a mut ChainMatrix,
+    factor: &'a mut ChainFactor,
+    factor_step: &'a mut Option<f64>,
+}
+
+impl genalpha::Problem for Step<'_> {
+    type Config = Config;
+    type Input = Vector6<f64>;
+    type Error = CableFault;
+
+    /// Nodes and cabin move smoothly (no constraints at index 3).
+    fn extrapolated_unknowns(&self) -> usize {
+        self.system.dim()
+    }
+
+    fn place(&self, base: &Config, increment: &[f64], trial: &mut Config) {
+        trial.set_displaced(base, increment);
+    }
+
+    fn begin_step(&mut self, _time: f64, wrench: &Vector6<f64>) -> Result<(), CableFault> {
+        if wrench.iter().any(|w| !w.is_finite()) {
+            return Err(CableFault::Wrench(std::array::from_fn(|k| wrench[k])));
+        }
+        self.wrench = *wrench;
+        Ok(())
+    }
+
+    fn residual(&mut self, at: &Iterate<'_, Config>, _constraint_scale: f64, residual: &mut [f64]) {
+        self.system.residual(at.config, at.velocity, at.acceleration, &self.wrench, residual);
+    }
+
+    fn factorize(
+        &mut self,
+        at: &Iterate<'_, Config>,
+        s: &IterationMatrix,
+        residual: &mut [f64],
+    ) -> Result<(), CableFault> {
+        let c0 = self.system.cabin_offset();
+        let theta = Vec3::from_column_slice(&at.increment[c0 + 3..c0 + 6]);
+        let coef = Coefficients {
+            mass: s.mass,
+            damping: s.damping,
+            stiffness: 1.0,
+            rotation_tangent: left_jacobian_so3(&theta),
+            slack_as_taut: s.slack_as_taut,
+        };
+        let matrix = Some((&mut *self.matrix, coef));
+        self.system.assemble(at.config, at.velocity, at.acceleration, &self.wrench, residual, matrix);
+        *self.factor_step = None;
+        self.matrix.factorize_into(self.system.support == Support::Fixed, self.factor)?;
+        *self.factor_step = Some(s.step);
+        Ok(())
+    }
+
+    fn factorized_step(&self) -> Option<f64> {
+        *self.factor_step
+    }
+
+    fn solve(&mut self, rhs: &mut [f64]) {
+        self.factor.solve_in_place(rhs);
+    }
+
+    fn unknown_name(&self, index: usize) -> String {
+        self.system.unknown_name(index)
+    }
 }
 
 impl Dynamics {
     /// Starts at `config` with `velocity` at time `t0` under `wrench`; the initial acceleration
-    /// is solved from the equations of motion.
+    /// is solved from the equations of motion. With the cabin held fixed its velocity is zero.
     pub fn new(
         system: System,
         config: Config,
-        velocity: Vec<f64>,
+        mut velocity: Vec<f64>,
         t0: f64,
         wrench: &Vector6<f64>,
         options: DynamicsOptions,
     ) -> Result<Dynamics, DynamicsError> {
         let n = system.dim();
-        assert_eq!(velocity.len(), n, "velocity vector has the wrong length");
+        let start = |what| DynamicsError::Start { time: t0, what };
+        if velocity.len() != n {
+            return Err(start(StartError::VelocityLength { found: velocity.len(), expected: n }));
+        }
+        let shortest = system.element_length.iter().copied().fold(f64::INFINITY, f64::min);
+        let newton = Newton::new(options.newton_tol, options.newton_max_iter, shortest)?;
+        let integrator = Integrator::new(options.rho_inf, newton)?;
+        let fixed = system.support == Support::Fixed;
+        let c0 = system.cabin_offset();
+        if fixed {
+            velocity[c0..].fill(0.0);
+        }
+        if velocity.iter().chain(wrench.iter()).any(|x| !x.is_finite()) {
+            return Err(start(StartError::NotFinite("velocity or wrench")));
+        }
         let mut residual = vec![0.0; n];
         let mut matrix = system.new_matrix();
         let zero = vec![0.0; n];
         // M v̇ = −r(v̇ = 0)
         system.assemble(&config, &velocity, &zero, wrench, &mut residual, Some((&mut matrix, Coefficients::MASS)));
-        let fixed = system.support == Support::Fixed;
-        let mass =
-            matrix.factorize(fixed).map_err(|e| DynamicsError { time: t0, reason: format!("mass matrix: {e}") })?;
+        let mass = matrix.factorize(fixed).map_err(|e| start(StartError::Mass(e)))?;
         let mut acceleration: Vec<f64> = residual.iter().map(|r| -r).collect();
         mass.solve_in_place(&mut acceleration);
         if acceleration.iter().any(|a| !a.is_finite()) {
-            return Err(DynamicsError { time: t0, reason: "the initial acceleration is not finite".into() });
+            return Err(start(StartError::NotFinite("acceleration")));
         }
+        let motion = genalpha::State::new(t0, config, velocity, acceleration, Vec::new());
+        let work = genalpha::Workspace::new(&motion);
         let state = State {
-            time: t0,
-            config: config.clone(),
-            velocity,
-            pseudo_acceleration: acceleration.clone(),
-            acceleration,
-            factor: None,
+            motion,
+            factor: ChainFactor::new(system.cables(), system.free_nodes()),
+            factor_step: None,
             last_step: None,
         };
-        Ok(Dynamics {
-            coef: GenAlpha::new(options.rho_inf),
-            system,
-            options,
-            state,
-            trial: config,
-            increment: vec![0.0; n],
-            velocity: vec![0.0; n],
-            acceleration: vec![0.0; n],
-            residual,
-            delta: vec![0.0; n],
-            matrix,
-            sensitivity: None,
-        })
+        Ok(Dynamics { system, integrator, state, work, matrix, scratch: residual, sensitivity: None, ends: Vec::new() })
     }
 
     pub fn time(&self) -> f64 {
-        self.state.time
+        self.state.motion.time
     }
 
     pub fn dim(&self) -> usize {
         self.system.dim()
     }
 
+    pub fn system(&self) -> &System {
+        &self.system
+    }
+
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// The current configuration.
+    pub fn config(&self) -> &Config {
+        &self.state.motion.config
+    }
+
     /// Advances by `h` with the external `wrench` (force, moment about the cabin centre point,
     /// world frame) acting at the end of the step.
     ///
     /// Should Newton fail — an element snapping from slack to taut is an impact — the step is
-    /// taken again as two halves (the wrench interpolated linearly from the last one), down to
+    /// taken again as halves (the wrench interpolated linearly from the last one), down to
     /// 1/64 of `h`, before the simulation stops with the reason.
     pub fn step(&mut self, h: f64, wrench: &Vector6<f64>) -> Result<StepStats, DynamicsError> {
-        let start = self.state.last_step.map_or(*wrench, |l| l.wrench);
-        self.step_split(h, &start, wrench, 0)
-    }
-
-    fn step_split(
-        &mut self,
-        h: f64,
-        from: &Vector6<f64>,
-        to: &Vector6<f64>,
-        depth: u32,
-    ) -> Result<StepStats, DynamicsError> {
-        match self.step_once(h, to) {
-            Err(e) if depth < 6 && e.reason.starts_with("Newton did not converge") => {
-                let mid = (from + to) * 0.5;
-                let a = self.step_split(0.5 * h, from, &mid, depth + 1)?;
-                let b = self.step_split(0.5 * h, &mid, to, depth + 1)?;
-                Ok(StepStats {
-                    iterations: a.iterations + b.iterations,
-                    factorizations: a.factorizations + b.factorizations,
-                })
-            }
-            other => other,
-        }
-    }
-
-    /// One generalized-α step; on failure `self.state` is as before (only the kept
-    /// factorization may have been refreshed).
-    fn step_once(&mut self, h: f64, wrench: &Vector6<f64>) -> Result<StepStats, DynamicsError> {
-        let t1 = self.state.time + h;
-        let fail = |reason: String| DynamicsError { time: t1, reason };
-        if !(h > 0.0 && h.is_finite()) {
-            return Err(fail(format!("invalid step size {h}")));
-        }
-        if wrench.iter().any(|w| !w.is_finite()) {
-            return Err(fail(format!("the external wrench is not finite: {:?}", wrench.as_slice())));
-        }
-        let ga = self.coef;
-        let (bp, gp) = (ga.beta_prime(h), ga.gamma_prime(h));
-        let n = self.dim();
-        let fixed = self.system.support == Support::Fixed;
-        let st = &self.state;
-        // Predictor: constant acceleration. Then a, v and the increment follow from v̇.
-        let c_acc = 1.0 / (1.0 - ga.alpha_m);
-        for i in 0..n {
-            let vd1 = st.acceleration[i];
-            let a1 = c_acc
-                * ((1.0 - ga.alpha_f) * vd1 + ga.alpha_f * st.acceleration[i] - ga.alpha_m * st.pseudo_acceleration[i]);
-            self.acceleration[i] = vd1;
-            self.velocity[i] = st.velocity[i] + h * (1.0 - ga.gamma) * st.pseudo_acceleration[i] + h * ga.gamma * a1;
-            self.increment[i] =
-                h * st.velocity[i] + h * h * (0.5 - ga.beta) * st.pseudo_acceleration[i] + h * h * ga.beta * a1;
-        }
-        if fixed {
-            let c0 = self.system.cabin_offset();
-            for i in c0..n {
-                self.acceleration[i] = 0.0;
-                self.velocity[i] = 0.0;
-                self.increment[i] = 0.0;
-            }
-        }
-        self.trial.set_displaced(&st.config, &self.increment);
-
-        let mut stats = StepStats::default();
-        let mut previous = f64::INFINITY;
-        let mut fresh = false;
-        let tol = self.options.newton_tol;
-        let mut converged = false;
-        let mut previous_residual = f64::INFINITY;
-        for it in 0..self.options.newton_max_iter {
-            let stale = match &self.state.factor {
-                Some((_, fh)) => *fh != h,
-                None => true,
-            };
-            let need_factor = stale || (it > 0 && !fresh && it >= self.options.newton_max_iter / 2);
-            if need_factor {
-                self.refactor(h, bp, gp, wrench, true).map_err(&fail)?;
-                stats.factorizations += 1;
-                fresh = true;
-            }
-            self.system.assemble(&self.trial, &self.velocity, &self.acceleration, wrench, &mut self.residual, None);
-            let mut rmax = vec_max_abs(&self.residual);
-            // A correction that did not lower the residual has jumped across the tension-only
-            // kink of an element (Newton would cycle): take back halves of it until it does.
-            let mut backtracks = 0;
-            while it > 0 && rmax.is_finite() && rmax >= previous_residual && rmax > 1e-6 && backtracks < 12 {
-                backtracks += 1;
-                for i in 0..n {
-                    let d = 0.5 * self.delta[i];
-                    self.delta[i] = d;
-                    self.increment[i] -= d;
-                    self.acceleration[i] -= bp * d;
-                    self.velocity[i] -= gp * d;
-                }
-                self.trial.set_displaced(&self.state.config, &self.increment);
-                self.system.assemble(&self.trial, &self.velocity, &self.acceleration, wrench, &mut self.residual, None);
-                rmax = vec_max_abs(&self.residual);
-            }
-            if !rmax.is_finite() {
-                return Err(fail("the residual is not finite (the motion diverged)".into()));
-            }
-            previous_residual = rmax;
-            let (factor, _) = self.state.factor.as_ref().expect("factorized above");
-            for (d, r) in self.delta.iter_mut().zip(&self.residual) {
-                *d = -*r;
-            }
-            factor.solve_in_place(&mut self.delta);
-            let delta = &self.delta;
-            let dmax = vec_max_abs(delta);
-            if !dmax.is_finite() {
-                return Err(fail("the Newton correction is not finite".into()));
-            }
-            for i in 0..n {
-                self.increment[i] += delta[i];
-                self.acceleration[i] += bp * delta[i];
-                self.velocity[i] += gp * delta[i];
-            }
-            self.trial.set_displaced(&self.state.config, &self.increment);
-            stats.iterations = it + 1;
-            // Converged when the correction is below the tolerance, or when the error it leaves
-            // (estimated from a fast contraction ρ as ρ/(1−ρ)·|δ|) is ten times below it.
-            let rate = dmax / previous;
-            if dmax <= tol || (it > 0 && rate < 0.2 && rate / (1.0 - rate) * dmax <= 0.1 * tol) {
-                converged = true;
-                break;
-            }
-            // Slow contraction with an old factorization: refresh it at the current iterate.
-            // Still slow with a fresh one: an element sits at its slack limit, where the taut
-            // stiffness given to slack elements is a poor guess; from then on use the exact
-            // tangent at every iterate (semismooth Newton), so the set of slack elements settles.
-            if it > 0 && dmax > 0.25 * previous {
-                self.refactor(h, bp, gp, wrench, !fresh).map_err(&fail)?;
-                stats.factorizations += 1;
-                fresh = true;
-            }
-            previous = dmax;
-        }
-        if !converged {
-            return Err(fail(format!(
-                "Newton did not converge in {} iterations (last correction {previous:.3e}, tolerance {tol:.1e}); reduce the step size or check the input for jumps",
-                self.options.newton_max_iter
-            )));
-        }
-        // accept
-        let st = &mut self.state;
-        for i in 0..n {
-            let a1 = c_acc
-                * ((1.0 - ga.alpha_f) * self.acceleration[i] + ga.alpha_f * st.acceleration[i]
-                    - ga.alpha_m * st.pseudo_acceleration[i]);
-            st.pseudo_acceleration[i] = a1;
-        }
-        st.acceleration.copy_from_slice(&self.acceleration);
-        st.velocity.copy_from_slice(&self.velocity);
-        std::mem::swap(&mut st.config, &mut self.trial);
-        st.time = t1;
+        let from = self.state.last_step.map_or(*wrench, |l| l.wrench);
+        let State { motion, factor, factor_step, last_step } = &mut self.state;
+        let mut problem = Step { system: &self.system, wrench: *wrench, matrix: &mut self.matrix, factor, factor_step };
+        let report = self.integrator.step(&mut problem, motion, &mut self.work, h, &from, wrench)?;
         let c0 = self.system.cabin_offset();
-        st.last_step = Some(LastStep {
-            h,
+        *last_step = Some(LastStep {
+            h: report.last_step,
             wrench: *wrench,
-            rotation_increment: Vec3::new(self.increment[c0 + 3], self.increment[c0 + 4], self.increment[c0 + 5]),
+            rotation_increment: Vec3::from_column_slice(&self.work.increment()[c0 + 3..c0 + 6]),
         });
         self.sensitivity = None;
-        Ok(stats)
-    }
-
-    /// Builds and factorizes the iteration matrix at the current iterate.
-    /// `slack_as_taut`: see [`Coefficients::slack_as_taut`]; false gives the exact tangent.
-    fn refactor(&mut self, h: f64, bp: f64, gp: f64, wrench: &Vector6<f64>, slack_as_taut: bool) -> Result<(), String> {
-        let c0 = self.system.cabin_offset();
-        let theta = Vec3::new(self.increment[c0 + 3], self.increment[c0 + 4], self.increment[c0 + 5]);
-        let coef = Coefficients {
-            mass: bp,
-            damping: gp,
-            stiffness: 1.0,
-            rotation_tangent: left_jacobian_so3(&theta),
-            slack_as_taut,
-        };
-        self.system.assemble(
-            &self.trial,
-            &self.velocity,
-            &self.acceleration,
-            wrench,
-            &mut self.residual,
-            Some((&mut self.matrix, coef)),
-        );
-        let factor = self
-            .matrix
-            .factorize(self.system.support == Support::Fixed)
-            .map_err(|e| format!("iteration matrix: {e}"))?;
-        self.state.factor = Some((factor, h));
-        Ok(())
+        Ok(report)
     }
 
     /// How the state reached by the last step would change with the end-of-step wrench:
@@ -377,14 +313,14 @@ impl Dynamics {
     pub fn wrench_sensitivity(&mut self, seed: &Vector6<f64>) -> Result<CabinDelta, DynamicsError> {
         let c0 = self.system.cabin_offset();
         let fixed = self.system.support == Support::Fixed;
-        let fail = |reason: String| DynamicsError { time: self.state.time, reason };
-        let st = &self.state;
-        let (bp, gp, theta) = match &st.last_step {
-            Some(last) => (self.coef.beta_prime(last.h), self.coef.gamma_prime(last.h), last.rotation_increment),
+        let st = &self.state.motion;
+        let ga = self.integrator.coefficients();
+        let (bp, gp, theta) = match &self.state.last_step {
+            Some(last) => (ga.beta_prime(last.h), ga.gamma_prime(last.h), last.rotation_increment),
             None => (f64::NAN, f64::NAN, Vec3::zeros()),
         };
         if self.sensitivity.is_none() {
-            let (coef, wrench) = match &st.last_step {
+            let (coef, wrench) = match &self.state.last_step {
                 Some(last) => (
                     Coefficients {
                         mass: bp,
@@ -402,35 +338,44 @@ impl Dynamics {
                 &st.velocity,
                 &st.acceleration,
                 &wrench,
-                &mut self.residual,
+                &mut self.scratch,
                 Some((&mut self.matrix, coef)),
             );
-            let f = self.matrix.factorize(fixed).map_err(|e| fail(format!("sensitivity matrix: {e}")))?;
+            let f =
+                self.matrix.factorize(fixed).map_err(|source| DynamicsError::Sensitivity { time: st.time, source })?;
+            self.ends.clear();
+            self.ends.extend((0..self.system.cables()).map(|c| f.end_response(c)));
             self.sensitivity = Some(f);
         }
-        // r contains −W on the cabin rows: S δu = δW there.
-        let du = &mut self.residual;
-        du.iter_mut().for_each(|x| *x = 0.0);
-        du[c0..c0 + 6].copy_from_slice(seed.as_slice());
-        self.sensitivity.as_ref().expect("factorized above").solve_in_place(du);
-        let v3 = |k: usize| Vec3::new(du[c0 + k], du[c0 + k + 1], du[c0 + k + 2]);
-        let cables = self.system.cables();
+        // r contains −W on the cabin rows: S δu = δW there, and zero on the nodes, whose
+        // response follows the cabin's (only the chain ends matter, for the end tensions).
+        let factor = self.sensitivity.as_ref().expect("factorized above");
+        let xc = factor.solve_cabin_load(seed);
+        let (dr, dth) = (xc.fixed_rows::<3>(0).into_owned(), xc.fixed_rows::<3>(3).into_owned());
         if self.state.last_step.is_none() {
             return Ok(CabinDelta {
                 position: Vec3::zeros(),
                 rotation: Vec3::zeros(),
                 velocity: Vec3::zeros(),
                 angular_velocity: Vec3::zeros(),
-                acceleration: v3(0),
-                angular_acceleration: v3(3),
-                tensions: vec![(0.0, 0.0); cables],
+                acceleration: dr,
+                angular_acceleration: dth,
+                tensions: vec![(0.0, 0.0); self.system.cables()],
             });
         }
-        let (dr, dth) = (v3(0), v3(3));
+        let m = self.system.free_nodes();
+        let du = &mut self.scratch;
+        for (c, (first, last)) in self.ends.iter().enumerate() {
+            if m > 0 {
+                du[3 * c * m..3 * c * m + 3].copy_from_slice((first * xc).as_slice());
+                du[3 * (c * m + m - 1)..3 * (c * m + m)].copy_from_slice((last * xc).as_slice());
+            }
+        }
         // the rotation coordinate is an increment inside exp(); the world rotation it makes:
         let dphi = left_jacobian_so3(&theta) * dth;
+        du[c0..c0 + 3].copy_from_slice(dr.as_slice());
         du[c0 + 3..c0 + 6].copy_from_slice(dphi.as_slice());
-        let tensions = self.system.end_tension_sensitivity(&self.state.config, du);
+        let tensions = self.system.end_tension_sensitivity(&st.config, du);
         Ok(CabinDelta {
             position: dr,
             rotation: dphi,
@@ -444,7 +389,7 @@ impl Dynamics {
 
     /// The whole state as numbers (bit for bit), for saving and restoring a simulation.
     pub fn encode_state(&self, out: &mut Vec<f64>) {
-        let st = &self.state;
+        let st = &self.state.motion;
         out.push(st.time);
         for x in &st.config.nodes {
             out.extend_from_slice(x.as_slice());
@@ -455,7 +400,9 @@ impl Dynamics {
         out.extend_from_slice(&st.velocity);
         out.extend_from_slice(&st.acceleration);
         out.extend_from_slice(&st.pseudo_acceleration);
-        match &st.last_step {
+        out.extend_from_slice(&st.previous_acceleration);
+        out.push(st.previous_step);
+        match &self.state.last_step {
             Some(l) => {
                 out.push(l.h);
                 out.extend_from_slice(l.wrench.as_slice());
@@ -463,44 +410,35 @@ impl Dynamics {
             }
             None => out.extend_from_slice(&[0.0; 10]),
         }
-        match &st.factor {
-            Some((f, h)) => {
-                out.push(*h);
-                f.encode(out);
+        match self.state.factor_step {
+            Some(h) => {
+                out.push(h);
+                self.state.factor.encode(out);
             }
             None => out.push(0.0),
         }
     }
 
     /// Restores a state written by [`Dynamics::encode_state`] of the same system, in place.
-    pub fn decode_state(&mut self, data: &[f64]) -> Result<(), String> {
+    pub fn decode_state(&mut self, data: &[f64]) -> Result<(), DynamicsError> {
         let n = self.dim();
-        let nodes = self.state.config.nodes.len();
-        let fixed_len = 1 + 3 * nodes + 7 + 3 * n + 10 + 1;
+        let nodes = self.state.motion.config.nodes.len();
+        let fixed_len = 1 + 3 * nodes + 7 + 4 * n + 1 + 10 + 1;
         if data.len() < fixed_len {
-            return Err(format!("state has {} numbers, at least {fixed_len} expected", data.len()));
+            return Err(SavedStateError::TooShort { found: data.len(), expected: fixed_len }.into());
         }
         let h = data[fixed_len - 1];
         let factor_data = &data[fixed_len..];
         if h == 0.0 && !factor_data.is_empty() {
-            return Err("state has trailing numbers".into());
+            return Err(SavedStateError::Trailing.into());
         }
         // the factorization first: it is the only part that can still be refused
         if h != 0.0 {
-            match &mut self.state.factor {
-                Some((f, fh)) => {
-                    f.decode_into(factor_data)?;
-                    *fh = h;
-                }
-                None => {
-                    let f = ChainFactor::decode(self.system.cables(), self.system.free_nodes(), factor_data)?;
-                    self.state.factor = Some((f, h));
-                }
-            }
-        } else {
-            self.state.factor = None;
+            self.state.factor_step = None;
+            self.state.factor.decode_into(factor_data).map_err(SavedStateError::from)?;
         }
-        let st = &mut self.state;
+        self.state.factor_step = (h != 0.0).then_some(h);
+        let st = &mut self.state.motion;
         let mut pos = 0;
         let mut take = |k: usize| {
             let s = &data[pos..pos + k];
@@ -517,8 +455,10 @@ impl Dynamics {
         st.velocity.copy_from_slice(take(n));
         st.acceleration.copy_from_slice(take(n));
         st.pseudo_acceleration.copy_from_slice(take(n));
+        st.previous_acceleration.copy_from_slice(take(n));
+        st.previous_step = take(1)[0];
         let l = take(10);
-        st.last_step = (l[0] != 0.0).then(|| LastStep {
+        self.state.last_step = (l[0] != 0.0).then(|| LastStep {
             h: l[0],
             wrench: Vector6::from_column_slice(&l[1..7]),
             rotation_increment: Vec3::from_column_slice(&l[7..10]),
@@ -530,7 +470,7 @@ impl Dynamics {
     /// Motion of the cabin centre point.
     pub fn cabin(&self) -> CabinKinematics {
         let c0 = self.system.cabin_offset();
-        let st = &self.state;
+        let st = &self.state.motion;
         let v3 = |v: &[f64], k: usize| Vec3::new(v[c0 + k], v[c0 + k + 1], v[c0 + k + 2]);
         CabinKinematics {
             position: st.config.position,
@@ -544,11 +484,11 @@ impl Dynamics {
 
     /// Axial force of the element next to the anchor and next to the cabin, per cable.
     pub fn end_tensions(&self, out: &mut [(f64, f64)]) {
-        self.system.end_tensions(&self.state.config, out);
+        self.system.end_tensions(&self.state.motion.config, out);
     }
 
     /// Energy, with the gravitational part measured from `reference`.
     pub fn energy(&self, reference: &Config) -> Energy {
-        self.system.energy(&self.state.config, &self.state.velocity, reference)
+        self.system.energy(&self.state.motion.config, &self.state.motion.velocity, reference)
     }
 }

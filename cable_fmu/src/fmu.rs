@@ -339,7 +339,7 @@ impl CableFmu {
     fn step_map_derivative(&mut self, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
         let dw = Self::wrench_seed(at.knowns, at.seed)?;
         let dy = match &mut self.dynamics {
-            Some(dy) if dy.state.last_step.is_some() => dy,
+            Some(dy) if dy.state().last_step.is_some() => dy,
             _ => return Err("no step has been taken yet: the step map is defined after fmi2DoStep".into()),
         };
         let q = dy.cabin().orientation.into_inner();

@@ -6,12 +6,13 @@
 //! * [`catenary`]: Irvine's elastic catenary, the analytic reference;
 //! * [`net`]: the net's geometry, material and rigid bodies;
 //! * [`statics`]: form finding of the unstretched lengths for a target cabin pose;
-//! * [`chain_matrix`]: the chain sparsity, factorized at linear cost onto the cabin;
+//! * [`chain_matrix`]: the chain sparsity, eliminated at linear cost onto the cabin;
 //! * [`system`]: residual of the equations of motion and its exact tangent;
 //! * [`eigen`]: lowest eigenpairs of a symmetric pencil (shift-invert Lanczos);
 //! * [`modes`]: natural frequencies and mode shapes;
 //! * [`damping`]: Rayleigh damping fitted at two frequencies;
-//! * [`dynamics`]: generalized-α time integration;
+//! * [`dynamics`]: the model in time (its side of the shared integrator, [`feedcore::genalpha`]),
+//!   the sensitivity of a step to the wrench, and saving and restoring a state;
 //! * [`model`]: all of the above built from a scene.
 
 pub mod catenary;

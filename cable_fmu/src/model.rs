@@ -1,11 +1,10 @@
 //! The cable–cabin model of a scene: form-found equilibrium, Rayleigh damping fitted to its
 //! modes, and ready-to-run dynamics. This is the entry point for the CLI and the FMU.
 
-use std::fmt;
-
 use feedcore::scene::{Scene, SceneError};
 use nalgebra::Vector6;
 
+use crate::chain_matrix::LinkedChain;
 use crate::damping::{rayleigh_coefficients, rayleigh_matrix};
 use crate::dynamics::{Dynamics, DynamicsError, DynamicsOptions};
 use crate::modes::{Modes, modes};
@@ -13,26 +12,17 @@ use crate::net::CableNet;
 use crate::statics::{Equilibrium, StaticsError, form_find, form_find_under};
 use crate::system::{Config, Support, System};
 
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum ModelError {
-    Scene(SceneError),
-    Statics(StaticsError),
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error("form-finding statics: {0}")]
+    Statics(#[from] StaticsError),
+    #[error("modal analysis: {0}")]
     Modes(String),
-    Dynamics(DynamicsError),
+    #[error(transparent)]
+    Dynamics(#[from] DynamicsError),
 }
-
-impl fmt::Display for ModelError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ModelError::Scene(e) => e.fmt(f),
-            ModelError::Statics(e) => write!(f, "form-finding statics: {e}"),
-            ModelError::Modes(e) => write!(f, "modal analysis: {e}"),
-            ModelError::Dynamics(e) => e.fmt(f),
-        }
-    }
-}
-
-impl std::error::Error for ModelError {}
 
 /// Rayleigh coefficients and where they came from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -106,7 +96,7 @@ impl CableCabin {
         }
         let w = frequencies_hz.map(|f| 2.0 * std::f64::consts::PI * f);
         let (alpha, beta) = rayleigh_coefficients(d.ratio, w[0], w[1]);
-        locked.damping = Some(rayleigh_matrix(&locked, &cfg, alpha, beta));
+        locked.damping = Some(LinkedChain::new(rayleigh_matrix(&locked, &cfg, alpha, beta)));
         Ok(CableCabin {
             scene: scene.clone(),
             net,
@@ -138,7 +128,7 @@ impl CableCabin {
         let equilibrium = form_find_under(&self.net, p, q, wrench).map_err(ModelError::Statics)?;
         let mut locked = System::new(self.net.clone(), equilibrium.lengths(), true, Support::Free);
         let cfg = locked.config_from(&equilibrium);
-        locked.damping = Some(rayleigh_matrix(&locked, &cfg, self.damping.alpha, self.damping.beta));
+        locked.damping = Some(LinkedChain::new(rayleigh_matrix(&locked, &cfg, self.damping.alpha, self.damping.beta)));
         Ok(CableCabin {
             scene: self.scene.clone(),
             net: self.net.clone(),

@@ -109,6 +109,17 @@ fn initial_tension(spec: &CableSpec, start: &Vec3, end: &Vec3, length: f64) -> V
     u * t_mid + spec.gravity * (spec.mass_per_length * length * (n - 1) as f64 / (2 * n) as f64)
 }
 
+/// Why a cable cannot be solved between its ends.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ShootingError {
+    #[error("singular shooting Jacobian{}", if *.at_solution { " at the solution" } else { "" })]
+    SingularJacobian { at_solution: bool },
+    #[error("shooting stalled {miss:.3e} m from the end point")]
+    Stalled { miss: f64 },
+    #[error("shooting did not converge: {miss:.3e} m from the end point")]
+    NotConverged { miss: f64 },
+}
+
 /// Solves the cable from `start` to `end` with unstretched length `length`.
 /// `guess` is a first-element tension vector to start Newton from (e.g. the last solution).
 pub fn solve_chain(
@@ -117,7 +128,7 @@ pub fn solve_chain(
     end: &Vec3,
     length: f64,
     guess: Option<Vec3>,
-) -> Result<ChainStatics, String> {
+) -> Result<ChainStatics, ShootingError> {
     let scale = (end - start).norm().max(length);
     let mut t1 = guess.unwrap_or_else(|| initial_tension(spec, start, end, length));
     let (r0, mut j, _) = walk(spec, start, length, &t1, None, None);
@@ -128,13 +139,13 @@ pub fn solve_chain(
             let mut tension = Vec::with_capacity(spec.elements);
             let (_, jac, dl) = walk(spec, start, length, &t1, Some(&mut nodes), Some(&mut tension));
             // dT_last/dL = dT1/dL + (n−1)·dm g;  dT1/dL = −J⁻¹ ∂r/∂L at fixed end
-            let jinv = jac.try_inverse().ok_or("singular shooting Jacobian at the solution")?;
+            let jinv = jac.try_inverse().ok_or(ShootingError::SingularJacobian { at_solution: true })?;
             let dt1 = -(jinv * dl);
             let n = spec.elements as f64;
             let d_last = dt1 - spec.gravity * (spec.mass_per_length * (n - 1.0) / n);
             return Ok(ChainStatics { nodes, tension, d_last_tension_d_length: d_last });
         }
-        let dt = j.lu().solve(&(-res)).ok_or("singular shooting Jacobian")?;
+        let dt = j.lu().solve(&(-res)).ok_or(ShootingError::SingularJacobian { at_solution: false })?;
         // Backtracking: accept the first step that reduces the miss distance and keeps |T| > 0.
         let mut step = 1.0;
         loop {
@@ -151,11 +162,11 @@ pub fn solve_chain(
             }
             step *= 0.5;
             if step < 1e-12 {
-                return Err(format!("shooting stalled {:.3e} m from the end point", res.norm()));
+                return Err(ShootingError::Stalled { miss: res.norm() });
             }
         }
     }
-    Err(format!("shooting did not converge: {:.3e} m from the end point", res.norm()))
+    Err(ShootingError::NotConverged { miss: res.norm() })
 }
 
 #[cfg(test)]

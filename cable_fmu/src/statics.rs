@@ -9,14 +9,12 @@
 //!
 //! Cables are numbered from 0, as in lt50m.md: cable i runs from anchor i to attachment i.
 
-use std::fmt;
-
 use feedcore::rigid::MassProperties;
 use feedcore::{Quat, Vec3};
 use nalgebra::{Matrix6, Vector6};
 
 use crate::net::CableNet;
-use crate::shooting::{ChainStatics, solve_chain};
+use crate::shooting::{ChainStatics, ShootingError, solve_chain};
 
 /// How a cable hangs at the equilibrium.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -61,40 +59,29 @@ impl Equilibrium {
     }
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum StaticsError {
     /// Holding the pose needs a cable to push.
-    Infeasible {
-        cable: usize,
-        tension: f64,
-    },
-    NoConvergence {
-        residual: f64,
-        iterations: usize,
-        detail: String,
-    },
+    #[error(
+        "the pose is infeasible: cable {cable} would have to push ({tension:.1} N in a straight-cable estimate); move the target pose towards the middle of the workspace or change the anchors"
+    )]
+    Infeasible { cable: usize, tension: f64 },
+    #[error("form finding did not converge after {iterations} Newton iterations (residual {residual:.3e}): {detail}")]
+    NoConvergence { residual: f64, iterations: usize, detail: Detail },
 }
 
-impl fmt::Display for StaticsError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            StaticsError::Infeasible { cable, tension } => write!(
-                f,
-                "the pose is infeasible: cable {} would have to push ({tension:.1} N in a straight-cable estimate); \
-                 move the target pose towards the middle of the workspace or change the anchors",
-                cable
-            ),
-            StaticsError::NoConvergence { residual, iterations, detail } => {
-                write!(
-                    f,
-                    "form finding did not converge after {iterations} Newton iterations (residual {residual:.3e}): {detail}"
-                )
-            }
-        }
-    }
+/// What stopped the form finding.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Detail {
+    #[error("straight-cable statics failed: {0}")]
+    StraightCable(&'static str),
+    #[error("cable {cable}: {source}")]
+    Cable { cable: usize, source: ShootingError },
+    #[error("singular length Jacobian")]
+    SingularJacobian,
+    #[error("the line search stalled")]
+    Stalled,
 }
-
-impl std::error::Error for StaticsError {}
 
 /// Wrench (force, moment about the cabin centre point) of the weight of `body` (body frame) at
 /// orientation `rot`.
@@ -133,7 +120,7 @@ pub fn tension_wrench_sensitivity(net: &CableNet, eq: &Equilibrium) -> Result<Ve
     let singular = || StaticsError::NoConvergence {
         residual: eq.residual,
         iterations: eq.newton_iterations,
-        detail: "singular length Jacobian at the equilibrium".into(),
+        detail: Detail::SingularJacobian,
     };
     if n != 6 {
         return Err(singular());
@@ -206,7 +193,7 @@ fn form_find_loaded(
     let straight = a.clone().svd(true, true).solve(&rhs, 1e-12).map_err(|e| StaticsError::NoConvergence {
         residual: f64::NAN,
         iterations: 0,
-        detail: format!("straight-cable statics failed: {e}"),
+        detail: Detail::StraightCable(e),
     })?;
     // A cable pushing in the straight estimate may still be feasible once sag is accounted for
     // (a nearly slack cable); start it at a small tension and let Newton decide.
@@ -218,11 +205,11 @@ fn form_find_loaded(
         })
         .collect();
 
-    let solve_all = |lengths: &[f64], guesses: &[Option<Vec3>]| -> Result<Vec<ChainStatics>, String> {
+    let solve_all = |lengths: &[f64], guesses: &[Option<Vec3>]| -> Result<Vec<ChainStatics>, Detail> {
         (0..n)
             .map(|i| {
                 solve_chain(&net.spec, &net.anchors[i], &ends[i], lengths[i], guesses[i])
-                    .map_err(|e| format!("cable {i}: {e}"))
+                    .map_err(|source| Detail::Cable { cable: i, source })
             })
             .collect()
     };
@@ -265,7 +252,7 @@ fn form_find_loaded(
         let dl = if n == 6 { jac.lu().solve(&(-r)) } else { None }.ok_or_else(|| StaticsError::NoConvergence {
             residual: r.amax(),
             iterations: iter,
-            detail: "singular length Jacobian".into(),
+            detail: Detail::SingularJacobian,
         })?;
         // Backtracking on the residual norm; lengths stay positive.
         let mut step = 1.0;
@@ -299,7 +286,7 @@ fn form_find_loaded(
 fn infeasible_or_stalled(straight: &nalgebra::DVector<f64>, residual: f64, iterations: usize) -> StaticsError {
     match straight.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1)) {
         Some((cable, &tension)) if tension <= 0.0 => StaticsError::Infeasible { cable, tension },
-        _ => StaticsError::NoConvergence { residual, iterations, detail: "the line search stalled".into() },
+        _ => StaticsError::NoConvergence { residual, iterations, detail: Detail::Stalled },
     }
 }
 

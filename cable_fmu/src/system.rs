@@ -16,7 +16,7 @@ use feedcore::rigid::{BodyTerms, MassProperties, skew};
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{Matrix3x6, Matrix6, Vector6};
 
-use crate::chain_matrix::{ChainMatrix, add3, get3};
+use crate::chain_matrix::{ChainMatrix, LinkedChain, get3, vec3};
 use crate::element::Bar;
 use crate::net::CableNet;
 use crate::statics::Equilibrium;
@@ -29,19 +29,32 @@ pub enum Support {
 }
 
 /// Positions: free nodes (world) and the cabin pose.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct Config {
     pub nodes: Vec<Vec3>,
     pub position: Vec3,
     pub orientation: Quat,
 }
 
+impl Clone for Config {
+    fn clone(&self) -> Self {
+        Config { nodes: self.nodes.clone(), position: self.position, orientation: self.orientation }
+    }
+
+    /// Copies into the existing node storage (no allocation).
+    fn clone_from(&mut self, source: &Self) {
+        self.nodes.clone_from(&source.nodes);
+        self.position = source.position;
+        self.orientation = source.orientation;
+    }
+}
+
 impl Config {
     /// Moves by a velocity-level increment `du` (nodes, cabin translation, world rotation vector)
     /// applied to `base`: `x = x₀ + du`, `R = exp(du_θ) R₀`. Writes into `self` (no allocation).
     pub fn set_displaced(&mut self, base: &Config, du: &[f64]) {
-        for (k, (x, x0)) in self.nodes.iter_mut().zip(&base.nodes).enumerate() {
-            *x = x0 + get3(du, k);
+        for ((x, x0), d) in self.nodes.iter_mut().zip(&base.nodes).zip(du.chunks_exact(3)) {
+            *x = x0 + vec3(d);
         }
         let c0 = 3 * base.nodes.len();
         self.position = base.position + Vec3::new(du[c0], du[c0 + 1], du[c0 + 2]);
@@ -101,7 +114,7 @@ pub struct System {
     pub body: MassProperties,
     pub support: Support,
     /// Constant damping matrix (Rayleigh), if any.
-    pub damping: Option<ChainMatrix>,
+    pub damping: Option<LinkedChain>,
 }
 
 /// Elastic and gravitational potential energy, and kinetic energy.
@@ -220,121 +233,179 @@ impl System {
         acc: &[f64],
         wrench: &Vector6<f64>,
         residual: &mut [f64],
-        mut matrix: Option<(&mut ChainMatrix, Coefficients)>,
+        matrix: Option<(&mut ChainMatrix, Coefficients)>,
     ) {
-        let (m, ea) = (self.free_nodes(), self.net.spec.ea);
+        match matrix {
+            Some((mat, coef)) => self.assemble_with(cfg, vel, acc, wrench, residual, Some((mat, &coef))),
+            None => self.assemble_with(cfg, vel, acc, wrench, residual, None),
+        }
+    }
+
+    /// The residual alone, as [`System::assemble`] without a matrix (what Newton iterations with
+    /// a kept factorization evaluate).
+    pub fn residual(&self, cfg: &Config, vel: &[f64], acc: &[f64], wrench: &Vector6<f64>, residual: &mut [f64]) {
+        self.assemble_with(cfg, vel, acc, wrench, residual, None);
+    }
+
+    /// Inlined into both callers, so the residual-only path carries no matrix code.
+    #[inline(always)]
+    fn assemble_with(
+        &self,
+        cfg: &Config,
+        vel: &[f64],
+        acc: &[f64],
+        wrench: &Vector6<f64>,
+        residual: &mut [f64],
+        mut matrix: Option<(&mut ChainMatrix, &Coefficients)>,
+    ) {
         let c0 = self.cabin_offset();
-        let g = self.net.spec.gravity;
-        residual.iter_mut().for_each(|r| *r = 0.0);
         if let Some((mat, _)) = matrix.as_mut() {
             mat.set_zero();
         }
         let rot = cfg.orientation.to_rotation_matrix().into_inner();
         let mut cabin_res = Vector6::<f64>::zeros();
         let mut cabin_k = Matrix6::<f64>::zeros(); // ∂r_cabin/∂q_cabin (before T)
-
         for i in 0..self.cables() {
-            let l0 = self.element_length[i];
-            let mn = self.node_mass[i];
-            let d = rot * self.net.attachments[i];
-            let attach = cfg.position + d;
-            // B maps a cabin increment (δr, δθ) to the attachment point's displacement.
-            let mut b = Matrix3x6::<f64>::zeros();
-            b.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
-            b.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-skew(&d)));
-            let point = |e: usize| -> Vec3 {
-                if e == 0 {
-                    self.net.anchors[i]
-                } else if e == m + 1 {
-                    attach
-                } else {
-                    cfg.nodes[i * m + e - 1]
-                }
-            };
-            // free nodes: inertia and gravity
-            for j in 0..m {
-                let k = i * m + j;
-                add3(residual, k, &(get3(acc, k) * mn - g * mn));
-                if let Some((mat, coef)) = matrix.as_mut() {
-                    mat.diag[k] += Mat3::identity() * (coef.mass * mn);
-                }
-            }
-            // elements e = 0 … m, from point e to point e + 1
-            for e in 0..=m {
-                let bar = Bar::new(&(point(e + 1) - point(e)), ea, l0);
-                let pull = bar.dir * bar.force; // force on the first point; minus on the second
-                if e > 0 {
-                    add3(residual, i * m + e - 1, &(-pull));
-                }
-                let ke = match &matrix {
-                    Some((_, c)) if c.slack_as_taut && bar.is_slack() => bar.dir * bar.dir.transpose() * (ea / l0),
-                    _ => bar.stiffness(ea, l0),
-                };
-                if e < m {
-                    add3(residual, i * m + e, &pull);
-                } else {
-                    // the second point is the attachment: generalized force on the cabin
-                    let r = Vector6::new(pull.x, pull.y, pull.z, 0.0, 0.0, 0.0);
-                    let mom = d.cross(&pull);
-                    cabin_res += r + Vector6::new(0.0, 0.0, 0.0, mom.x, mom.y, mom.z);
-                }
-                if let Some((mat, coef)) = matrix.as_mut() {
-                    let kk = ke * coef.stiffness;
-                    if e > 0 {
-                        mat.diag[i * m + e - 1] += kk;
-                    }
-                    if e < m {
-                        mat.diag[i * m + e] += kk;
-                        if e > 0 {
-                            mat.upper[i * (m - 1) + e - 1] -= kk;
-                        }
-                    } else {
-                        // cabin coupling: r_cabin += Bᵀ(pull), pull depends on attach − point(m)
-                        let kb = ke * b; // 3×6
-                        cabin_k += b.transpose() * kb;
-                        // the arm rotates: ∂(d × F)/∂θ = [F]×[d]×
-                        let geo = skew(&pull) * skew(&d);
-                        let mut block = cabin_k.fixed_view_mut::<3, 3>(3, 3);
-                        block += geo;
-                        if m > 0 {
-                            let mut nc = -kb;
-                            let rotation_cols = nc.fixed_view::<3, 3>(0, 3) * coef.rotation_tangent;
-                            nc.fixed_view_mut::<3, 3>(0, 3).copy_from(&rotation_cols);
-                            mat.node_cabin[i] += nc * coef.stiffness;
-                            mat.cabin_node[i] -= b.transpose() * kk;
-                        }
-                    }
-                }
-            }
+            self.assemble_cable(i, cfg, &rot, acc, residual, &mut cabin_res, &mut cabin_k, matrix.as_mut());
         }
 
         // the rigid cabin about its centre point
+        let g = self.net.spec.gravity;
         let world = self.body.transformed(&rot, &cfg.position);
         let v3 = |v: &[f64], k: usize| Vec3::new(v[c0 + k], v[c0 + k + 1], v[c0 + k + 2]);
-        let body = BodyTerms::new(&world, &cfg.position, &v3(vel, 3), &v3(acc, 0), &v3(acc, 3), &g);
-        cabin_res += body.residual - wrench;
-        if let Some((mat, coef)) = matrix.as_mut() {
-            let mut kt = cabin_k + body.stiffness;
-            for r in 0..6 {
-                let row = kt.fixed_view::<1, 3>(r, 3) * coef.rotation_tangent;
-                kt.fixed_view_mut::<1, 3>(r, 3).copy_from(&row);
+        let (omega, a, alpha) = (v3(vel, 3), v3(acc, 0), v3(acc, 3));
+        match matrix.as_mut() {
+            Some((mat, coef)) => {
+                let body = BodyTerms::new(&world, &cfg.position, &omega, &a, &alpha, &g);
+                cabin_res += body.residual - wrench;
+                let mut kt = cabin_k + body.stiffness;
+                for r in 0..6 {
+                    let row = kt.fixed_view::<1, 3>(r, 3) * coef.rotation_tangent;
+                    kt.fixed_view_mut::<1, 3>(r, 3).copy_from(&row);
+                }
+                mat.cabin += body.mass * coef.mass + body.gyroscopic * coef.damping + kt * coef.stiffness;
             }
-            mat.cabin += body.mass * coef.mass + body.gyroscopic * coef.damping + kt * coef.stiffness;
+            None => cabin_res += BodyTerms::residual(&world, &cfg.position, &omega, &a, &alpha, &g) - wrench,
         }
-        for k in 0..6 {
-            residual[c0 + k] += cabin_res[k];
-        }
+        residual[c0..c0 + 6].copy_from_slice(cabin_res.as_slice());
         // Rayleigh damping: r += C v
         if let Some(cd) = &self.damping {
             cd.mul_add(vel, residual);
             if let Some((mat, coef)) = matrix.as_mut() {
-                mat.add_scaled(coef.damping, cd);
+                mat.add_scaled(coef.damping, cd.matrix());
             }
         }
         if self.support == Support::Fixed {
-            for k in 0..6 {
-                residual[c0 + k] = 0.0;
+            residual[c0..c0 + 6].fill(0.0);
+        }
+    }
+
+    /// One cable's free nodes and elements: their rows of the residual (overwritten), their
+    /// force and moment on the cabin (added to `cabin_res`), and with `matrix` their blocks and
+    /// their stiffness on the cabin (added to `cabin_k`).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn assemble_cable(
+        &self,
+        i: usize,
+        cfg: &Config,
+        rot: &Mat3,
+        acc: &[f64],
+        residual: &mut [f64],
+        cabin_res: &mut Vector6<f64>,
+        cabin_k: &mut Matrix6<f64>,
+        mut matrix: Option<&mut (&mut ChainMatrix, &Coefficients)>,
+    ) {
+        let (m, ea) = (self.free_nodes(), self.net.spec.ea);
+        let g = self.net.spec.gravity;
+        let (l0, mn) = (self.element_length[i], self.node_mass[i]);
+        let d = rot * self.net.attachments[i];
+        let attach = cfg.position + d;
+        let nodes = &cfg.nodes[i * m..(i + 1) * m];
+        let (r, a) = (&mut residual[3 * i * m..3 * (i + 1) * m], &acc[3 * i * m..3 * (i + 1) * m]);
+        // Elements e = 0 … m run from point e to point e + 1 (point 0: the anchor, m + 1: the
+        // attachment); free node j is point j + 1. Element e completes node e − 1: its inertia
+        // and weight, the pull of the element before it (`carry`) and of this one.
+        let mut from = self.net.anchors[i];
+        let mut carry = Vec3::zeros();
+        let mut rows = r.chunks_exact_mut(3).zip(a.chunks_exact(3));
+        for e in 0..=m {
+            let to = if e < m { nodes[e] } else { attach };
+            let delta = to - from;
+            from = to;
+            // the force on the element's first point; minus on its second
+            let (pull, bar) = match matrix {
+                Some(_) => {
+                    let bar = Bar::new(&delta, ea, l0);
+                    (bar.dir * bar.force, Some(bar))
+                }
+                None => (Bar::pull(&delta, ea, l0), None),
+            };
+            if e > 0 {
+                let (rj, aj) = rows.next().expect("one row per free node");
+                let f = vec3(aj) * mn - g * mn + carry - pull;
+                rj.copy_from_slice(f.as_slice());
             }
+            carry = pull;
+            if e == m {
+                // the second point is the attachment: generalized force on the cabin
+                let mom = d.cross(&pull);
+                *cabin_res += Vector6::new(pull.x, pull.y, pull.z, mom.x, mom.y, mom.z);
+            }
+            let (Some((mat, coef)), Some(bar)) = (matrix.as_mut(), bar) else { continue };
+            if e > 0 {
+                mat.diag[i * m + e - 1] += Mat3::identity() * (coef.mass * mn);
+            }
+            let ke = if coef.slack_as_taut && bar.is_slack() {
+                bar.dir * bar.dir.transpose() * (ea / l0)
+            } else {
+                bar.stiffness(ea, l0)
+            };
+            let kk = ke * coef.stiffness;
+            if e > 0 {
+                mat.diag[i * m + e - 1] += kk;
+            }
+            if e < m {
+                mat.diag[i * m + e] += kk;
+                if e > 0 {
+                    mat.upper[i * (m - 1) + e - 1] -= kk;
+                }
+            } else {
+                // cabin coupling: r_cabin += Bᵀ(pull), pull depends on attach − point(m), and B
+                // maps a cabin increment (δr, δθ) to the attachment point's displacement
+                let mut b = Matrix3x6::<f64>::zeros();
+                b.fixed_view_mut::<3, 3>(0, 0).copy_from(&Mat3::identity());
+                b.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-skew(&d)));
+                let kb = ke * b; // 3×6
+                *cabin_k += b.transpose() * kb;
+                // the arm rotates: ∂(d × F)/∂θ = [F]×[d]×
+                let mut block = cabin_k.fixed_view_mut::<3, 3>(3, 3);
+                block += skew(&pull) * skew(&d);
+                if m > 0 {
+                    let mut nc = -kb;
+                    let rotation_cols = nc.fixed_view::<3, 3>(0, 3) * coef.rotation_tangent;
+                    nc.fixed_view_mut::<3, 3>(0, 3).copy_from(&rotation_cols);
+                    mat.node_cabin[i] += nc * coef.stiffness;
+                    mat.cabin_node[i] -= b.transpose() * kk;
+                }
+            }
+        }
+    }
+
+    /// What velocity-level unknown `index` is: a free node's coordinate or the cabin's.
+    pub fn unknown_name(&self, index: usize) -> String {
+        let c0 = self.cabin_offset();
+        let axis = ["x", "y", "z"];
+        if index < c0 {
+            let m = self.free_nodes();
+            let (node, k) = (index / 3, index % 3);
+            format!("cable {} node {} (from the anchor) {}", node / m, node % m + 1, axis[k])
+        } else if index < c0 + 3 {
+            format!("cabin translation {}", axis[index - c0])
+        } else if index < c0 + 6 {
+            format!("cabin rotation {}", axis[index - c0 - 3])
+        } else {
+            format!("unknown {index} (of {})", self.dim())
         }
     }
 

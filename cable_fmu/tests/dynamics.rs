@@ -130,7 +130,7 @@ fn rayleigh_damped_mode_decays_at_the_fitted_rate() {
     let (w1, w6) = (2.0 * PI * md.frequencies_hz[0], 2.0 * PI * md.frequencies_hz[5]);
     let zeta = 0.005;
     let (alpha, beta) = rayleigh_coefficients(zeta, w1, w6);
-    sys.damping = Some(rayleigh_matrix(&sys, &eq, alpha, beta));
+    sys.damping = Some(cable_fmu::chain_matrix::LinkedChain::new(rayleigh_matrix(&sys, &eq, alpha, beta)));
     // modal damping ratios of modes 1 and 6 from the matrix itself
     for (k, w) in [(0, w1), (5, w6)] {
         let mut cphi = vec![0.0; sys.dim()];
@@ -150,10 +150,10 @@ fn rayleigh_damped_mode_decays_at_the_fitted_rate() {
     // sample the modal coordinate and fit the envelope through successive maxima
     let h = 0.005;
     let mut peaks: Vec<(f64, f64)> = Vec::new();
-    let (mut q_prev2, mut q_prev) = (f64::NAN, modal_coordinate(&sys_copy, &eq, &dy.state.config, &shape));
+    let (mut q_prev2, mut q_prev) = (f64::NAN, modal_coordinate(&sys_copy, &eq, dy.config(), &shape));
     for k in 0..6000 {
         dy.step(h, &Vector6::zeros()).unwrap();
-        let q = modal_coordinate(&sys_copy, &eq, &dy.state.config, &shape);
+        let q = modal_coordinate(&sys_copy, &eq, dy.config(), &shape);
         if q_prev > q && q_prev > q_prev2 {
             peaks.push((h * k as f64, q_prev));
         }

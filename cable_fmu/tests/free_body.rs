@@ -47,7 +47,7 @@ fn drift(h: f64) -> (f64, f64, f64) {
         let j = r * body.inertia_com * r.transpose();
         j * c.angular_velocity
     };
-    let reference = dy.state.config.clone();
+    let reference = dy.config().clone();
     let (e0, l0) = (dy.energy(&reference).total(), momentum(&dy));
     let (mut de, mut dl, mut turned) = (0.0f64, 0.0f64, 0.0f64);
     let steps = (20.0 / h).round() as usize;

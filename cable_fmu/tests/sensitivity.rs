@@ -29,7 +29,12 @@ fn outputs(dy: &Dynamics) -> Vec<f64> {
 }
 
 fn started(name: &str) -> Dynamics {
-    let model = CableCabin::from_scene(&scene(name)).unwrap();
+    // The Newton tolerance of the co-simulation scenes' cable FMU: differences of re-stepped
+    // solutions need an iteration error far below the perturbation's effect (with the scene's
+    // 1e-10 m the tension differences carry 1e-6 of round-off noise from the iteration).
+    let mut s = scene(name);
+    s.solver.newton_tol = 1e-12;
+    let model = CableCabin::from_scene(&s).unwrap();
     let mut dy = model.dynamics(Payload::External, 0.0).unwrap();
     for k in 1..=50 {
         dy.step(0.01, &(model.static_payload_wrench() + wrench(0.01 * k as f64))).unwrap();
@@ -70,11 +75,14 @@ fn step_sensitivity_matches_central_differences() {
         outputs(dy)
     };
     step_with(&mut dy, &w);
+    let mut worst = 0.0f64;
     for k in 0..6 {
         let mut seed = Vector6::zeros();
         seed[k] = 1.0;
         let d = dy.wrench_sensitivity(&seed).unwrap();
-        let eps = if k < 3 { 20.0 } else { 10.0 };
+        // Central differences: truncation error grows as eps², round-off as 1/eps (an end tension
+        // carries ≈ 1e-8 N of round-off from node coordinates of 30 m); these balance them.
+        let eps = if k < 3 { 40.0 } else { 20.0 };
         let plus = step_with(&mut dy, &(w + seed * eps));
         let minus = step_with(&mut dy, &(w - seed * eps));
         step_with(&mut dy, &w); // back to the nominal step for the next sensitivity
@@ -94,7 +102,10 @@ fn step_sensitivity_matches_central_differences() {
             // The differences cannot resolve less than the outputs' round-off: tensions come
             // from ~30 m world coordinates through EA/l0 ≈ 6e6 N/m, ~1e-11 of their value.
             let floor = 1e-11 * plus[i].abs().max(minus[i].abs()) / eps;
-            assert!((a - f).abs() <= 1e-6 * scale + 1e-13 + floor, "seed {k}, output {i}: analytic {a:e}, FD {f:e}");
+            let allowed = 1e-6 * scale + 1e-13 + floor;
+            worst = worst.max((a - f).abs() / allowed);
+            assert!((a - f).abs() <= allowed, "seed {k}, output {i}: analytic {a:e}, FD {f:e}");
         }
     }
+    eprintln!("largest difference from central differences: {worst:.2} of the allowed");
 }

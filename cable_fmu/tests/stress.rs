@@ -59,7 +59,7 @@ fn fifty_elements_per_cable() {
 
 /// Smallest element force in the net now, and whether some element is slack.
 fn smallest_tension(sys: &System, dy: &Dynamics) -> f64 {
-    let cfg = &dy.state.config;
+    let cfg = dy.config();
     let m = sys.free_nodes();
     (0..sys.cables())
         .flat_map(|i| {

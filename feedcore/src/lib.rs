@@ -3,7 +3,7 @@
 //! * [`scene`]: the scene file (TOML) both models and the master read, with validation;
 //! * [`rigid`]: rotations on SO(3) and rigid-body mass properties;
 //! * [`stewart_geometry`]: where the Stewart platform's joints and masses sit on the cabin;
-//! * [`genalpha`]: coefficients of the generalized-α integrator.
+//! * [`genalpha`]: the generalized-α integrator with its Newton controller, used by every model.
 
 pub mod benchkit;
 pub mod genalpha;

@@ -12,6 +12,15 @@ pub fn skew(a: &Vec3) -> Mat3 {
 
 /// `exp([θ]×)` as a unit quaternion.
 pub fn exp_so3(theta: &Vec3) -> Quat {
+    let t2 = theta.norm_squared();
+    if t2 < 1e-6 {
+        // |θ| < 1e-3 (every time step's increment): the series of cos(θ/2) and sin(θ/2)/θ to
+        // the terms in θ⁶ is exact to round-off there, and needs no sine, cosine or root.
+        let h = 0.25 * t2;
+        let w = 1.0 - h * (0.5 - h * (1.0 / 24.0 - h / 720.0));
+        let s = 0.5 * (1.0 - h * (1.0 / 6.0 - h * (1.0 / 120.0 - h / 5040.0)));
+        return Quat::new_unchecked(nalgebra::Quaternion::new(w, s * theta.x, s * theta.y, s * theta.z));
+    }
     Quat::from_scaled_axis(*theta)
 }
 
@@ -136,17 +145,13 @@ impl BodyTerms {
         alpha: &Vec3,
         gravity: &Vec3,
     ) -> BodyTerms {
+        let residual = Self::residual(body, origin, omega, accel, alpha, gravity);
         let m = body.mass;
         let c = body.com - origin;
         let jo = body.inertia_about(origin);
         let (sc, sw, sa, sal) = (skew(&c), skew(omega), skew(accel), skew(alpha));
         let jw = jo * omega;
         let mg = gravity * m;
-        let f = accel * m + alpha.cross(&c) * m + omega.cross(&omega.cross(&c)) * m - mg;
-        let t = jo * alpha + c.cross(accel) * m + omega.cross(&jw) - c.cross(&mg);
-        let mut residual = nalgebra::Vector6::zeros();
-        residual.fixed_rows_mut::<3>(0).copy_from(&f);
-        residual.fixed_rows_mut::<3>(3).copy_from(&t);
         let mut mass = nalgebra::Matrix6::zeros();
         mass.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Mat3::identity() * m));
         mass.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-sc * m));
@@ -161,6 +166,28 @@ impl BodyTerms {
         let krr = -skew(&(jo * alpha)) + jo * sal + sa * sc * m + sw * (jo * sw - skew(&jw)) - skew(&mg) * sc;
         stiffness.fixed_view_mut::<3, 3>(3, 3).copy_from(&krr);
         BodyTerms { residual, mass, gyroscopic, stiffness }
+    }
+}
+
+impl BodyTerms {
+    /// The residual contribution alone (force; moment about O), for Newton iterations that
+    /// keep their matrix; arguments as for [`BodyTerms::new`].
+    pub fn residual(
+        body: &MassProperties,
+        origin: &Vec3,
+        omega: &Vec3,
+        accel: &Vec3,
+        alpha: &Vec3,
+        gravity: &Vec3,
+    ) -> nalgebra::Vector6<f64> {
+        let m = body.mass;
+        let c = body.com - origin;
+        let jo = body.inertia_about(origin);
+        let jw = jo * omega;
+        let mg = gravity * m;
+        let f = accel * m + alpha.cross(&c) * m + omega.cross(&omega.cross(&c)) * m - mg;
+        let t = jo * alpha + c.cross(accel) * m + omega.cross(&jw) - c.cross(&mg);
+        nalgebra::Vector6::new(f.x, f.y, f.z, t.x, t.y, t.z)
     }
 }
 
@@ -209,6 +236,17 @@ impl RigidMotion {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn exponential_of_small_rotations_matches_the_closed_form() {
+        for scale in [0.0, 1e-12, 1e-8, 1e-5, 3e-4, 9.9e-4, 1.1e-3, 0.3] {
+            let theta = Vec3::new(0.6, -0.48, 0.64) * scale;
+            let q = exp_so3(&theta);
+            let r = Quat::from_scaled_axis(theta);
+            assert!((q.coords - r.coords).amax() <= 2e-16, "|θ| = {scale}: {q:?} against {r:?}");
+            assert!((q.coords.norm() - 1.0).abs() <= 2e-16);
+        }
+    }
 
     #[test]
     fn left_jacobian_matches_finite_differences() {

@@ -14,8 +14,8 @@
 //! * [`sweep`]: grids over the workspace and the parameters, their tables and maps.
 
 pub use cosim;
+pub use monolithic;
 pub mod limits;
-pub mod monolithic;
 pub mod parallel;
 pub mod plot;
 pub mod progress;

@@ -24,6 +24,7 @@ use crate::limits::{Footprint, Limits, Plan, PlanError, Schedule, check_memory};
 use crate::monolithic::{Monolithic, MonolithicError};
 use crate::stepping::{Flow, Request, Step, drive};
 use crate::system::{Adaptive, needs, scene_spec};
+use cable_fmu::dynamics::DynamicsError;
 
 /// How the system is solved.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -500,12 +501,15 @@ impl<'a> Run<'a> {
                 let first = probe(&dy, 0.0);
                 self.drive(&mut rec, quiet, first, |r| {
                     let (h, t) = fixed(r)?;
-                    let s = dy.step(h, &disturbance(t)).map_err(|e| stopped(e.time, e.reason))?;
+                    let s = dy.step(h, &disturbance(t)).map_err(|e| match e {
+                        DynamicsError::Stopped { time, reason } => stopped(time, reason.to_string()),
+                        e => stopped(e.time().unwrap_or(t - h), e.to_string()),
+                    })?;
                     Ok(Flow::Stepped(stepped(h, s.iterations, 0.0, probe(&dy, t))))
                 })?;
             }
             Method::Monolithic => {
-                let mut m = Monolithic::new(scene).map_err(|e| setup(&*e))?;
+                let mut m = Monolithic::new(scene).map_err(|e| setup(&e))?;
                 let probe = |s: &crate::monolithic::Sample| Probe {
                     position: s.cabin.position,
                     orientation: s.cabin.orientation,
@@ -513,8 +517,14 @@ impl<'a> Run<'a> {
                 };
                 let first = probe(&m.sample());
                 self.drive(&mut rec, quiet, first, |r| {
-                    let (h, _) = fixed(r)?;
-                    let iterations = m.step(h).map_err(|e: MonolithicError| stopped(e.time, e.reason))?;
+                    let (h, t) = fixed(r)?;
+                    let iterations = m
+                        .step(h)
+                        .map_err(|e| match e {
+                            MonolithicError::Stopped { time, reason } => stopped(time, reason.to_string()),
+                            e => stopped(e.time().unwrap_or(t - h), e.to_string()),
+                        })?
+                        .iterations;
                     let s = m.sample();
                     let mut step = stepped(h, iterations, 0.0, probe(&s));
                     step.payload.constraint_residual = s.constraint_residual;

@@ -42,4 +42,14 @@ fn main() {
         st.constraints(black_box(&system), black_box(1.0), &mut rows).unwrap();
         rows[0].value
     });
+    let strokes = st.strokes(1.0).unwrap();
+    bench("joints: Φ, Φ_q, γ (78 rows, strokes given)", 1.0, || {
+        st.joints().evaluate(black_box(&system), &strokes, &mut rows);
+        rows[0].value
+    });
+    bench("joints: Φ, Φ_q only (a Newton iteration)", 1.0, || {
+        st.joints().evaluate_positions(black_box(&system), &strokes, &mut rows);
+        rows[0].value
+    });
+    bench("strokes ℓ_k(t) alone", 1.0, || st.strokes(black_box(next())).unwrap());
 }

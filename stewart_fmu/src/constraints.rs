@@ -186,38 +186,71 @@ impl Joints {
         strokes: &[Stroke; LEGS],
         rows: &mut [ConstraintRow; CONSTRAINTS],
     ) {
+        self.evaluate_with::<true>(bodies, strokes, rows);
+    }
+
+    /// Φ, Φ_q and Φ_t only (γ left zero; velocities not used): what a Newton iteration on the
+    /// positions needs.
+    pub fn evaluate_positions(
+        &self,
+        bodies: &[RigidMotion; SYSTEM_BODIES],
+        strokes: &[Stroke; LEGS],
+        rows: &mut [ConstraintRow; CONSTRAINTS],
+    ) {
+        self.evaluate_with::<false>(bodies, strokes, rows);
+    }
+
+    fn evaluate_with<const GAMMA: bool>(
+        &self,
+        bodies: &[RigidMotion; SYSTEM_BODIES],
+        strokes: &[Stroke; LEGS],
+        rows: &mut [ConstraintRow; CONSTRAINTS],
+    ) {
         let frames: [Frame; SYSTEM_BODIES] = std::array::from_fn(|i| Frame::new(&bodies[i]));
-        let (ex, ey, ez) = (Vec3::x(), Vec3::y(), Vec3::z());
+        let (fc, fp) = (&frames[CABIN], &frames[PLATFORM]);
         for (k, leg) in self.legs.iter().enumerate() {
             let out = &mut rows[ROWS_PER_LEG * k..ROWS_PER_LEG * (k + 1)];
-            let (c, u, d, p) = (CABIN, upper(k), lower(k), PLATFORM);
-            let f = &frames;
-            points(f, c, &leg.base_point, u, &leg.hooke_in_upper, &mut out[HOOKE_POSITION..HOOKE_POSITION + 3]);
-            out[HOOKE_ROTATION] = dot(f, c, &leg.hooke_axis, u, &ey);
+            let (u, d) = (upper(k), lower(k));
+            let (fu, fd) = (&frames[u], &frames[d]);
+            // every joint point and axis in the world, once (a body axis is a column)
+            let (base, axis) = (fc.rot * leg.base_point, fc.rot * leg.hooke_axis);
+            let (hooke, sphere, on_platform) =
+                (fu.rot * leg.hooke_in_upper, fd.rot * leg.sphere_in_lower, fp.rot * leg.sphere_in_platform);
+            let ua: [Vec3; 3] = std::array::from_fn(|i| fu.rot.column(i).into_owned());
+            let da: [Vec3; 3] = std::array::from_fn(|i| fd.rot.column(i).into_owned());
+            let (cu, ud, dp) = ([CABIN, u], [u, d], [d, PLATFORM]);
+            points::<GAMMA>((fc, &base), (fu, &hooke), cu, &mut out[HOOKE_POSITION..HOOKE_POSITION + 3]);
+            dot::<GAMMA>((fc, &axis), (fu, &ua[1]), cu, &mut out[HOOKE_ROTATION]);
             let none = Stroke::default();
-            for (n, axis) in [ex, ey].iter().enumerate() {
-                out[PRISMATIC_TRANSLATION + n] = along(f, u, axis, &leg.hooke_in_upper, d, &leg.sphere_in_lower, &none);
+            for n in 0..2 {
+                let row = &mut out[PRISMATIC_TRANSLATION + n];
+                along::<GAMMA>((fu, &ua[n], &hooke), (fd, &sphere), &none, ud, row);
             }
-            for (n, (x, y)) in [(ey, ez), (ez, ex), (ex, ey)].iter().enumerate() {
-                out[PRISMATIC_ROTATION + n] = dot(f, u, x, d, y);
+            for (n, (x, y)) in [(1, 2), (2, 0), (0, 1)].into_iter().enumerate() {
+                dot::<GAMMA>((fu, &ua[x]), (fd, &da[y]), ud, &mut out[PRISMATIC_ROTATION + n]);
             }
-            out[DRIVING] = along(f, u, &ez, &leg.hooke_in_upper, d, &leg.sphere_in_lower, &strokes[k]);
-            points(f, d, &leg.sphere_in_lower, p, &leg.sphere_in_platform, &mut out[SPHERICAL..SPHERICAL + 3]);
+            along::<GAMMA>((fu, &ua[2], &hooke), (fd, &sphere), &strokes[k], ud, &mut out[DRIVING]);
+            points::<GAMMA>((fd, &sphere), (fp, &on_platform), dp, &mut out[SPHERICAL..SPHERICAL + 3]);
         }
     }
 }
 
-/// Coincident points: p_i(s_i) − p_j(s_j) = 0, three rows (world x, y, z).
-fn points(f: &[Frame], i: usize, s_i: &Vec3, j: usize, s_j: &Vec3, out: &mut [ConstraintRow]) {
-    let (a, b) = (&f[i], &f[j]);
-    let (si, sj) = (a.rot * s_i, b.rot * s_j);
+/// Coincident points: p_i(s_i) − p_j(s_j) = 0, three rows (world x, y, z). Each body comes
+/// with its joint point's offset `s` in the world frame.
+#[inline]
+fn points<const GAMMA: bool>(
+    (a, si): (&Frame, &Vec3),
+    (b, sj): (&Frame, &Vec3),
+    bodies: [usize; 2],
+    out: &mut [ConstraintRow],
+) {
     let value = a.r + si - b.r - sj;
     // centripetal accelerations of the two points
-    let gamma = -(a.w.cross(&a.w.cross(&si)) - b.w.cross(&b.w.cross(&sj)));
+    let gamma = if GAMMA { -(a.w.cross(&a.w.cross(si)) - b.w.cross(&b.w.cross(sj))) } else { Vec3::zeros() };
     for (m, row) in out.iter_mut().enumerate() {
         let e = Vec3::ith(m, 1.0);
         *row = ConstraintRow {
-            bodies: [i, j],
+            bodies,
             jacobian: [block(e, si.cross(&e)), block(-e, -sj.cross(&e))],
             value: value[m],
             time_derivative: 0.0,
@@ -226,35 +259,53 @@ fn points(f: &[Frame], i: usize, s_i: &Vec3, j: usize, s_j: &Vec3, out: &mut [Co
     }
 }
 
-/// Perpendicular body axes: (R_i x) · (R_j y) = 0.
-fn dot(f: &[Frame], i: usize, x: &Vec3, j: usize, y: &Vec3) -> ConstraintRow {
-    let (a, b) = (&f[i], &f[j]);
-    let (xw, yw) = (a.rot * x, b.rot * y);
-    let (dx, dy) = (a.w.cross(&xw), b.w.cross(&yw));
-    let gamma = -(a.w.cross(&dx).dot(&yw) + 2.0 * dx.dot(&dy) + xw.dot(&b.w.cross(&dy)));
-    ConstraintRow {
-        bodies: [i, j],
-        jacobian: [block(Vec3::zeros(), xw.cross(&yw)), block(Vec3::zeros(), yw.cross(&xw))],
-        value: xw.dot(&yw),
+/// Perpendicular body axes: (R_i x) · (R_j y) = 0, the axes given in the world frame.
+#[inline]
+fn dot<const GAMMA: bool>(
+    (a, xw): (&Frame, &Vec3),
+    (b, yw): (&Frame, &Vec3),
+    bodies: [usize; 2],
+    out: &mut ConstraintRow,
+) {
+    let gamma = if GAMMA {
+        let (dx, dy) = (a.w.cross(xw), b.w.cross(yw));
+        -(a.w.cross(&dx).dot(yw) + 2.0 * dx.dot(&dy) + xw.dot(&b.w.cross(&dy)))
+    } else {
+        0.0
+    };
+    *out = ConstraintRow {
+        bodies,
+        jacobian: [block(Vec3::zeros(), xw.cross(yw)), block(Vec3::zeros(), yw.cross(xw))],
+        value: xw.dot(yw),
         time_derivative: 0.0,
         gamma,
-    }
+    };
 }
 
-/// A point of body j seen along an axis of body i: (R_i e) · (p_j(s_j) − p_i(s_i)) − ℓ(t) = 0.
-fn along(f: &[Frame], i: usize, e: &Vec3, s_i: &Vec3, j: usize, s_j: &Vec3, stroke: &Stroke) -> ConstraintRow {
-    let (a, b) = (&f[i], &f[j]);
-    let (ew, si, sj) = (a.rot * e, a.rot * s_i, b.rot * s_j);
+/// A point of body j seen along an axis of body i: (R_i e) · (p_j(s_j) − p_i(s_i)) − ℓ(t) = 0,
+/// the axis and the offsets given in the world frame.
+#[inline]
+fn along<const GAMMA: bool>(
+    (a, ew, si): (&Frame, &Vec3, &Vec3),
+    (b, sj): (&Frame, &Vec3),
+    stroke: &Stroke,
+    bodies: [usize; 2],
+    out: &mut ConstraintRow,
+) {
     let delta = b.r + sj - a.r - si;
-    let de = a.w.cross(&ew);
-    let ddelta = b.v + b.w.cross(&sj) - a.v - a.w.cross(&si);
-    let dd_quadratic = b.w.cross(&b.w.cross(&sj)) - a.w.cross(&a.w.cross(&si));
-    let gamma = -(a.w.cross(&de).dot(&delta) + 2.0 * de.dot(&ddelta) + ew.dot(&dd_quadratic)) + stroke.acceleration;
-    ConstraintRow {
-        bodies: [i, j],
-        jacobian: [block(-ew, ew.cross(&(b.r + sj - a.r))), block(ew, sj.cross(&ew))],
+    let gamma = if GAMMA {
+        let de = a.w.cross(ew);
+        let ddelta = b.v + b.w.cross(sj) - a.v - a.w.cross(si);
+        let dd_quadratic = b.w.cross(&b.w.cross(sj)) - a.w.cross(&a.w.cross(si));
+        -(a.w.cross(&de).dot(&delta) + 2.0 * de.dot(&ddelta) + ew.dot(&dd_quadratic)) + stroke.acceleration
+    } else {
+        0.0
+    };
+    *out = ConstraintRow {
+        bodies,
+        jacobian: [block(-ew, ew.cross(&(b.r + sj - a.r))), block(*ew, sj.cross(ew))],
         value: ew.dot(&delta) - stroke.length,
         time_derivative: -stroke.rate,
         gamma,
-    }
+    };
 }

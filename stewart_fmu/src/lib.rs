@@ -193,17 +193,23 @@ impl Stewart {
     }
 
     fn checked(&self, rel: RelativeState) -> Result<RelativeState, StewartError> {
+        self.check_legs(&rel.strokes, &rel.hooke_sine, rel.time)?;
+        Ok(rel)
+    }
+
+    /// Every leg within its stroke and off its Hooke axis.
+    fn check_legs(&self, strokes: &[Stroke; LEGS], hooke_sine: &[f64; LEGS], time: f64) -> Result<(), StewartError> {
         let (shortest, longest) = self.length_range;
         for k in 0..LEGS {
-            let length = rel.strokes[k].length;
+            let length = strokes[k].length;
             if !(shortest..=longest).contains(&length) {
-                return Err(StewartError::LegLength { leg: k + 1, time: rel.time, length, shortest, longest });
+                return Err(StewartError::LegLength { leg: k + 1, time, length, shortest, longest });
             }
-            if rel.hooke_sine[k].is_nan() || rel.hooke_sine[k] <= HOOKE_SINGULAR_SINE {
-                return Err(StewartError::HookeSingular { leg: k + 1, time: rel.time, sin_angle: rel.hooke_sine[k] });
+            if hooke_sine[k].is_nan() || hooke_sine[k] <= HOOKE_SINGULAR_SINE {
+                return Err(StewartError::HookeSingular { leg: k + 1, time, sin_angle: hooke_sine[k] });
             }
         }
-        Ok(rel)
+        Ok(())
     }
 
     fn leg_geometry(&self) -> relative::LegGeometry<'_> {
@@ -285,7 +291,12 @@ impl Stewart {
 
     /// Actuator strokes ℓ_k(t) (joint centre to joint centre) and their rates.
     pub fn strokes(&self, t: f64) -> Result<[Stroke; LEGS], StewartError> {
-        Ok(self.relative(t)?.strokes)
+        if !t.is_finite() {
+            return Err(StewartError::Input { what: "time".into(), value: t.to_string() });
+        }
+        let (strokes, hooke_sine) = relative::strokes(&self.leg_geometry(), &self.path.at(t));
+        self.check_legs(&strokes, &hooke_sine, t)?;
+        Ok(strokes)
     }
 
     /// All constraint equations at time `t` for the given system motion (see [`constraints`]).

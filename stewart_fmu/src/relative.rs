@@ -97,24 +97,14 @@ impl RelativeState {
             inertia: *geometry.platform_inertia,
             ..zero
         };
-        let (p, v, acc) = (path.position, path.velocity, path.acceleration);
+        let (v, acc) = (path.velocity, path.acceleration);
         let [m_up, c_up, it_up, ia_up] = geometry.upper;
         let [m_lo, c_lo, it_lo, ia_lo] = geometry.lower;
         for k in 0..LEGS {
-            // The leg vector d moves with the platform centre (the platform does not rotate).
-            let d = p + geometry.platform_joints[k] - geometry.base_joints[k];
-            let length = d.norm();
-            let u = d / length;
-            let rate = u.dot(&v);
-            let du = (v - u * rate) / length;
-            let accel = du.dot(&v) + u.dot(&acc);
-            let ddu = (acc - du * (2.0 * rate) - u * accel) / length;
-            strokes[k] = Stroke { length, rate, acceleration: accel };
-
-            let a = geometry.hooke_axes[k];
-            let uxa = u.cross(&a);
-            let sine = uxa.norm();
+            let Leg { d, u, du, ddu, stroke, uxa, sine } = Leg::new(geometry, k, path);
+            strokes[k] = stroke;
             hooke_sine[k] = sine;
+            let a = geometry.hooke_axes[k];
             let b = uxa / sine;
             let c = a.cross(&b);
             // u·c = b·(u × a) = sine
@@ -183,6 +173,44 @@ impl RelativeState {
             relative_momentum_rate: momentum_rate,
         }
     }
+}
+
+/// One leg's axis and stroke.
+struct Leg {
+    /// From the Hooke centre to the spherical joint centre, and its direction with its first
+    /// two time derivatives.
+    d: Vec3,
+    u: Vec3,
+    du: Vec3,
+    ddu: Vec3,
+    stroke: Stroke,
+    /// u × a (a: the first Hooke axis) and its length, the sine of their angle.
+    uxa: Vec3,
+    sine: f64,
+}
+
+impl Leg {
+    fn new(geometry: &LegGeometry, k: usize, path: &PathPoint) -> Leg {
+        let (p, v, acc) = (path.position, path.velocity, path.acceleration);
+        // The leg vector d moves with the platform centre (the platform does not rotate).
+        let d = p + geometry.platform_joints[k] - geometry.base_joints[k];
+        let length = d.norm();
+        let u = d / length;
+        let rate = u.dot(&v);
+        let du = (v - u * rate) / length;
+        let accel = du.dot(&v) + u.dot(&acc);
+        let ddu = (acc - du * (2.0 * rate) - u * accel) / length;
+        let uxa = u.cross(&geometry.hooke_axes[k]);
+        Leg { d, u, du, ddu, stroke: Stroke { length, rate, acceleration: accel }, uxa, sine: uxa.norm() }
+    }
+}
+
+/// The strokes of the six legs and the sines of their angles to their first Hooke axes, for the
+/// platform centre at `path` (what the driving constraints need; the rest of
+/// [`RelativeState::new`] is not computed).
+pub(crate) fn strokes(geometry: &LegGeometry, path: &PathPoint) -> ([Stroke; LEGS], [f64; LEGS]) {
+    let legs: [Leg; LEGS] = std::array::from_fn(|k| Leg::new(geometry, k, path));
+    (legs.each_ref().map(|l| l.stroke), legs.each_ref().map(|l| l.sine))
 }
 
 /// Masses in body order: platform, six upper parts, six lower parts.

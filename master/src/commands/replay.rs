@@ -94,7 +94,7 @@ fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathB
     let mut dy = under.as_ref().unwrap_or(&model).dynamics_with(Payload::External, rows[0][0], &w0)?;
     let mut f = std::io::BufWriter::new(std::fs::File::create(out)?);
     writeln!(f, "{}", head(cable_fmu::fmu::output_names()))?;
-    let mut tensions = vec![(0.0, 0.0); dy.system.cables()];
+    let mut tensions = vec![(0.0, 0.0); dy.system().cables()];
     let mut write_row =
         |dy: &cable_fmu::dynamics::Dynamics, f: &mut std::io::BufWriter<std::fs::File>| -> std::io::Result<()> {
             let c = dy.cabin();

@@ -22,6 +22,7 @@ pub struct GenAlpha {
 }
 
 impl GenAlpha {
+    /// Panics unless `rho_inf` lies in [0, 1]; [`super::Integrator::new`] checks it first.
     pub fn new(rho_inf: f64) -> Self {
         assert!((0.0..=1.0).contains(&rho_inf), "rho_inf must lie in [0, 1], got {rho_inf}");
         let alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0);

@@ -1,7 +1,7 @@
 //! The monolithic eq. (7) reference model: rest, constraint drift, and convergence in h.
 
 use feedcore::scene::Scene;
-use master::monolithic::Monolithic;
+use monolithic::Monolithic;
 
 fn scene(name: &str) -> Scene {
     Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()

@@ -1,0 +1,183 @@
+//! The monolithic model in time: model (immutable), state, and workspace kept apart.
+
+use feedcore::genalpha::{self, Iterate, StepError, StepReport};
+use feedcore::rigid::RigidMotion;
+use feedcore::scene::{LEGS, Scene};
+use nalgebra::Vector6;
+use stewart_fmu::constraints::{CABIN, DRIVING, ROWS_PER_LEG};
+
+use crate::config::Config;
+use crate::model::{BuildError, Model};
+use crate::problem::{Coefficients, Fault, Scratch, Step, largest_value};
+
+/// Why the monolithic model cannot be built or go on.
+#[derive(Debug, thiserror::Error)]
+pub enum MonolithicError {
+    #[error(transparent)]
+    Build(#[from] BuildError),
+    #[error("monolithic model stopped at t = {time:.6} s: {reason}")]
+    Stopped { time: f64, reason: StepError<Fault> },
+    #[error("monolithic model at t = {time:.6} s: consistent initial accelerations: {reason}")]
+    Start { time: f64, reason: Fault },
+}
+
+impl MonolithicError {
+    /// The time a step failed at, if it was a step.
+    pub fn time(&self) -> Option<f64> {
+        match self {
+            MonolithicError::Stopped { time, .. } | MonolithicError::Start { time, .. } => Some(*time),
+            MonolithicError::Build(_) => None,
+        }
+    }
+}
+
+/// Results of one time point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sample {
+    pub time: f64,
+    pub cabin: RigidMotion,
+    /// What the Stewart platform exerts on the cabin (force; moment about the centre point).
+    pub wrench: Vector6<f64>,
+    /// Actuator tensions, N.
+    pub actuator_forces: [f64; LEGS],
+    /// Largest |Φ| of all position constraints (m or rad).
+    pub constraint_residual: f64,
+}
+
+/// A saved state (see [`Monolithic::save`]).
+#[derive(Clone, Debug)]
+pub struct Snapshot(genalpha::State<Config>);
+
+/// The monolithic model of a scene, running.
+pub struct Monolithic {
+    model: Model,
+    state: genalpha::State<Config>,
+    work: genalpha::Workspace<Config>,
+    scratch: Scratch,
+}
+
+impl Monolithic {
+    /// Builds the model of `scene` at its static equilibrium, from time 0, with consistent
+    /// accelerations and multipliers.
+    pub fn new(scene: &Scene) -> Result<Monolithic, MonolithicError> {
+        let start = Model::build(scene)?;
+        let model = start.model;
+        let fail = |reason: Fault| MonolithicError::Start { time: 0.0, reason };
+        let scratch = Scratch::new(&model, &start.config, 0.0).map_err(|e| fail(e.into()))?;
+        let (n, m) = (model.motion_dim(), stewart_fmu::CONSTRAINTS);
+        let state = genalpha::State::new(0.0, start.config, start.velocity, vec![0.0; n], vec![0.0; m]);
+        let mut mono = Monolithic { work: genalpha::Workspace::new(&state), model, state, scratch };
+        mono.initial_acceleration().map_err(fail)?;
+        Ok(mono)
+    }
+
+    /// Consistent accelerations and multipliers: `[M Φ_qᵀ; Φ_q 0] [v̇; λ] = [f − g; γ]`.
+    fn initial_acceleration(&mut self) -> Result<(), Fault> {
+        let (n, m) = (self.model.motion_dim(), stewart_fmu::CONSTRAINTS);
+        let st = &self.state;
+        let zero_motion = vec![0.0; n];
+        let zero_lambda = vec![0.0; m];
+        let at = Iterate {
+            time: st.time,
+            config: &st.config,
+            increment: &zero_motion,
+            velocity: &st.velocity,
+            acceleration: &zero_motion,
+            multipliers: &zero_lambda,
+        };
+        let mass =
+            Coefficients { mass: 1.0, damping: 0.0, stiffness: 0.0, constraint_scale: 1.0, slack_as_taut: false };
+        let mut x = vec![0.0; n + m];
+        self.scratch.assemble(&self.model, &at, 1.0, &mut x, Some(&mass))?;
+        self.scratch.factor_step = None; // factors of M, not of an iteration matrix
+        x[..n].iter_mut().for_each(|r| *r = -*r);
+        for (k, row) in self.scratch.rows.iter().enumerate() {
+            x[n + k] = row.gamma;
+        }
+        self.scratch.kkt.solve(&mut x);
+        if x.iter().any(|v| !v.is_finite()) {
+            return Err(Fault::NotFinite("accelerations and multipliers"));
+        }
+        self.state.acceleration.copy_from_slice(&x[..n]);
+        self.state.pseudo_acceleration.copy_from_slice(&x[..n]);
+        self.state.multipliers.copy_from_slice(&x[n..]);
+        Ok(())
+    }
+
+    pub fn time(&self) -> f64 {
+        self.state.time
+    }
+
+    /// The cable–cabin system (its cables, for element forces).
+    pub fn cable_system(&self) -> &cable_fmu::system::System {
+        &self.model.system
+    }
+
+    /// The cable–cabin part of the configuration now: free nodes and the cabin pose.
+    pub fn cable_config(&self) -> &cable_fmu::system::Config {
+        &self.state.config.cable
+    }
+
+    /// One step of size `h` (halved internally should Newton fail).
+    pub fn step(&mut self, h: f64) -> Result<StepReport, MonolithicError> {
+        let mut problem = Step { model: &self.model, scratch: &mut self.scratch };
+        let report = self
+            .model
+            .integrator
+            .step(&mut problem, &mut self.state, &mut self.work, h, &(), &())
+            .map_err(|f| MonolithicError::Stopped { time: f.time, reason: f.reason })?;
+        self.scratch.accepted_time = self.state.time;
+        Ok(report)
+    }
+
+    /// Cabin motion, Stewart wrench, actuator forces and constraint residual now.
+    pub fn sample(&mut self) -> Sample {
+        let (model, st, sc) = (&self.model, &self.state, &mut self.scratch);
+        if sc.accepted_time != st.time {
+            sc.evaluate_accepted(model, &st.config, st.time);
+        }
+        let c0 = model.body_offset(CABIN);
+        let v3 = |v: &[f64], k: usize| nalgebra::Vector3::new(v[c0 + k], v[c0 + k + 1], v[c0 + k + 2]);
+        let cabin = RigidMotion {
+            position: st.config.cable.position,
+            orientation: st.config.cable.orientation,
+            velocity: v3(&st.velocity, 0),
+            angular_velocity: v3(&st.velocity, 3),
+            acceleration: v3(&st.acceleration, 0),
+            angular_acceleration: v3(&st.acceleration, 3),
+        };
+        let mut wrench = Vector6::zeros();
+        let mut actuator_forces = [0.0; LEGS];
+        for (k, row) in sc.accepted.iter().enumerate() {
+            let lambda = st.multipliers[k];
+            for s in 0..2 {
+                if row.bodies[s] == CABIN {
+                    wrench -= row.jacobian[s] * lambda;
+                }
+            }
+            if k % ROWS_PER_LEG == DRIVING {
+                actuator_forces[k / ROWS_PER_LEG] = lambda;
+            }
+        }
+        Sample { time: st.time, cabin, wrench, actuator_forces, constraint_residual: largest_value(&sc.accepted[..]) }
+    }
+
+    /// The current state, to return to with [`Monolithic::restore`] (e.g. to retake a step
+    /// with another size).
+    pub fn snapshot(&self) -> Snapshot {
+        Snapshot(self.state.clone())
+    }
+
+    /// As [`Monolithic::snapshot`], into existing storage (no allocation).
+    pub fn save(&self, into: &mut Snapshot) {
+        into.0.clone_from(&self.state);
+    }
+
+    /// Returns to a saved state. The kept factorization stays: it only steers Newton (and is
+    /// rebuilt for another step size), so the steps that follow agree with those after the
+    /// snapshot to the Newton tolerance.
+    pub fn restore(&mut self, snapshot: &Snapshot) {
+        self.state.clone_from(&snapshot.0);
+        self.scratch.accepted_time = f64::NAN;
+    }
+}
