@@ -38,13 +38,14 @@ def _sources(text):
 
 
 def pack(name, out_dir, archive=True, edit=None):
-    """tests/systems/<name>.ssd with the FMUs under test: an `.ssp` archive (FMUs under
-    resources/, .ssv files beside the .ssd), or with `archive=False` a directory holding the
-    .ssd (sources pointing at DIST) and its .ssv files. `edit(text)` may change the .ssd first."""
+    """tests/systems/<name>.ssd with the FMUs under test (its sources `../../dist/<id>.fmu`): an
+    `.ssp` archive (FMUs under resources/, .ssv files beside the .ssd), or with `archive=False` a
+    directory holding the .ssd (sources pointing at DIST) and its .ssv files. `edit(text)` may
+    change the .ssd first (a source it sets elsewhere is left as it is)."""
     text = (SYSTEMS / f"{name}.ssd").read_text()
     if edit is not None:
         text = edit(text)
-    fmus = [s for s in _sources(text) if s.endswith(".fmu")]
+    fmus = [s for s in _sources(text) if s.startswith("../../dist/")]
     ssvs = [s for s in _sources(text) if s.endswith(".ssv")]
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -59,8 +60,6 @@ def pack(name, out_dir, archive=True, edit=None):
     with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
         for s in sorted(set(fmus)):
             stem = pathlib.Path(s).stem
-            if s.startswith("resources/"):
-                continue  # already packed by an edit
             text = text.replace(f'source="{s}"', f'source="resources/{stem}.fmu"')
             z.write(fmu_file(stem), f"resources/{stem}.fmu")
         z.writestr("SystemStructure.ssd", text)
