@@ -16,6 +16,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from fmpy.ssp.ssd import read_ssd
 from fmpy.ssp.simulation import simulate_ssp
 
 from conftest import DIST
@@ -45,6 +46,13 @@ def systems(tmp_path_factory):
     """Every system packed once as an .ssp archive with the FMUs under test."""
     d = tmp_path_factory.mktemp("zoo-systems")
     return {name: pack(name, d) for name in ["chain", "loop", "ball", "stair", "resource", "oscillators"]}
+
+
+@pytest.mark.parametrize("name", ["chain", "loop", "ball", "stair", "resource", "oscillators"])
+def test_every_system_is_valid_ssp(systems, name):
+    """fmpy validates the .ssd against the SSP 1.0 schema; the .ssv files travel in the archive."""
+    ssd = read_ssd(str(systems[name]), validate=True)
+    assert ssd.system.connections and len(ssd.system.elements) >= 2
 
 
 def chain_expected(t, scheme):
