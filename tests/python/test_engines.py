@@ -11,7 +11,6 @@ import ctypes
 import platform
 import subprocess
 import sys
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -107,7 +106,8 @@ def lt50m(tmp_path_factory):
 CABIN = [f"cable.cabin.r[{k}]" for k in (1, 2, 3)]
 
 
-def cabin_offset(values, at=None):
+def cabin_offset(values):
+    """Distance of the cabin centre from scene C's target pose, at every sample."""
     r = np.column_stack([values[n] for n in CABIN])
     r0 = np.array([0.0, 0.0, 9.8])  # scene C's target pose
     return np.linalg.norm(r - r0, axis=1)

@@ -101,11 +101,11 @@ def test_chain_converges_to_the_continuous_solution_at_first_order(systems):
     assert error("ijcsa", 0.1) < error("jacobi", 0.1) / 2, "end values beat the doubly delayed chain"
 
 
-def test_chain_ssd_with_its_ssv_runs_in_place():
+def test_chain_ssd_with_its_ssv_runs_in_place(tmp_path):
     """tests/systems/chain.ssd as it is: FMUs from ../../dist, d1's parameters from chain_d1.ssv."""
     if DIST.resolve() != (REPO / "dist").resolve():
         pytest.skip(f"FMU_DIST={DIST}: the .ssd files name ../../dist")
-    cols, _, _ = run(SYSTEMS / "chain.ssd", "gauss-seidel", 0.1, out_dir=fmu_file("dahlquist").parent)
+    cols, _, _ = run(SYSTEMS / "chain.ssd", "gauss-seidel", 0.1, out_dir=tmp_path)
     x1, _, x2 = chain_expected(cols["time"], "gauss-seidel")
     assert np.max(np.abs(cols["d1.x"] - x1)) < 1e-14 and np.max(np.abs(cols["d2.x"] - x2)) < 1e-12
 

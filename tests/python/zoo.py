@@ -166,8 +166,8 @@ def read_table(path):
 
 
 def rk4_van_der_pol(t_end, dt, x0, x1, mu=1.0):
-    """Van der Pol's oscillator by classical RK4 at a fine step: samples at every multiple of
-    `sample` (returned as a function of the sampling step)."""
+    """Van der Pol's oscillator (no forcing) by classical RK4 at the fine step `dt`, written here
+    on its own: the state at every step from 0 to `t_end` (the caller takes every k-th row)."""
     n = round(t_end / dt)
     x = np.array([x0, x1], dtype=float)
     out = np.empty((n + 1, 2))
