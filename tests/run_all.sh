@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The whole test suite: formatting and lints, Rust tests, then the fmpy cross-checks of the packaged FMUs.
-# Installs fmpy into a local virtual environment (.venv) on first use.
+# The whole test suite: formatting and lints, Rust tests, then the fmpy cross-checks of the packaged FMUs
+# and the runs of our SSP files in co-simulation engines we did not write (libcosim, ecos).
+# Installs tests/requirements.txt into a local virtual environment (.venv), and keeps it current.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -15,15 +16,16 @@ echo "== Rust tests =="
 cargo test --release --workspace --locked
 
 echo "== Python environment =="
-if [ ! -x .venv/bin/python ] || ! .venv/bin/python -c "import fmpy, pytest" 2>/dev/null; then
+if [ ! -x .venv/bin/python ]; then
     python3 -m venv .venv
-    .venv/bin/pip install --quiet --disable-pip-version-check -r tests/requirements.txt
 fi
+# quick when everything pinned is there already; installs what a new pin added
+.venv/bin/pip install --quiet --disable-pip-version-check -r tests/requirements.txt
 
 echo "== package the FMUs =="
 target_dir="${CARGO_TARGET_DIR:-target}"
 "$target_dir/release/master" package --out dist
 
-echo "== fmpy cross-checks =="
+echo "== fmpy cross-checks, zoo systems, libcosim and ecos =="
 .venv/bin/python -c "import fmpy; print('fmpy', fmpy.__version__)"
 FMU_DIST="$PWD/dist" .venv/bin/python -m pytest -q tests/python

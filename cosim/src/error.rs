@@ -42,11 +42,22 @@ pub enum StepError {
     /// The coupled values ran away (explicit schemes on a strongly coupled system).
     #[error(
         "{cause}; the coupled inputs had grown to {growth:.0}× their scale (`{variable}` = {value:.3e}): \
-         {scheme} is unstable here (the platform's added mass on the cabin); use ijcsa, iqn-ils or iterative"
+         {scheme} is unstable here (a strongly coupled interface, e.g. an added mass); use ijcsa, iqn-ils or iterative"
     )]
     Unstable { cause: Box<StepError>, growth: f64, variable: String, value: f64, scheme: &'static str },
     #[error("co-simulation stopped at t = {time:.6} s: {reason}")]
     Failed { time: f64, reason: String },
+    /// A scheme that does not iterate, on a system with an algebraic loop: refused before the
+    /// first step. It would take every input from the last communication point — a delay of one
+    /// step the system does not have — and so solve another system, which is unstable wherever
+    /// the loop's gain reaches 1.
+    #[error(
+        "scheme {scheme} cannot solve the system's algebraic loop {cycle} (each output on it responds at once \
+         to the input before it, as the FMUs declare in <ModelStructure>; an output without a dependencies \
+         list depends on every input): a non-iterating scheme would delay the loop by one step and solve a \
+         different system; use ijcsa, iqn-ils or iterative, which solve the loop at every step"
+    )]
+    AlgebraicLoop { scheme: &'static str, cycle: String },
     /// The adaptive step found no step down to the smallest allowed that converged with a
     /// finite error estimate.
     #[error(
@@ -64,6 +75,7 @@ impl StepError {
             | StepError::NotConverged { time, .. }
             | StepError::Failed { time, .. }
             | StepError::StepTooSmall { time, .. } => *time,
+            StepError::AlgebraicLoop { .. } => 0.0,
             StepError::Unstable { cause, .. } => cause.time(),
         }
     }

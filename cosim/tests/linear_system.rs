@@ -47,6 +47,8 @@ impl TwoMasses {
             group: vec![0, 1],
             input_names: vec!["a.force".into(), "b.x1".into()],
             output_names: vec!["a.x".into(), "a.v".into(), "b.force".into(), "b.x".into()],
+            // b's force responds at once to x1; a's outputs are states
+            feedthrough: vec![(2, 1)],
         };
         let a = Mass { x: X1, v: 0.0, u0: -KC * X1, u1: -KC * X1 };
         let b = Mass { x: 0.0, v: 0.0, u0: X1, u1: X1 };
@@ -295,6 +297,11 @@ impl LinearMaps {
             group: (0..n).collect(),
             input_names: (0..n).map(|i| format!("u{i}")).collect(),
             output_names: (0..n).map(|i| format!("y{i}")).collect(),
+            // outputs are maps of the inputs held now: every output of a unit on every input
+            feedthrough: (0..n1)
+                .flat_map(|y| (0..n0).map(move |u| (y, u)))
+                .chain((n1..n).flat_map(|y| (n0..n).map(move |u| (y, u))))
+                .collect(),
         };
         // p: n1 outputs from n0 inputs; q: n0 outputs from n1 inputs
         let m0: Vec<f64> = (0..n1 * n0).map(|_| 3.0 * rnd()).collect();
@@ -359,4 +366,23 @@ fn iqn_ils_converges_within_n_plus_1_updates_on_a_linear_coupled_system() {
         let e = Coupled::new(LinearMaps::new(n0, n1, seed), plain).unwrap().step(0.1);
         assert!(matches!(e, Err(StepError::NotConverged { .. })), "n = {n}: the fixed point converged");
     }
+}
+
+/// A loop through direct feedthrough is refused to the schemes that do not iterate, naming it;
+/// the iterating schemes solve it. The two masses (only b's force feeds through) are no loop.
+#[test]
+fn non_iterating_schemes_refuse_an_algebraic_loop() {
+    for scheme in [Scheme::Jacobi, Scheme::GaussSeidel { reversed: false }, Scheme::Sequential] {
+        let e = Coupled::new(LinearMaps::new(2, 1, 7), options(scheme)).err().expect("refused");
+        let text = e.to_string();
+        assert!(matches!(e, StepError::AlgebraicLoop { .. }), "{text}");
+        assert!(text.contains(&format!("scheme {} cannot solve", scheme.name())), "{text}");
+        assert!(text.contains("`u0` → `y0` → `u2` → `y1` → `u0`"), "{text}");
+        assert!(text.contains("use ijcsa, iqn-ils or iterative"), "{text}");
+    }
+    for scheme in [Scheme::IqnIls, Scheme::Ijcsa] {
+        let mut c = Coupled::new(LinearMaps::new(2, 1, 7), options(scheme)).unwrap();
+        assert!(c.step(0.1).unwrap().residual <= 1e-10);
+    }
+    assert!(Coupled::new(TwoMasses::new(), options(Scheme::Jacobi)).is_ok());
 }

@@ -21,6 +21,10 @@ impl<S: Units> Coupled<S> {
         for step in 0..self.order.len() {
             let k = self.order[step];
             self.advance(k, slope, t, h)?;
+            // the inputs this unit stepped with, for the residual (`guess` moves on below)
+            let r = self.units.layout().units[k].inputs.clone();
+            let Coupled { work, .. } = self;
+            work.x[r.clone()].copy_from_slice(&work.guess[r]);
             // the newest outputs of this unit feed the ones after it
             let o = self.units.layout().units[k].outputs.clone();
             if let Err(e) = self.units.get_outputs(k, &mut self.y[o.clone()]) {
@@ -35,7 +39,9 @@ impl<S: Units> Coupled<S> {
                 }
             }
         }
-        self.finish_step(t + h)
+        self.read_outputs(t + h)?;
+        let residual = self.residual(&self.work.x).0;
+        Ok(StepReport { iterations: 1, residual })
     }
 
     /// After the units stepped with (end-of-step) inputs `work.guess`: new outputs and residual.

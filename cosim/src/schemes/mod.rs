@@ -159,6 +159,12 @@ impl<S: Units> Coupled<S> {
                 }
             }
         }
+        if !options.scheme.is_implicit()
+            && let Some(cycle) = units.layout().algebraic_loop()
+        {
+            let cycle = units.layout().describe_loop(&cycle);
+            return Err(StepError::AlgebraicLoop { scheme: options.scheme.name(), cycle });
+        }
         let mut y = vec![0.0; ny];
         for k in 0..units.layout().units.len() {
             let r = units.layout().units[k].outputs.clone();

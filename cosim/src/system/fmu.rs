@@ -142,6 +142,7 @@ impl FmuSystem {
             group: Vec::new(),
             input_names: Vec::new(),
             output_names: Vec::new(),
+            feedthrough: Vec::new(),
         };
         let real: Vec<&Link> = links.iter().filter(|l| l.from.1.var_type == VarType::Real).collect();
         for (k, unit) in units.iter_mut().enumerate() {
@@ -172,6 +173,21 @@ impl FmuSystem {
                 let t = l.transform.unwrap_or(Linear { factor: 1.0, offset: 0.0 });
                 layout.gain.push(t.factor);
                 layout.offset.push(t.offset);
+            }
+        }
+        for (k, unit) in units.iter().enumerate() {
+            let (i0, o0) = (layout.units[k].inputs.start, layout.units[k].outputs.start);
+            let description = fmus[k].description();
+            let real_variable =
+                |vr: u32| description.variables.iter().find(|v| v.value_reference == vr && v.var_type == VarType::Real);
+            for (r, &out) in unit.outputs.iter().enumerate() {
+                let depends_on = real_variable(out).and_then(|v| v.depends_on.as_ref());
+                for (c, &input) in unit.inputs.iter().enumerate() {
+                    let name = real_variable(input).map(|v| v.name.as_str());
+                    if depends_on.is_none_or(|d| name.is_some_and(|n| d.iter().any(|x| x == n))) {
+                        layout.feedthrough.push((o0 + r, i0 + c));
+                    }
+                }
             }
         }
         let discrete = links
@@ -463,7 +479,10 @@ fn match_links<'a>(spec: &SystemSpec, fmus: &'a [Fmu]) -> Result<Vec<Link<'a>>, 
         }
     }
     for (i, l) in links.iter().enumerate() {
-        if links[..i].iter().any(|m| m.to.0 == l.to.0 && m.to.1.value_reference == l.to.1.value_reference) {
+        // value references are unique per type only
+        if links[..i].iter().any(|m| {
+            m.to.0 == l.to.0 && m.to.1.value_reference == l.to.1.value_reference && m.to.1.var_type == l.to.1.var_type
+        }) {
             return Err(SetupError::Invalid(format!(
                 "{origin}: input `{}.{}` is connected twice; an input takes one output",
                 spec.components[l.to.0].name, l.to.1.name

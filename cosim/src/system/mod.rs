@@ -40,6 +40,10 @@ pub struct Layout {
     /// `unit.variable` of every entry of `U` and of `Y`, for messages.
     pub input_names: Vec<String>,
     pub output_names: Vec<String>,
+    /// Direct feedthrough inside the units: `(y, u)` when output `y` responds at once to input
+    /// `u` of the same unit (for FMUs, what `<ModelStructure><Outputs>` declares; an output
+    /// without a `dependencies` list depends on every input, FMI 2.0 says).
+    pub feedthrough: Vec<(usize, usize)>,
 }
 
 impl Layout {
@@ -60,6 +64,71 @@ impl Layout {
     #[inline]
     pub fn coupled(&self, i: usize, y: &[f64]) -> f64 {
         self.gain[i] * y[self.source[i]] + self.offset[i]
+    }
+
+    /// An algebraic loop, if the system has one: inputs `u₀ → u₁ → … → u₀` where each next
+    /// input takes an output that responds at once to the one before (direct feedthrough all
+    /// the way round), so no unit's outputs can be computed before the others'. Returns the
+    /// inputs of the first loop found, in order.
+    pub fn algebraic_loop(&self) -> Option<Vec<usize>> {
+        // input i → every input fed by an output that feeds through from i
+        let next: Vec<Vec<usize>> = (0..self.inputs())
+            .map(|i| {
+                let outputs: Vec<usize> = self.feedthrough.iter().filter(|f| f.1 == i).map(|f| f.0).collect();
+                (0..self.inputs()).filter(|&j| outputs.contains(&self.source[j])).collect()
+            })
+            .collect();
+        // depth-first search; a successor on the current path closes a loop
+        #[derive(Clone, Copy, PartialEq)]
+        enum Mark {
+            New,
+            OnPath,
+            Done,
+        }
+        let mut mark = vec![Mark::New; self.inputs()];
+        for root in 0..self.inputs() {
+            if mark[root] != Mark::New {
+                continue;
+            }
+            let mut path = vec![root];
+            let mut cursor = vec![0];
+            mark[root] = Mark::OnPath;
+            while let (Some(&i), Some(c)) = (path.last(), cursor.last_mut()) {
+                let Some(&j) = next[i].get(*c) else {
+                    mark[i] = Mark::Done;
+                    path.pop();
+                    cursor.pop();
+                    continue;
+                };
+                *c += 1;
+                match mark[j] {
+                    Mark::OnPath => {
+                        let start = path.iter().position(|&p| p == j).expect("on the path");
+                        return Some(path[start..].to_vec());
+                    }
+                    Mark::New => {
+                        mark[j] = Mark::OnPath;
+                        path.push(j);
+                        cursor.push(0);
+                    }
+                    Mark::Done => {}
+                }
+            }
+        }
+        None
+    }
+
+    /// A loop of [`Layout::algebraic_loop`] as text: every input, then the output it feeds
+    /// through to, back to the first input.
+    pub fn describe_loop(&self, inputs: &[usize]) -> String {
+        let mut text = String::new();
+        for (n, &i) in inputs.iter().enumerate() {
+            let next = inputs[(n + 1) % inputs.len()];
+            let y = self.source[next];
+            text.push_str(&format!("`{}` → `{}` → ", self.input_names[i], self.output_names[y]));
+        }
+        text.push_str(&format!("`{}`", self.input_names[inputs[0]]));
+        text
     }
 
     /// Scales per unit group: the largest |value| (at least 1) among the inputs of the same
@@ -134,5 +203,47 @@ pub trait Units {
     /// Passes the values of non-Real connections from outputs to inputs (at a communication point).
     fn exchange_discrete(&mut self) -> Result<(), UnitError> {
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Units in a row, one input and one output each; unit k's input takes output `source[k]`;
+    /// `through[k]`: unit k's output feeds through from its input.
+    fn layout(source: &[usize], through: &[bool]) -> Layout {
+        let n = source.len();
+        Layout {
+            units: (0..n).map(|k| UnitLayout { name: format!("n{k}"), inputs: k..k + 1, outputs: k..k + 1 }).collect(),
+            source: source.to_vec(),
+            gain: vec![1.0; n],
+            offset: vec![0.0; n],
+            scale: vec![1.0; n],
+            group: vec![0; n],
+            input_names: (0..n).map(|k| format!("n{k}.u")).collect(),
+            output_names: (0..n).map(|k| format!("n{k}.y")).collect(),
+            feedthrough: (0..n).filter(|&k| through[k]).map(|k| (k, k)).collect(),
+        }
+    }
+
+    #[test]
+    fn a_loop_needs_feedthrough_all_the_way_round() {
+        // a ring of three: n0 ← n2, n1 ← n0, n2 ← n1
+        let ring = [2, 0, 1];
+        let l = layout(&ring, &[true, true, true]);
+        let cycle = l.algebraic_loop().expect("a loop");
+        assert_eq!(cycle.len(), 3);
+        assert_eq!(l.describe_loop(&[0, 1, 2]), "`n0.u` → `n0.y` → `n1.u` → `n1.y` → `n2.u` → `n2.y` → `n0.u`");
+        // one state on the ring breaks it
+        assert_eq!(layout(&ring, &[true, false, true]).algebraic_loop(), None);
+        // a unit feeding itself through feedthrough is a loop of one
+        assert_eq!(layout(&[0, 0], &[true, true]).algebraic_loop(), Some(vec![0]));
+        // a chain is none, however much feeds through
+        let mut chain = layout(&[1, 2, 2], &[true, true, false]);
+        assert_eq!(chain.algebraic_loop(), None);
+        // a loop downstream of a chain is found
+        chain.feedthrough.push((2, 2));
+        assert_eq!(chain.algebraic_loop(), Some(vec![2]));
     }
 }

@@ -36,6 +36,13 @@ pub const EXPORTABLE: &[Exportable] = &[
     Exportable::of::<fmi2_testmodel::Oscillator>("fmi2_testmodel"),
     Exportable::of::<cable_fmu::fmu::CableFmu>("cable_fmu_cdylib"),
     Exportable::of::<stewart_fmu::fmu::StewartFmu>("stewart_fmu_cdylib"),
+    // The zoo: small FMUs that know nothing of the LT50m system (testfmus/, docs/systems.md).
+    Exportable::of::<zoo_fmus::dahlquist::DahlquistFmu>("zoo_dahlquist"),
+    Exportable::of::<zoo_fmus::van_der_pol::VanDerPolFmu>("zoo_van_der_pol"),
+    Exportable::of::<zoo_fmus::bouncing_ball::BouncingBallFmu>("zoo_bouncing_ball"),
+    Exportable::of::<zoo_fmus::feedthrough::FeedthroughFmu>("zoo_feedthrough"),
+    Exportable::of::<zoo_fmus::stair::StairFmu>("zoo_stair"),
+    Exportable::of::<zoo_fmus::resource::ResourceFmu>("zoo_resource"),
 ];
 
 pub fn run(args: &Args) -> CmdResult {

@@ -1,0 +1,3 @@
+//! The zoo model `bouncing_ball` exported as the FMI 2.0 Co-Simulation FMU `bouncing_ball`.
+
+fmi2::export_fmu!(zoo_fmus::bouncing_ball::BouncingBallFmu);

@@ -1,0 +1,3 @@
+//! The zoo model `dahlquist` exported as the FMI 2.0 Co-Simulation FMU `dahlquist`.
+
+fmi2::export_fmu!(zoo_fmus::dahlquist::DahlquistFmu);

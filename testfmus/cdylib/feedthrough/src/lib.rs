@@ -1,0 +1,3 @@
+//! The zoo model `feedthrough` exported as the FMI 2.0 Co-Simulation FMU `feedthrough`.
+
+fmi2::export_fmu!(zoo_fmus::feedthrough::FeedthroughFmu);

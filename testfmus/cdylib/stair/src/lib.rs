@@ -1,0 +1,3 @@
+//! The zoo model `stair` exported as the FMI 2.0 Co-Simulation FMU `stair`.
+
+fmi2::export_fmu!(zoo_fmus::stair::StairFmu);

@@ -1,0 +1,3 @@
+//! The zoo model `van_der_pol` exported as the FMI 2.0 Co-Simulation FMU `van_der_pol`.
+
+fmi2::export_fmu!(zoo_fmus::van_der_pol::VanDerPolFmu);
