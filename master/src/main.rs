@@ -95,7 +95,7 @@ fn main() -> ExitCode {
         Command::Stress(args) => commands::stress::run(&args),
         Command::ExportSsp(args) => commands::export_ssp::run(&args),
         Command::Package(args) => commands::boxed(commands::package::run(&args)),
-        Command::Replay(args) => commands::boxed(commands::replay::run(&args)),
+        Command::Replay(args) => commands::replay::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -10,6 +10,7 @@ use feedcore::scene::Scene;
 use nalgebra::Vector6;
 
 use super::BoxResult as CmdResult;
+use super::output::Outputs;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -57,7 +58,18 @@ fn read_csv(path: &PathBuf) -> Result<(Vec<String>, Vec<Vec<f64>>), String> {
     Ok((header, rows))
 }
 
-pub fn run(args: &Args) -> CmdResult {
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    // written whole or not at all: a failed replay leaves no output that looks complete
+    let mut outputs = Outputs::new([args.scene.clone(), args.inputs.clone()]);
+    let out = outputs.declare("--out", &args.out, None)?;
+    outputs.open()?;
+    let mut f = outputs.stream(out)?;
+    super::boxed(replay(args, &mut f))?;
+    outputs.finish(out, f)?;
+    outputs.commit()
+}
+
+fn replay(args: &Args, f: &mut dyn Write) -> CmdResult {
     let mut scene = Scene::load(&args.scene)?;
     if let Some(tol) = args.newton_tol {
         scene.solver.newton_tol = tol;
@@ -67,8 +79,8 @@ pub fn run(args: &Args) -> CmdResult {
         return Err(format!("{}: needs a `time` column first and at least two rows", args.inputs.display()).into());
     }
     match args.model.as_str() {
-        "cable_fmu" => replay_cable(&scene, &header, &rows, &args.out),
-        "stewart_fmu" => replay_stewart(&scene, &header, &rows, &args.out),
+        "cable_fmu" => replay_cable(&scene, &header, &rows, f),
+        "stewart_fmu" => replay_stewart(&scene, &header, &rows, f),
         other => Err(format!("unknown model `{other}` (known: cable_fmu, stewart_fmu)").into()),
     }
 }
@@ -84,7 +96,7 @@ fn head(outputs: Vec<String>) -> String {
     std::iter::once("time".to_owned()).chain(outputs).collect::<Vec<_>>().join(",")
 }
 
-fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathBuf) -> CmdResult {
+fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], f: &mut dyn Write) -> CmdResult {
     let cols = columns(header, &cable_fmu::fmu::input_names())?;
     let wrench = |r: &[f64]| Vector6::from_iterator(cols.iter().map(|&c| r[c]));
     let model = CableCabin::from_scene(scene)?;
@@ -92,36 +104,33 @@ fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathB
     let w0 = wrench(&rows[0]);
     let under = if w0 == model.static_payload_wrench() { None } else { Some(model.under_wrench(&w0)?) };
     let mut dy = under.as_ref().unwrap_or(&model).dynamics_with(Payload::External, rows[0][0], &w0)?;
-    let mut f = std::io::BufWriter::new(std::fs::File::create(out)?);
     writeln!(f, "{}", head(cable_fmu::fmu::output_names()))?;
     let mut tensions = vec![(0.0, 0.0); dy.system().cables()];
-    let mut write_row =
-        |dy: &cable_fmu::dynamics::Dynamics, f: &mut std::io::BufWriter<std::fs::File>| -> std::io::Result<()> {
-            let c = dy.cabin();
-            let q = c.orientation.quaternion();
-            dy.end_tensions(&mut tensions);
-            let mut v = vec![dy.time()];
-            v.extend(c.position.iter());
-            v.extend([q.w, q.i, q.j, q.k]);
-            for x in [c.velocity, c.angular_velocity, c.acceleration, c.angular_acceleration] {
-                v.extend(x.iter());
-            }
-            v.extend(tensions.iter().map(|t| t.0));
-            v.extend(tensions.iter().map(|t| t.1));
-            writeln!(f, "{}", v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(","))
-        };
-    write_row(&dy, &mut f)?;
+    let mut write_row = |dy: &cable_fmu::dynamics::Dynamics, f: &mut dyn Write| -> std::io::Result<()> {
+        let c = dy.cabin();
+        let q = c.orientation.quaternion();
+        dy.end_tensions(&mut tensions);
+        let mut v = vec![dy.time()];
+        v.extend(c.position.iter());
+        v.extend([q.w, q.i, q.j, q.k]);
+        for x in [c.velocity, c.angular_velocity, c.acceleration, c.angular_acceleration] {
+            v.extend(x.iter());
+        }
+        v.extend(tensions.iter().map(|t| t.0));
+        v.extend(tensions.iter().map(|t| t.1));
+        writeln!(f, "{}", v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(","))
+    };
+    write_row(&dy, f)?;
     for w in rows.windows(2) {
         dy.step(w[1][0] - w[0][0], &wrench(&w[1]))?;
-        write_row(&dy, &mut f)?;
+        write_row(&dy, f)?;
     }
     Ok(())
 }
 
-fn replay_stewart(scene: &Scene, header: &[String], rows: &[Vec<f64>], out: &PathBuf) -> CmdResult {
+fn replay_stewart(scene: &Scene, header: &[String], rows: &[Vec<f64>], f: &mut dyn Write) -> CmdResult {
     let cols = columns(header, &stewart_fmu::fmu::input_names())?;
     let model = stewart_fmu::Stewart::from_scene(scene)?;
-    let mut f = std::io::BufWriter::new(std::fs::File::create(out)?);
     writeln!(f, "{}", head(stewart_fmu::fmu::output_names()))?;
     for r in rows {
         let u: [f64; stewart_fmu::fmu::INPUTS] = std::array::from_fn(|i| r[cols[i]]);

@@ -309,3 +309,31 @@ fn the_adaptive_step_is_checked_too() {
         &["stopped at t = ", "cap of 20 steps", "--max-steps"],
     );
 }
+
+#[test]
+fn a_failed_replay_leaves_no_output() {
+    let dir = scratch("replay");
+    let (inputs, out) = (dir.join("in.csv"), dir.join("out.csv"));
+    let names: Vec<String> = cable_fmu::fmu::input_names();
+    let scene = common::scene_path("lt50m_C.toml");
+    let model = cable_fmu::model::CableCabin::from_scene(&feedcore::scene::Scene::load(&scene).unwrap()).unwrap();
+    let w0 = model.static_payload_wrench();
+    let row = |t: f64, w: &[f64]| format!("{t},{}", w.iter().map(f64::to_string).collect::<Vec<_>>().join(","));
+    let mut table = format!("time,{}\n{}\n{}\n", names.join(","), row(0.0, w0.as_slice()), row(0.01, w0.as_slice()));
+    std::fs::write(&inputs, &table).unwrap();
+    let args = ["replay", "--model", "cable_fmu", "--scene", s(&scene), "--inputs", s(&inputs)];
+    let ok = master(&[&args[..], &["--out", s(&out)]].concat());
+    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    assert_eq!(std::fs::read_to_string(&out).unwrap().lines().count(), 3, "header and two rows");
+    // a wrench of 1e300 N held over the second step stops the model: no output, not even the
+    // earlier one
+    table.push_str(&row(0.02, &[1e300; 6]));
+    std::fs::write(&inputs, &table).unwrap();
+    let failed = master(&[&args[..], &["--out", s(&out)]].concat());
+    refused(&failed, &["stopped at t = 0.02", "NaN"]);
+    assert!(!out.exists(), "no partial output");
+    // the inputs themselves are never overwritten
+    let clobber = master(&[&args[..], &["--out", s(&inputs)]].concat());
+    refused(&clobber, &["--out", "input of the run"]);
+    assert!(std::fs::read_to_string(&inputs).unwrap() == table);
+}
