@@ -86,6 +86,9 @@ pub struct Eigenpairs {
     pub stats: LanczosStats,
 }
 
+/// Restarts without halving the largest residual after which the iteration is taken as stalled.
+const STALLED_AFTER: usize = 12;
+
 #[derive(Clone, Debug, PartialEq, Error)]
 pub enum EigenError {
     #[error("cannot factorize K − σM at σ = {sigma:e}: {detail} (is the system a mechanism, or σ an eigenvalue?)")]
@@ -95,6 +98,12 @@ pub enum EigenError {
          residual {tolerance:e} after {restarts} restarts (largest residual {residual:.2e})"
     )]
     NotConverged { wanted: usize, converged: usize, restarts: usize, tolerance: f64, residual: f64 },
+    #[error(
+        "shift-invert Lanczos stalled: the largest residual of the {wanted} wanted eigenpairs stopped \
+         decreasing at {residual:.2e} after {restarts} restarts, above the tolerance {tolerance:e}: the \
+         round-off of the shifted solves of {unknowns} unknowns; use fewer elements per cable (`cables.elements`)"
+    )]
+    Stalled { wanted: usize, unknowns: usize, restarts: usize, tolerance: f64, residual: f64 },
     #[error(
         "the Sturm count finds {count} eigenvalues below {sigma:e}, the Lanczos passes found {found} of them \
          after {passes} passes: the missing ones lie far from the shift (an unstable equilibrium has \
@@ -252,6 +261,8 @@ impl<'a, P: Pencil> Pass<'a, P> {
         let mut h = DMatrix::<f64>::zeros(m + 1, m);
         let mut start = 0;
         let mut restarts = 0;
+        // stagnation: the best largest residual so far and the restart that brought it
+        let mut best = (f64::INFINITY, 0);
         let mut w = vec![0.0; n];
         let mut col = vec![0.0; m + 1];
         loop {
@@ -316,8 +327,20 @@ impl<'a, P: Pencil> Pass<'a, P> {
             }
             restarts += 1;
             stats.restarts += 1;
+            let worst = order[..want].iter().map(|&i| residual(i)).fold(0.0, f64::max);
+            if worst < 0.5 * best.0 {
+                best = (worst, restarts);
+            } else if restarts - best.1 >= STALLED_AFTER {
+                // round-off, not the basis, limits the residual: more restarts would not help
+                return Err(EigenError::Stalled {
+                    wanted: want,
+                    unknowns: n,
+                    restarts,
+                    tolerance: self.opts.tolerance,
+                    residual: best.0,
+                });
+            }
             if restarts > self.opts.max_restarts {
-                let worst = order[..want].iter().map(|&i| residual(i)).fold(0.0, f64::max);
                 return Err(EigenError::NotConverged {
                     wanted: want,
                     converged,
@@ -542,5 +565,64 @@ mod tests {
         let mut spectrum = vec![-0.5, 0.8, 1.5];
         spectrum.extend((0..60).map(|i| 4.0 + i as f64));
         check(&pencil(&spectrum, 9), &spectrum, 3);
+    }
+
+    /// Solves with relative errors of 1e-7, like the round-off of a huge mesh: the residual
+    /// cannot fall below about that, so the iteration is reported as stalled after a few restarts
+    /// instead of running all `max_restarts`.
+    struct Noisy {
+        inner: Dense,
+    }
+
+    struct NoisyFactor {
+        inner: DenseFactor,
+        rng: Rng,
+    }
+
+    impl ShiftedFactor for NoisyFactor {
+        fn solve_in_place(&mut self, b: &mut [f64]) {
+            self.inner.solve_in_place(b);
+            let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            for x in b.iter_mut() {
+                *x += 1e-7 * scale * self.rng.next();
+            }
+        }
+        fn negative_eigenvalues(&self) -> usize {
+            self.inner.negative_eigenvalues()
+        }
+    }
+
+    impl Pencil for Noisy {
+        type Factor = NoisyFactor;
+        fn dim(&self) -> usize {
+            self.inner.dim()
+        }
+        fn free_dim(&self) -> usize {
+            self.inner.dim()
+        }
+        fn constrain(&self, _: &mut [f64]) {}
+        fn mass_mul(&self, x: &[f64], y: &mut [f64]) {
+            self.inner.mass_mul(x, y);
+        }
+        fn factorize_shifted(&self, sigma: f64) -> Result<NoisyFactor, String> {
+            Ok(NoisyFactor { inner: self.inner.factorize_shifted(sigma)?, rng: Rng(17) })
+        }
+    }
+
+    #[test]
+    fn a_residual_held_up_by_round_off_is_reported_as_stalled() {
+        let spectrum: Vec<f64> = (0..150).map(|i| 1.0 + 0.5 * i as f64).collect();
+        let noisy = Noisy { inner: pencil(&spectrum, 21) };
+        let opts = LanczosOptions::default();
+        let err = lowest(&noisy, 6, &opts).unwrap_err();
+        eprintln!("{err}");
+        match err {
+            EigenError::Stalled { restarts, residual, unknowns, .. } => {
+                assert!(restarts < opts.max_restarts / 4, "stopped early: {restarts} restarts");
+                assert!(residual > opts.tolerance && residual < 1e-4, "held near the noise: {residual:e}");
+                assert_eq!(unknowns, 150);
+            }
+            other => panic!("expected Stalled, got {other:?}"),
+        }
     }
 }
