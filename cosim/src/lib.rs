@@ -5,12 +5,16 @@
 //!   built from ([`SystemSpec`]);
 //! * [`schemes`]: the coupling schemes and the adaptive macro step ([`Coupled`]);
 //! * [`iqn`]: interface quasi-Newton acceleration (IQN-ILS);
-//! * [`step_control`]: step-size control that sees only error norms and step sizes;
+//! * [`adaptive`]: the adaptive step of any stepper that can undo a step;
+//! * [`step_control`]: step-size control that sees only error norms and step sizes, and
+//!   [`error_estimate`] the local error estimate it is given;
 //! * [`ssp`]: SSP 1.0 system descriptions, read and written;
 //! * [`error`]: set-up and run errors.
 
+pub mod adaptive;
 pub mod dense;
 pub mod error;
+pub mod error_estimate;
 pub mod iqn;
 pub mod schemes;
 pub mod ssp;

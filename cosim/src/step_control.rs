@@ -33,7 +33,8 @@ pub enum Decision {
 }
 
 /// Elementary (integral) controller `h' = h · safety · err^(−1/order)`, the factor bounded,
-/// no growth right after a rejection, the step within the limits. A step at `h_min` is accepted
+/// no growth right after a rejection, the step kept after an acceptance unless it can grow by
+/// half, the step within the limits. A step at `h_min` is accepted
 /// whatever its error (and counted): a discontinuity — an abrupt start, an event — has an error
 /// estimate that no step size brings down, and refusing it would stop the run there.
 #[derive(Clone, Debug)]
@@ -52,6 +53,13 @@ pub struct Controller {
 const SAFETY: f64 = 0.9;
 const MAX_GROWTH: f64 = 2.0;
 const MAX_SHRINK: f64 = 0.2;
+/// After an accepted step the size is kept unless it may grow by at least this factor: an
+/// implicit stepper refactorizes its iteration matrix at every new step size, which costs more
+/// than the few steps a slightly larger size would save (measured on the monolithic model at
+/// LT50m C, 100 s at rtol 1e-3: 69 µs per step with the size changed at every step against 29 µs
+/// at a fixed size). A step that only just met its tolerance keeps its size too: the next one
+/// is rejected, and shrunk, should it not.
+const HOLD_BELOW: f64 = 1.5;
 
 impl Controller {
     pub fn new(limits: Limits) -> Result<Controller, String> {
@@ -106,7 +114,8 @@ impl Controller {
             self.h_max_used = self.h_max_used.max(h);
             let growth = if self.just_rejected { 1.0 } else { MAX_GROWTH };
             self.just_rejected = false;
-            self.h_next = (h * factor.clamp(MAX_SHRINK, growth)).clamp(h_min, h_max);
+            let factor = if factor < HOLD_BELOW { 1.0 } else { factor.min(growth) };
+            self.h_next = (h * factor).clamp(h_min, h_max);
             Decision::Accept { h_next: self.h_next }
         } else {
             self.rejected += 1;
@@ -132,8 +141,9 @@ impl Controller {
 mod tests {
     use super::*;
 
-    /// On an error law err = (h / h*)^p the controller settles just below h*, rejects the
-    /// steps that are too large, and respects its limits.
+    /// On an error law err = (h / h*)^p the controller settles below h* — above 0.6 h*, where
+    /// growing by the safety factor 0.9 h*/h would no longer reach the hold threshold 1.5 —
+    /// rejects the steps that are too large, and respects its limits.
     #[test]
     fn settles_below_the_largest_admissible_step() {
         let h_star = 0.013;
@@ -147,7 +157,7 @@ mod tests {
                     Decision::Fail => panic!("h_min reached"),
                 };
             }
-            assert!(h < h_star && h > 0.8 * h_star, "order {order}: h = {h}");
+            assert!(h < h_star && h > SAFETY / HOLD_BELOW * h_star, "order {order}: h = {h}");
             assert!(c.h_max_used <= h_star, "an accepted step exceeded the admissible one");
         }
         let mut c = Controller::new(Limits { h_min: 0.01, h_max: 0.02, h_init: 0.01 }).unwrap();

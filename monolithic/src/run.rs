@@ -19,13 +19,21 @@ pub enum MonolithicError {
     Stopped { time: f64, reason: StepError<Fault> },
     #[error("monolithic model at t = {time:.6} s: consistent initial accelerations: {reason}")]
     Start { time: f64, reason: Fault },
+    /// The adaptive step found no acceptable step of at least `h_min`.
+    #[error(
+        "monolithic model at t = {time:.6} s: no step of at least h-min = {h_min:e} s converged \
+         (last error {error:.3e} relative to the tolerance); lower --h-min"
+    )]
+    StepTooSmall { time: f64, error: f64, h_min: f64 },
 }
 
 impl MonolithicError {
     /// The time a step failed at, if it was a step.
     pub fn time(&self) -> Option<f64> {
         match self {
-            MonolithicError::Stopped { time, .. } | MonolithicError::Start { time, .. } => Some(*time),
+            MonolithicError::Stopped { time, .. }
+            | MonolithicError::Start { time, .. }
+            | MonolithicError::StepTooSmall { time, .. } => Some(*time),
             MonolithicError::Build(_) => None,
         }
     }

@@ -158,7 +158,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     .context("the monolithic reference (--reference-dt)")?;
     let mut adaptive_runs = Vec::new();
     for &rtol in &args.adaptive_rtols {
-        for &name in args.schemes.iter().filter(|s| s.iterates()) {
+        for &name in args.schemes.iter().filter(|s| s.has_adaptive_step()) {
             let options = SchemeOptions { adaptive: true, rtol, ..args.options.clone() };
             let context = || format!("{} with the adaptive step at rtol {rtol:e}", name.as_str());
             let method = options.method(name).with_context(context)?;

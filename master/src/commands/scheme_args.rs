@@ -49,9 +49,15 @@ impl SchemeName {
         }
     }
 
-    /// Whether the scheme iterates within a macro step (and so has an adaptive step).
+    /// Whether the scheme iterates within a macro step.
     pub(crate) fn iterates(self) -> bool {
         matches!(self, SchemeName::Iterative | SchemeName::Ijcsa | SchemeName::IqnIls)
+    }
+
+    /// Whether the method has an adaptive step: the monolithic model and the schemes that
+    /// iterate (they can take a step back).
+    pub(crate) fn has_adaptive_step(self) -> bool {
+        self == SchemeName::Monolithic || self.iterates()
     }
 }
 
@@ -149,8 +155,9 @@ pub(crate) struct SchemeOptions {
     #[arg(long, default_value_t = IqnOptions::default().initial_relaxation, value_parser = factor,
           allow_negative_numbers = true)]
     pub(crate) iqn_relaxation: f64,
-    /// Adaptive macro step (iterative, ijcsa, iqn-ils): a local error estimate of the coupled
-    /// quantities (predictor against corrector), rejected steps rolled back. The steps are
+    /// Adaptive step (monolithic; iterative, ijcsa, iqn-ils): a local error estimate (predictor
+    /// against corrector) of the coupled quantities, or of the monolithic model's cabin pose,
+    /// rejected steps rolled back. The steps are
     /// chosen within [--h-min, --h-max] (the first ones at 10 × --h-min) and the last lands on
     /// the end time; --dt does not apply.
     #[arg(long)]
@@ -174,9 +181,10 @@ impl SchemeOptions {
     /// The method of `scheme` with these options; refused: `--adaptive` with a scheme that does
     /// not iterate.
     pub(crate) fn method(&self, scheme: SchemeName) -> anyhow::Result<Method> {
-        if self.adaptive && !scheme.iterates() {
+        if self.adaptive && !scheme.has_adaptive_step() {
             bail!(
-                "--adaptive needs a scheme that iterates (iterative, ijcsa, iqn-ils); `{}` has no adaptive step",
+                "--adaptive needs the monolithic model or a scheme that iterates (iterative, ijcsa, iqn-ils); \
+                 `{}` has no adaptive step",
                 scheme.as_str()
             );
         }
@@ -196,6 +204,9 @@ impl SchemeOptions {
             iqn: IqnOptions { reuse: self.iqn_reuse, filter: self.iqn_filter, initial_relaxation: self.iqn_relaxation },
         };
         options.scheme = match scheme {
+            SchemeName::Monolithic if self.adaptive => {
+                return Ok(Method::MonolithicAdaptive(self.adaptive_settings()?));
+            }
             SchemeName::Monolithic => return Ok(Method::Monolithic),
             SchemeName::Cable => return Ok(Method::CableOnly),
             SchemeName::Decoupled => return Ok(Method::Decoupled(options)),

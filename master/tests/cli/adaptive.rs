@@ -143,3 +143,46 @@ fn bench_compares_the_adaptive_step_with_the_fixed_ones() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The monolithic model with the adaptive step, abrupt and ramp start, 10 s at C: within rtol of
+/// the peak of the same model at a fine fixed step; small steps right after the abrupt start
+/// (its kink) and larger ones once the response is smooth; the JSON step figures are the CSV's.
+#[test]
+fn the_monolithic_model_steps_adaptively_within_its_tolerance() {
+    for start in [feedcore::scene::Start::Abrupt, feedcore::scene::Start::Ramp] {
+        let (_, file) = common::scene("lt50m_C.toml", &format!("adaptive-mono-{start:?}"), |s| s.motion.start = start);
+        let f = file.to_str().unwrap();
+        let out_csv = common::fmu_dir().join(format!("adaptive-mono-{start:?}.csv"));
+        let args = ["--scene", f, "--adaptive", "--rtol", "1e-3", "--t-end", "10", "--json", "--quiet"];
+        let out = master(&[&["run", "--scheme", "monolithic", "--out", out_csv.to_str().unwrap()], &args[..]].concat());
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!((v["scheme"].as_str(), v["adaptive"].as_bool()), (Some("monolithic"), Some(true)));
+        let (_, rows) = csv(&out_csv);
+        assert_eq!(rows.len() as u64, v["steps"].as_u64().unwrap() + 1);
+        assert_eq!(rows.last().unwrap()[0], 10.0, "the last step lands on the end time");
+        let h: Vec<f64> = rows[1..].iter().map(|r| r[1]).collect();
+        let (h_min, h_max) = h.iter().fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(*x), b.max(*x)));
+        assert_eq!((v["h_min_used"].as_f64(), v["h_max_used"].as_f64()), (Some(h_min), Some(h_max)));
+        // the mean step over the first 0.5 s against the last 5 s
+        let mean = |from: f64, to: f64| {
+            let s: Vec<f64> = rows[1..].iter().filter(|r| r[0] > from && r[0] <= to).map(|r| r[1]).collect();
+            s.iter().sum::<f64>() / s.len() as f64
+        };
+        let (early, late) = (mean(0.0, 0.5), mean(5.0, 10.0));
+        eprintln!(
+            "monolithic adaptive, {start:?} start: {} steps, h {h_min:.1e} … {h_max:.1e}, mean {early:.2e} early, {late:.2e} late",
+            h.len()
+        );
+        assert!(late > 1.5 * early, "{start:?}: the steps grow once the start is past: {early} then {late}");
+
+        let out = master(&[&["compare", "--schemes", "monolithic", "--dt", "0.00125"], &args[..]].concat());
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let c: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let peak = c["monolithic"]["peak_disp_mm"].as_f64().unwrap();
+        let error = c["schemes"][0]["max_error_mm"].as_f64().unwrap();
+        eprintln!("  {error:.2e} mm from the fixed step 0.00125 s, peak {peak:.2} mm");
+        assert!(peak > 1.0 && error <= 1e-3 * peak, "{start:?}: {error} mm at a peak of {peak} mm");
+        assert_eq!(c["schemes"][0]["peak_disp_mm"], v["peak_disp_mm"], "the same run");
+    }
+}

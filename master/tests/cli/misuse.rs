@@ -291,7 +291,7 @@ fn the_adaptive_step_is_checked_too() {
         master(&args)
     };
     refused(&run(&["--scheme", "ijcsa", "--dt", "0.01"]), &["--dt", "adaptive step chooses"]);
-    for scheme in ["jacobi", "gauss-seidel", "monolithic", "decoupled", "cable"] {
+    for scheme in ["jacobi", "gauss-seidel", "decoupled", "cable"] {
         refused(&run(&["--scheme", scheme]), &["--adaptive", &format!("`{scheme}`")]);
     }
     refused(&run(&["--scheme", "ijcsa", "--h-min", "0.2", "--h-max", "0.1"]), &["--h-min 0.2", "--h-max 0.1"]);
