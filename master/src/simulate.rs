@@ -520,7 +520,10 @@ impl<'a> Run<'a> {
                 let mut m = AdaptiveMonolithic::new(Monolithic::new(scene).map_err(|e| setup(&e))?);
                 let mut adaptive = match method {
                     Method::MonolithicAdaptive(a) => {
-                        let ctl = a.controller().map_err(|reason| RunError::Refused { method: name, reason })?;
+                        let ctl = a
+                            .controller()
+                            .map_err(|reason| RunError::Refused { method: name, reason })?
+                            .holding(cosim::step_control::REFACTORIZING_HOLD);
                         Some((ctl, a.tolerances, ErrorEstimate::new(WATCHED)))
                     }
                     _ => None,
