@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use feedcore::benchkit::bench;
 use feedcore::scene::Scene;
 use fmi2::import::Fmu;
-use master::cosim::{Coupled, Extrapolation, FmuSystem, JacobianUpdate, Options, Relaxation, Scheme};
+use master::cosim::{Coupled, FmuSystem, Options, Scheme};
 use master::monolithic::Monolithic;
 
 fn library(name: &str) -> PathBuf {
@@ -64,15 +64,7 @@ fn main() {
         });
     }
 
-    let options = Options {
-        scheme: Scheme::Ijcsa,
-        extrapolation: Extrapolation::Constant,
-        relaxation: Relaxation::Fixed(0.5),
-        jacobian: JacobianUpdate::EveryStep,
-        tol: 1e-8,
-        max_iter: 100,
-        ..Options::default()
-    };
+    let options = Options { scheme: Scheme::Ijcsa, ..Options::default() };
     let spec = master::system::scene_spec(&scene, &file).unwrap();
     let system = FmuSystem::load(&spec, &master::system::needs(&options, false)).unwrap();
     let mut c = Coupled::new(system, options).unwrap();

@@ -8,7 +8,7 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use feedcore::scene::{Scene, Start};
-use master::cosim::{Extrapolation, JacobianUpdate, Options, Relaxation, Scheme};
+use master::cosim::{Options, Scheme};
 use master::simulate::{Method, Trace, simulate, write_variant};
 use master::table::Table;
 
@@ -28,15 +28,7 @@ pub(crate) struct Args {
 }
 
 fn ijcsa() -> Method {
-    Method::Cosim(Options {
-        scheme: Scheme::Ijcsa,
-        extrapolation: Extrapolation::Constant,
-        relaxation: Relaxation::Fixed(0.5),
-        jacobian: JacobianUpdate::EveryStep,
-        tol: 1e-8,
-        max_iter: 100,
-        ..Options::default()
-    })
+    Method::Cosim(Options { scheme: Scheme::Ijcsa, ..Options::default() })
 }
 
 /// Peak |displacement| (mm) in the first and in the last third of a run.

@@ -2,19 +2,11 @@
 
 use crate::common;
 
-use master::cosim::{Coupled, Extrapolation, FmuSystem, JacobianUpdate, Options, Relaxation, Scheme, Units};
+use master::cosim::{Coupled, FmuSystem, Options, Scheme, Units};
 use master::simulate::{Method, Trace, simulate};
 
 fn options(scheme: Scheme) -> Options {
-    Options {
-        scheme,
-        extrapolation: Extrapolation::Constant,
-        relaxation: Relaxation::Fixed(0.5),
-        jacobian: JacobianUpdate::EveryStep,
-        tol: 1e-8,
-        max_iter: 100,
-        ..Options::default()
-    }
+    Options { scheme, ..Options::default() }
 }
 
 fn largest_displacement(t: &Trace) -> f64 {

@@ -17,7 +17,7 @@
 
 use cable_fmu::element::Bar;
 use feedcore::scene::Scene;
-use master::cosim::{Extrapolation, JacobianUpdate, Options, Relaxation, Scheme};
+use master::cosim::{Options, Scheme};
 use master::simulate::{Method, simulate};
 use monolithic::Monolithic;
 
@@ -78,15 +78,7 @@ fn a_cable_goes_slack_and_taut_again_and_ijcsa_follows_the_monolithic_model() {
     assert!(episodes >= 2 && slack_steps > 100, "cable 5 must go slack (twice)");
     assert!(taut_at_end > 0.0, "and be taut again");
 
-    let options = Options {
-        scheme: Scheme::Ijcsa,
-        extrapolation: Extrapolation::Constant,
-        relaxation: Relaxation::Fixed(0.5),
-        jacobian: JacobianUpdate::EveryStep,
-        tol: 1e-8,
-        max_iter: 100,
-        ..Options::default()
-    };
+    let options = Options { scheme: Scheme::Ijcsa, ..Options::default() };
     let run = |h: f64| simulate(&scene, &file, Method::Cosim(options), h, t_end, true).unwrap();
     let (ijcsa, ijcsa_fine) = (run(h), run(h / 4.0));
     // gaps at the common sample times (every 0.01 s), split by the state of cable 5

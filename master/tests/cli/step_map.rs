@@ -3,7 +3,7 @@
 
 use crate::common;
 
-use master::cosim::{Extrapolation, JacobianUpdate, Options, Relaxation, Scheme};
+use master::cosim::{Options, Scheme};
 use master::simulate::{Method, simulate};
 
 #[test]
@@ -29,15 +29,7 @@ fn ijcsa_with_the_extension_and_with_finite_differences_agree() {
     }
     std::fs::write(&plain_file, plain_scene.to_toml()).unwrap();
 
-    let options = Options {
-        scheme: Scheme::Ijcsa,
-        extrapolation: Extrapolation::Constant,
-        relaxation: Relaxation::Fixed(0.5),
-        jacobian: JacobianUpdate::EveryStep,
-        tol: 1e-8,
-        max_iter: 100,
-        ..Options::default()
-    };
+    let options = Options { scheme: Scheme::Ijcsa, ..Options::default() };
     let t_end = 5.0;
     let with = simulate(&scene, &file, Method::Cosim(options), 0.01, t_end, true).unwrap();
     let without = simulate(&plain_scene, &plain_file, Method::Cosim(options), 0.01, t_end, true).unwrap();
