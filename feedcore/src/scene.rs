@@ -168,6 +168,9 @@ pub enum Start {
     Abrupt,
     /// Speed ramped smoothly from 0 over `ramp_time_s`.
     Ramp,
+    /// Full speed at t = 0, and the cabin given the velocity that keeps the momentum of cabin
+    /// and platform at zero (the platform pushes off the cabin; docs/reproduction.md).
+    Consistent,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
