@@ -42,3 +42,48 @@ fn the_consistent_start_agrees_between_ijcsa_and_the_monolithic_model() {
     assert!(gap <= 0.25 * effect);
     assert!(gap_fine <= gap / 3.0, "first order in h: {gap:e} → {gap_fine:e}");
 }
+
+fn modes_json(args: &[&str]) -> Vec<f64> {
+    let out = crate::master(args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    v["frequencies_hz"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
+}
+
+fn library_modes(scene: &feedcore::scene::Scene, count: usize) -> Vec<f64> {
+    let m = cable_fmu::model::CableCabin::build(scene, count).unwrap();
+    m.modes.unwrap().frequencies_hz[..count].to_vec()
+}
+
+/// `--platform added-mass` equals the modes of a cabin made heavier by the platform's mass
+/// with no platform; `--platform absent` those without it; `--youngs-modulus` those of a scene
+/// with that E; each differs from the scene's own modes.
+#[test]
+fn modal_options_equal_the_edited_scenes() {
+    let path = common::scene_path("lt50m_C.toml");
+    let p = path.to_str().unwrap();
+    let scene = feedcore::scene::Scene::load(&path).unwrap();
+    let base = library_modes(&scene, 4);
+    let mut heavy = scene.clone();
+    heavy.cabin.mass_kg += 184.8;
+    heavy.analyses.stewart = feedcore::scene::StewartMode::Absent;
+    let mut bare = scene.clone();
+    bare.analyses.stewart = feedcore::scene::StewartMode::Absent;
+    let mut soft = scene.clone();
+    soft.cables.youngs_modulus_pa = 1e9;
+    for (flags, edited) in [
+        (vec!["--platform", "added-mass"], heavy),
+        (vec!["--platform", "absent"], bare),
+        (vec!["--youngs-modulus", "1e9"], soft),
+    ] {
+        let mut args = vec!["modes", "--scene", p, "--count", "4", "--json"];
+        args.extend(&flags);
+        let cli = modes_json(&args);
+        let lib = library_modes(&edited, 4);
+        eprintln!("{flags:?}: {cli:?} (scene's {base:?})");
+        for k in 0..4 {
+            assert!((cli[k] - lib[k]).abs() <= 1e-9 * lib[k], "{flags:?} mode {}: {} vs {}", k + 1, cli[k], lib[k]);
+        }
+        assert!((cli[0] - base[0]).abs() > 1e-3, "{flags:?} changes nothing");
+    }
+}
