@@ -5,7 +5,7 @@ use cable_fmu::model::{CableCabin, ModelError, Payload};
 use cable_fmu::system::System;
 use feedcore::genalpha::{Integrator, Newton, OptionsError};
 use feedcore::rigid::MassProperties;
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, WrenchModel};
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
 use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ROWS_PER_LEG, SYSTEM_BODIES};
@@ -33,6 +33,9 @@ pub struct Model {
     /// Mass properties of the Stewart bodies, body frame, about their centres of mass.
     pub bodies: [MassProperties; BODIES],
     pub integrator: Integrator,
+    /// The first moment of the platform and legs about the cabin centre point at the start,
+    /// cabin frame, when the weight shift is left out (`[analyses] wrench = "inertial_only"`).
+    pub weight_shift_from: Option<Vec3>,
 }
 
 /// The model with its initial configuration and velocities (cables and cabin at rest at the
@@ -76,7 +79,11 @@ impl Model {
             .fold(f64::INFINITY, f64::min);
         let s = &scene.solver;
         let integrator = Integrator::new(s.rho_inf, Newton::new(s.newton_tol, s.newton_max_iter, shortest)?)?;
-        let model = Model { system, stewart, bodies, integrator };
+        let weight_shift_from = match scene.analyses.wrench {
+            WrenchModel::Full => None,
+            WrenchModel::InertialOnly => Some(stewart.relative(0.0)?.first_moment[0]),
+        };
+        let model = Model { system, stewart, bodies, integrator, weight_shift_from };
         let mut velocity = vec![0.0; model.motion_dim()];
         // the Stewart bodies and the cabin (cable nodes at rest)
         for b in 0..SYSTEM_BODIES {
