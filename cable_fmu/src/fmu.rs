@@ -9,7 +9,9 @@
 //! Initialization: the FMU starts at rest at the scene's target pose under the wrench it holds
 //! at `fmi2ExitInitializationMode` — the unstretched cable lengths are form-found for that
 //! wrench. In initialization mode the outputs are that start: the target pose, zero velocities
-//! and accelerations, and the end tensions of the equilibrium under the current wrench.
+//! and accelerations, and the end tensions of the equilibrium under the current wrench. With the
+//! scene's `[motion] start = "consistent"` the cabin leaves initialization mode with the velocity
+//! that keeps the momentum of cabin and platform at zero (`CableCabin::start_twist`).
 //!
 //! `fmi2DoStep` integrates one step with the wrench held (or extrapolated with its first
 //! derivative) to the end of the step. No output responds to the wrench at a communication
@@ -532,7 +534,7 @@ impl Model for CableFmu {
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
         let w = self.wrench;
         let (model, _, _) = self.balanced()?;
-        let dy = model.dynamics_with(Payload::External, start_time, &w)?;
+        let dy = model.dynamics_from(Payload::External, start_time, &w, &model.start_twist()?)?;
         dy.end_tensions(&mut self.tensions);
         self.dynamics = Some(dy);
         self.start_wrench = w;

@@ -22,6 +22,10 @@ pub enum ModelError {
     Modes(String),
     #[error(transparent)]
     Dynamics(#[from] DynamicsError),
+    #[error("the cabin's mass matrix about its centre point is not positive definite")]
+    CabinMass,
+    #[error("the momentum-consistent start: {0}")]
+    Start(#[from] stewart_fmu::StewartError),
 }
 
 /// Rayleigh coefficients and where they came from.
@@ -183,11 +187,47 @@ impl CableCabin {
     /// Dynamics starting at rest at the equilibrium at time `t0` under the external `wrench`
     /// (its initial acceleration follows from it).
     pub fn dynamics_with(&self, payload: Payload, t0: f64, wrench: &Vector6<f64>) -> Result<Dynamics, ModelError> {
+        self.dynamics_from(payload, t0, wrench, &Vector6::zeros())
+    }
+
+    /// As [`CableCabin::dynamics_with`], the cabin starting with `cabin_velocity` (velocity of
+    /// its centre point and angular velocity, world frame; see [`CableCabin::start_twist`]); the
+    /// cable nodes start at rest.
+    pub fn dynamics_from(
+        &self,
+        payload: Payload,
+        t0: f64,
+        wrench: &Vector6<f64>,
+        cabin_velocity: &Vector6<f64>,
+    ) -> Result<Dynamics, ModelError> {
         let sys = self.system(payload);
-        let n = sys.dim();
+        let mut velocity = vec![0.0; sys.dim()];
+        let c0 = sys.cabin_offset();
+        velocity[c0..].copy_from_slice(cabin_velocity.as_slice());
         let s = &self.scene.solver;
         let options =
             DynamicsOptions { rho_inf: s.rho_inf, newton_tol: s.newton_tol, newton_max_iter: s.newton_max_iter };
-        Dynamics::new(sys, self.equilibrium_config(), vec![0.0; n], t0, wrench, options).map_err(ModelError::Dynamics)
+        Dynamics::new(sys, self.equilibrium_config(), velocity, t0, wrench, options).map_err(ModelError::Dynamics)
+    }
+
+    /// The cabin's velocity and angular velocity (world frame) right after the start: zero,
+    /// except for `[motion] start = "consistent"`. There the platform starts at full speed as in
+    /// the abrupt start, but it pushes off the cabin: the impulse between them is internal and
+    /// the cables, carrying finite forces, take none of it, so the momentum of the cabin with
+    /// everything riding on it (platform, legs, the cables' end nodes) stays zero:
+    /// `M_locked · V + R h_rel = 0`, with `M_locked` the spatial mass matrix about the cabin
+    /// centre point of the body with the platform locked at its start and `h_rel` the momentum
+    /// of the platform's motion relative to the cabin ([`stewart_fmu::Stewart::start_momentum`]).
+    pub fn start_twist(&self) -> Result<Vector6<f64>, ModelError> {
+        if self.scene.motion.start != feedcore::scene::Start::Consistent {
+            return Ok(Vector6::zeros());
+        }
+        let h = stewart_fmu::Stewart::from_scene(&self.scene)?.start_momentum()?;
+        let (p, q) = (self.equilibrium.position, self.equilibrium.orientation);
+        let rot = q.to_rotation_matrix().into_inner();
+        let (lin, ang) = (rot * h.fixed_rows::<3>(0), rot * h.fixed_rows::<3>(3));
+        let world = Vector6::new(lin.x, lin.y, lin.z, ang.x, ang.y, ang.z);
+        let mass = self.locked.body.transformed(&rot, &p).spatial_matrix_about(&p);
+        mass.cholesky().map(|c| c.solve(&(-world))).ok_or(ModelError::CabinMass)
     }
 }

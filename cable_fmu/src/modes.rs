@@ -17,11 +17,13 @@
 //! (world-frame rotation increments, at rest) K is therefore symmetric; the asymmetry left
 //! measures how well the equilibrium was found and is reported, then removed.
 
-use nalgebra::Vector6;
+use feedcore::rigid::skew;
+use nalgebra::{Matrix3, Matrix6, Vector6};
 use thiserror::Error;
 
 use crate::chain_matrix::{ChainFactor, ChainMatrix};
 use crate::eigen::{self, EigenError, LanczosOptions, LanczosStats, Pencil, ShiftedFactor};
+use crate::element::Bar;
 use crate::system::{Coefficients, Config, Support, System};
 
 #[derive(Clone, Debug)]
@@ -69,13 +71,58 @@ pub struct Tangent {
     pub asymmetry: f64,
 }
 
+/// Terms of the tangent stiffness a modal hypothesis leaves out (docs/reproduction.md, "Table 2");
+/// the default drops none. Only for comparisons with linearisations that lack them: the
+/// equations of motion keep every term.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Dropped {
+    /// `Σ [pᵢ]×[dᵢ]×`: the cable-end forces pᵢ turning with the cabin's arms dᵢ.
+    pub cable_end_rotation: bool,
+    /// `−[m g]×[c]×`: the weight acting at the centre of mass c, which turns with the cabin.
+    pub weight_rotation: bool,
+}
+
+/// The cabin's rotation–rotation stiffness from the cable-end forces turning with their arms,
+/// `Σ [pᵢ]×[dᵢ]×` (as `System::assemble` adds it), and from the weight, `−[m g]×[c]×`.
+pub fn rotational_load_stiffness(sys: &System, cfg: &Config) -> (Matrix3<f64>, Matrix3<f64>) {
+    let (m, ea) = (sys.free_nodes(), sys.net.spec.ea);
+    let mut cables = Matrix3::zeros();
+    for i in 0..sys.cables() {
+        let (attach, d) = sys.attachment(cfg, i);
+        let last = if m > 0 { cfg.nodes[i * m + m - 1] } else { sys.net.anchors[i] };
+        let pull = Bar::pull(&(attach - last), ea, sys.element_length[i]);
+        cables += skew(&pull) * skew(&d);
+    }
+    let rot = cfg.orientation.to_rotation_matrix().into_inner();
+    let world = sys.body.transformed(&rot, &cfg.position);
+    let weight = -skew(&(sys.net.spec.gravity * world.mass)) * skew(&(world.com - cfg.position));
+    (cables, weight)
+}
+
 /// K and M of `sys` at `cfg`, at rest and without external wrench.
 pub fn tangent(sys: &System, cfg: &Config) -> Tangent {
+    tangent_dropping(sys, cfg, Dropped::default())
+}
+
+/// As [`tangent`], without the terms `dropped` names (subtracted before the symmetrization: a
+/// single dropped term leaves K unsymmetric by the moment it carries, and its symmetric part is
+/// kept).
+pub fn tangent_dropping(sys: &System, cfg: &Config, dropped: Dropped) -> Tangent {
     let n = sys.dim();
     let zero = vec![0.0; n];
     let mut r = vec![0.0; n];
     let mut k = sys.new_matrix();
     sys.assemble(cfg, &zero, &zero, &Vector6::zeros(), &mut r, Some((&mut k, Coefficients::STIFFNESS)));
+    if dropped != Dropped::default() {
+        let (cables, weight) = rotational_load_stiffness(sys, cfg);
+        let mut block = k.cabin.fixed_view_mut::<3, 3>(3, 3);
+        if dropped.cable_end_rotation {
+            block -= cables;
+        }
+        if dropped.weight_rotation {
+            block -= weight;
+        }
+    }
     let mut m = sys.new_matrix();
     sys.assemble(cfg, &zero, &zero, &Vector6::zeros(), &mut r, Some((&mut m, Coefficients::MASS)));
     let asymmetry = symmetrize(&mut k);
@@ -195,7 +242,12 @@ pub fn memory_estimate(unknowns: f64, count: usize) -> f64 {
 /// The `count` lowest modes of `sys` at the equilibrium configuration `cfg` (at rest, no
 /// external wrench).
 pub fn modes(sys: &System, cfg: &Config, count: usize) -> Result<Modes, ModesError> {
-    let t = tangent(sys, cfg);
+    modes_dropping(sys, cfg, count, Dropped::default())
+}
+
+/// As [`modes`], with the tangent stiffness lacking the terms `dropped` names.
+pub fn modes_dropping(sys: &System, cfg: &Config, count: usize, dropped: Dropped) -> Result<Modes, ModesError> {
+    let t = tangent_dropping(sys, cfg, dropped);
     check_mass(sys, &t.mass)?;
     let pencil = ChainPencil { tangent: &t, cabin_fixed: sys.support == Support::Fixed };
     let eig = eigen::lowest(&pencil, count, &LanczosOptions::default())?;
@@ -247,4 +299,42 @@ fn with_fixed_sign(mut phi: Vec<f64>) -> Vec<f64> {
         phi.iter_mut().for_each(|x| *x = -*x);
     }
     phi
+}
+
+/// The six frequencies (Hz, ascending) of the cabin, with everything riding on it, on six
+/// massless straight cables: each cable a spring along its chord of axial stiffness `EA/L₀`
+/// (L₀ its unstretched length; the sag's softening ignored) and, with `geometric`, the
+/// geometric stiffness `T/L (I − uuᵀ)` of a straight string under its cabin-end tension T (L
+/// the chord); the cabin's rotational load stiffness as in the full model. The simplified model
+/// a linearisation without cable dynamics would use (docs/reproduction.md).
+pub fn straight_cable_frequencies(sys: &System, cfg: &Config, geometric: bool) -> Vec<f64> {
+    let mut tensions = vec![(0.0, 0.0); sys.cables()];
+    sys.end_tensions(cfg, &mut tensions);
+    let mut k = Matrix6::<f64>::zeros();
+    for (i, (_, t)) in tensions.iter().enumerate() {
+        let (attach, d) = sys.attachment(cfg, i);
+        let chord = attach - sys.net.anchors[i];
+        let (l, u) = (chord.norm(), chord.normalize());
+        let uu = u * u.transpose();
+        let mut ke = uu * (sys.net.spec.ea / sys.lengths[i]);
+        if geometric {
+            ke += (Matrix3::identity() - uu) * (t / l);
+        }
+        let mut b = nalgebra::Matrix3x6::<f64>::zeros();
+        b.fixed_view_mut::<3, 3>(0, 0).copy_from(&Matrix3::identity());
+        b.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-skew(&d)));
+        k += b.transpose() * ke * b;
+    }
+    let (cables, weight) = rotational_load_stiffness(sys, cfg);
+    let mut block = k.fixed_view_mut::<3, 3>(3, 3);
+    block += cables + weight;
+    let k = (k + k.transpose()) * 0.5;
+    let rot = cfg.orientation.to_rotation_matrix().into_inner();
+    let m = sys.body.transformed(&rot, &cfg.position).spatial_matrix_about(&cfg.position);
+    let Some(chol) = m.cholesky() else { return vec![f64::NAN; 6] };
+    let l_inv = chol.l().try_inverse().unwrap_or_else(|| Matrix6::from_element(f64::NAN));
+    let a = l_inv * k * l_inv.transpose();
+    let mut lambda: Vec<f64> = a.symmetric_eigen().eigenvalues.iter().copied().collect();
+    lambda.sort_by(f64::total_cmp);
+    lambda.iter().map(|l| l.signum() * l.abs().sqrt() / (2.0 * std::f64::consts::PI)).collect()
 }

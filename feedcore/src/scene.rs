@@ -168,6 +168,9 @@ pub enum Start {
     Abrupt,
     /// Speed ramped smoothly from 0 over `ramp_time_s`.
     Ramp,
+    /// Full speed at t = 0, and the cabin given the velocity that keeps the momentum of cabin
+    /// and platform at zero (the platform pushes off the cabin; docs/reproduction.md).
+    Consistent,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -224,6 +227,30 @@ pub struct Analyses {
     pub stewart: StewartMode,
     /// Number of natural modes computed and reported (0: no eigen solve).
     pub modes: usize,
+    /// The platform's wrench on the cabin: the physics (`full`, the default), or without the
+    /// shift of its weight as it moves (`inertial_only`: a hypothesis for the paper's
+    /// amplitudes, docs/reproduction.md; the monolithic model only).
+    #[serde(default, skip_serializing_if = "WrenchModel::is_full")]
+    pub wrench: WrenchModel,
+}
+
+/// Which part of the platform's wrench reaches the cabin.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WrenchModel {
+    /// The joint reactions: inertia, weight and its shift with the platform's position.
+    #[default]
+    Full,
+    /// The joint reactions minus the moment of the weight shift, `(R (S(t) − S(0))) × g`
+    /// (S the first moment of the platform and legs about the cabin centre point, cabin frame):
+    /// the cabin carries the platform's weight as at the start, plus the inertial reactions.
+    InertialOnly,
+}
+
+impl WrenchModel {
+    pub fn is_full(&self) -> bool {
+        *self == WrenchModel::Full
+    }
 }
 
 /// Output quantities a scene may ask for.

@@ -64,6 +64,8 @@ enum Command {
     Scaling(commands::scaling::Args),
     /// Long and hard runs (1000 s, stiff cables, fine nets, slack cable, abrupt start) with their bounds.
     Stress(commands::stress::Args),
+    /// The paper side by side: Table 2 and Figs. 4–6 against ours and every hypothesis (docs/reproduction.md).
+    Reproduce(commands::reproduce::Args),
     /// Write the scene's co-simulated system (FMUs, connections, parameters) as an SSP 1.0 archive.
     ExportSsp(commands::export_ssp::Args),
     /// Build the FMI 2.0 Co-Simulation archives cable_fmu.fmu and stewart_fmu.fmu.
@@ -93,6 +95,7 @@ fn main() -> ExitCode {
         Command::Sweep(args) => commands::sweep::run(&args),
         Command::Scaling(args) => commands::scaling::run(&args),
         Command::Stress(args) => commands::stress::run(&args),
+        Command::Reproduce(args) => commands::reproduce::run(&args),
         Command::ExportSsp(args) => commands::export_ssp::run(&args),
         Command::Package(args) => commands::boxed(commands::package::run(&args)),
         Command::Replay(args) => commands::replay::run(&args),

@@ -437,6 +437,13 @@ impl<'a> Run<'a> {
                 )));
             }
             Method::Monolithic | Method::MonolithicAdaptive(_) => {}
+            _ if !scene.analyses.wrench.is_full() => {
+                return Err(refused(format!(
+                    "{}: `analyses.wrench = \"inertial_only\"` (a hypothesis for the paper's amplitudes) is \
+                     implemented in the monolithic model only; run it with `--scheme monolithic`",
+                    scene_file.display()
+                )));
+            }
             Method::Cosim(_) | Method::CosimAdaptive(..) | Method::Decoupled(_) => {
                 if scene.system.is_none() {
                     return Err(refused(format!(

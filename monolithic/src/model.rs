@@ -5,10 +5,10 @@ use cable_fmu::model::{CableCabin, ModelError, Payload};
 use cable_fmu::system::System;
 use feedcore::genalpha::{Integrator, Newton, OptionsError};
 use feedcore::rigid::MassProperties;
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, WrenchModel};
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
-use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ROWS_PER_LEG};
+use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ROWS_PER_LEG, SYSTEM_BODIES};
 use stewart_fmu::{RigidMotion, Stewart, StewartError};
 
 use crate::config::{Config, Pose};
@@ -33,10 +33,14 @@ pub struct Model {
     /// Mass properties of the Stewart bodies, body frame, about their centres of mass.
     pub bodies: [MassProperties; BODIES],
     pub integrator: Integrator,
+    /// The first moment of the platform and legs about the cabin centre point at the start,
+    /// cabin frame, when the weight shift is left out (`[analyses] wrench = "inertial_only"`).
+    pub weight_shift_from: Option<Vec3>,
 }
 
 /// The model with its initial configuration and velocities (cables and cabin at rest at the
-/// static equilibrium, the Stewart bodies on their prescribed relative motion at time 0).
+/// static equilibrium — the cabin moving instead with a momentum-consistent start — and the
+/// Stewart bodies on their prescribed relative motion at time 0).
 pub struct Start {
     pub model: Model,
     pub config: Config,
@@ -49,7 +53,13 @@ impl Model {
         let stewart = Stewart::from_scene(scene)?;
         let system = cc.system(Payload::External);
         let cable = cc.equilibrium_config();
-        let cabin = RigidMotion::at_rest(cable.position, cable.orientation);
+        // at rest, or moving as a momentum-consistent start asks (`CableCabin::start_twist`)
+        let twist = cc.start_twist()?;
+        let cabin = RigidMotion {
+            velocity: twist.fixed_rows::<3>(0).into(),
+            angular_velocity: twist.fixed_rows::<3>(3).into(),
+            ..RigidMotion::at_rest(cable.position, cable.orientation)
+        };
         let placed = stewart.system_motion(&cabin, 0.0)?;
         let inertias = stewart.body_inertias();
         let bodies = std::array::from_fn(|b| MassProperties {
@@ -69,9 +79,14 @@ impl Model {
             .fold(f64::INFINITY, f64::min);
         let s = &scene.solver;
         let integrator = Integrator::new(s.rho_inf, Newton::new(s.newton_tol, s.newton_max_iter, shortest)?)?;
-        let model = Model { system, stewart, bodies, integrator };
+        let weight_shift_from = match scene.analyses.wrench {
+            WrenchModel::Full => None,
+            WrenchModel::InertialOnly => Some(stewart.relative(0.0)?.first_moment[0]),
+        };
+        let model = Model { system, stewart, bodies, integrator, weight_shift_from };
         let mut velocity = vec![0.0; model.motion_dim()];
-        for b in 0..BODIES {
+        // the Stewart bodies and the cabin (cable nodes at rest)
+        for b in 0..SYSTEM_BODIES {
             let o = model.body_offset(b);
             velocity[o..o + 3].copy_from_slice(placed[b].velocity.as_slice());
             velocity[o + 3..o + 6].copy_from_slice(placed[b].angular_velocity.as_slice());

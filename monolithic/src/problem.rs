@@ -49,6 +49,9 @@ pub struct Scratch {
     /// Step size of the kept factorization (`None`: none, or not an iteration matrix).
     pub(crate) factor_step: Option<f64>,
     strokes: [Stroke; LEGS],
+    /// Change of the platform's first moment since the start, cabin frame (zero unless the
+    /// weight shift is left out).
+    weight_shift: Vec3,
     pub(crate) rows: Box<[ConstraintRow; CONSTRAINTS]>,
     /// The rows at the last configuration checked for acceptance, and its time.
     pub(crate) accepted: Box<[ConstraintRow; CONSTRAINTS]>,
@@ -58,6 +61,7 @@ pub struct Scratch {
 impl Scratch {
     pub fn new(model: &Model, config: &Config, time: f64) -> Result<Scratch, StewartError> {
         let strokes = model.stewart.strokes(time)?;
+        let weight_shift = weight_shift(model, time)?;
         let mut rows = Box::new([ConstraintRow::EMPTY; CONSTRAINTS]);
         model.stewart.joints().evaluate_positions(&system_motion(model, config, None), &strokes, &mut rows);
         Ok(Scratch {
@@ -66,6 +70,7 @@ impl Scratch {
             kkt: Kkt::new(model.system.cables(), model.system.free_nodes(), &rows),
             factor_step: None,
             strokes,
+            weight_shift,
             accepted: rows.clone(),
             rows,
             accepted_time: f64::NAN,
@@ -88,6 +93,7 @@ impl Scratch {
     /// Sets the prescribed strokes for time `t`.
     pub(crate) fn set_time(&mut self, model: &Model, t: f64) -> Result<(), StewartError> {
         self.strokes = model.stewart.strokes(t)?;
+        self.weight_shift = weight_shift(model, t)?;
         Ok(())
     }
 
@@ -117,6 +123,15 @@ impl Scratch {
                 if row.bodies[s] == CABIN {
                     wrench -= row.jacobian[s] * *lambda;
                 }
+            }
+        }
+        if model.weight_shift_from.is_some() {
+            // `inertial_only`: the moment of the weight shift taken out (residual only: its
+            // dependence on the cabin's rotation, ~1 % of the rotational stiffness, is left to
+            // the Newton iteration)
+            let moment = (at.config.cable.orientation * self.weight_shift).cross(&model.system.net.spec.gravity);
+            for k in 0..3 {
+                wrench[3 + k] -= moment[k];
             }
         }
         let tangents: [Mat3; SYSTEM_BODIES] = match coef {
@@ -266,6 +281,15 @@ impl Problem for Step<'_> {
 }
 
 /// Largest |Φ| of the rows; NaN if one is NaN.
+/// `S(t) − S(0)` of the platform and legs (cabin frame) when the model leaves the weight shift
+/// out; zero otherwise.
+fn weight_shift(model: &Model, t: f64) -> Result<Vec3, StewartError> {
+    match model.weight_shift_from {
+        Some(s0) => Ok(model.stewart.relative(t)?.first_moment[0] - s0),
+        None => Ok(Vec3::zeros()),
+    }
+}
+
 pub(crate) fn largest_value(rows: &[ConstraintRow]) -> f64 {
     rows.iter().fold(0.0, |m: f64, r| if m.is_nan() || r.value.is_nan() { f64::NAN } else { m.max(r.value.abs()) })
 }

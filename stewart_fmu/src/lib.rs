@@ -192,6 +192,21 @@ impl Stewart {
         self.checked(RelativeState::new(&self.leg_geometry(), &self.path.at_rest(), 0.0))
     }
 
+    /// Momentum of the platform's motion relative to the cabin at t = 0, cabin frame: linear
+    /// `Σ m v` and angular about the cabin centre point `Σ (ρ × m v + I ω)`. Zero at rest and
+    /// with a ramped start; with the abrupt path it is what the cabin must take up for a
+    /// momentum-consistent start ([`feedcore::scene::Start::Consistent`]).
+    pub fn start_momentum(&self) -> Result<Vector6<f64>, StewartError> {
+        let rel = self.relative(0.0)?;
+        let mut h = Vector6::zeros();
+        for (body, inertia) in rel.bodies.iter().zip(&self.bodies) {
+            let p = body.velocity * inertia.mass;
+            let l = body.position.cross(&p) + body.inertia * body.angular_velocity;
+            h += Vector6::new(p.x, p.y, p.z, l.x, l.y, l.z);
+        }
+        Ok(h)
+    }
+
     fn checked(&self, rel: RelativeState) -> Result<RelativeState, StewartError> {
         self.check_legs(&rel.strokes, &rel.hooke_sine, rel.time)?;
         Ok(rel)

@@ -32,7 +32,9 @@ impl CirclePath {
     pub fn new(center: Vec3, motion: &Motion) -> Self {
         let omega = if motion.radius_m > 0.0 { motion.speed_m_s / motion.radius_m } else { 0.0 };
         let ramp = match motion.start {
-            Start::Abrupt => None,
+            // the consistent start moves the platform as the abrupt one; the cabin's start
+            // velocity is the cable model's (cable_fmu::model::CableCabin::start_twist)
+            Start::Abrupt | Start::Consistent => None,
             Start::Ramp => Some(motion.ramp_time_s),
         };
         Self { center, radius: motion.radius_m, omega, ramp }

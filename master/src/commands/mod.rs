@@ -16,6 +16,7 @@ pub(crate) mod modes;
 pub(crate) mod output;
 pub(crate) mod package;
 pub(crate) mod replay;
+pub(crate) mod reproduce;
 pub(crate) mod run;
 pub(crate) mod run_system;
 pub(crate) mod scaling;

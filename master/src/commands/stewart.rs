@@ -94,6 +94,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         match scene.motion.start {
             feedcore::scene::Start::Abrupt => "abrupt",
             feedcore::scene::Start::Ramp => "ramped",
+            feedcore::scene::Start::Consistent => "abrupt, momentum-consistent",
         }
     )?;
     let mut t = Table::new(["", "static", "min", "max", "max − min"]);

@@ -23,6 +23,7 @@ mod misuse;
 mod mutants;
 mod package;
 mod plots;
+mod reproduce;
 mod run;
 mod slack;
 mod ssp_system;
