@@ -279,17 +279,17 @@ fn read_parameter_set(
             .ok_or_else(|| fail(p, format!("parameter `{target}` has no value")))?;
         let text = v.attribute("value").ok_or_else(|| fail(v, format!("parameter `{target}`: no `value`")))?;
         let bad = |what: &str| fail(v, format!("parameter `{target}`: `{text}` is not {what}"));
-        let value = match v.tag_name().name() {
-            "Real" => Value::Real(text.trim().parse().map_err(|_| bad("a Real"))?),
-            "Integer" => Value::Integer(text.trim().parse().map_err(|_| bad("an Integer"))?),
-            "Boolean" => Value::Boolean(match text.trim() {
+        let value = Value::Typed(match v.tag_name().name() {
+            "Real" => fmi2::Value::Real(text.trim().parse().map_err(|_| bad("a Real"))?),
+            "Integer" => fmi2::Value::Integer(text.trim().parse().map_err(|_| bad("an Integer"))?),
+            "Boolean" => fmi2::Value::Boolean(match text.trim() {
                 "true" | "1" => true,
                 "false" | "0" => false,
                 _ => return Err(bad("a Boolean")),
             }),
-            "String" => Value::String(text.to_owned()),
+            "String" => fmi2::Value::String(text.to_owned()),
             other => return Err(fail(v, format!("parameter `{target}`: type <{other}> is not supported"))),
-        };
+        });
         out.push(Parameter { target, value });
     }
     Ok(())

@@ -94,10 +94,10 @@ pub fn ssd_text(s: &SspSystem) -> String {
             let _ = writeln!(x, "                <ssv:Parameters>");
             for (name, value) in &c.parameters {
                 let (t, v) = match value {
-                    Value::Real(v) => ("Real", format!("{v:?}")),
-                    Value::Integer(v) => ("Integer", v.to_string()),
-                    Value::Boolean(v) => ("Boolean", v.to_string()),
-                    Value::String(v) | Value::Text(v) => ("String", escape(v)),
+                    Value::Typed(fmi2::Value::Real(v)) => ("Real", format!("{v:?}")),
+                    Value::Typed(fmi2::Value::Integer(v)) => ("Integer", v.to_string()),
+                    Value::Typed(fmi2::Value::Boolean(v)) => ("Boolean", v.to_string()),
+                    Value::Typed(fmi2::Value::String(v)) | Value::Text(v) => ("String", escape(v)),
                 };
                 let _ = writeln!(
                     x,

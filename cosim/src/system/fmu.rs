@@ -558,18 +558,9 @@ pub fn resolve(spec: &SystemSpec) -> Result<Resolved, SetupError> {
             .map_err(|e| SetupError::Invalid(format!("{}: parameter `{}`: {e}", spec.origin, p.target)))?;
         let bad =
             |m: String| SetupError::Invalid(format!("{}: parameter `{}` = {}: {m}", spec.origin, p.target, p.value));
-        let value = match (&p.value, v.var_type) {
-            (Value::Text(x), VarType::Real) => {
-                Value::Real(x.trim().parse().map_err(|e| bad(format!("not a Real: {e}")))?)
-            }
-            (Value::Text(x), VarType::Integer) => {
-                Value::Integer(x.trim().parse().map_err(|e| bad(format!("not an Integer: {e}")))?)
-            }
-            (Value::Text(x), VarType::Boolean) => {
-                Value::Boolean(x.trim().parse().map_err(|e| bad(format!("not a Boolean: {e}")))?)
-            }
-            (Value::Text(x), VarType::String) => Value::String(x.clone()),
-            (other, _) => other.clone(),
+        let value = match &p.value {
+            Value::Text(x) => Value::Typed(typed(x, v.var_type).map_err(bad)?),
+            typed => typed.clone(),
         };
         parameters.push((Parameter { target: p.target.clone(), value }, v.var_type, v.unit.clone()));
     }
@@ -616,24 +607,40 @@ enum SetValueError {
 fn set_value(inst: &mut Instance, v: &ScalarVariable, value: &Value) -> Result<(), SetValueError> {
     let vr = [v.value_reference];
     let mismatch = || SetValueError::Value(format!("the variable is {}", type_name(v.var_type)));
-    let r = match (v.var_type, value) {
-        (VarType::Real, Value::Real(x)) => inst.set_real(&vr, &[*x]),
-        (VarType::Real, Value::Integer(x)) => inst.set_real(&vr, &[f64::from(*x)]),
-        (VarType::Integer, Value::Integer(x)) => inst.set_integer(&vr, &[*x]),
-        (VarType::Boolean, Value::Boolean(x)) => inst.set_boolean(&vr, &[*x]),
-        (VarType::String, Value::String(x)) => inst.set_string(&vr, &[x.as_str()]),
-        (t, Value::Text(x)) => {
-            let bad = |e: String| SetValueError::Value(format!("not a {}: {e}", type_name(t)));
-            match t {
-                VarType::Real => inst.set_real(&vr, &[x.trim().parse().map_err(|e| bad(format!("{e}")))?]),
-                VarType::Integer => inst.set_integer(&vr, &[x.trim().parse().map_err(|e| bad(format!("{e}")))?]),
-                VarType::Boolean => inst.set_boolean(&vr, &[x.trim().parse().map_err(|e| bad(format!("{e}")))?]),
-                VarType::String => inst.set_string(&vr, &[x.as_str()]),
-            }
+    let parsed;
+    let value = match value {
+        Value::Typed(x) => x,
+        Value::Text(x) => {
+            parsed = typed(x, v.var_type).map_err(SetValueError::Value)?;
+            &parsed
         }
+    };
+    let r = match (v.var_type, value) {
+        (VarType::Real, fmi2::Value::Real(x)) => inst.set_real(&vr, &[*x]),
+        (VarType::Real, fmi2::Value::Integer(x)) => inst.set_real(&vr, &[f64::from(*x)]),
+        (VarType::Integer, fmi2::Value::Integer(x)) => inst.set_integer(&vr, &[*x]),
+        (VarType::Boolean, fmi2::Value::Boolean(x)) => inst.set_boolean(&vr, &[*x]),
+        (VarType::String, fmi2::Value::String(x)) => inst.set_string(&vr, &[x.as_str()]),
         _ => return Err(mismatch()),
     };
     r.map_err(SetValueError::Fmu)
+}
+
+/// A parameter's text as a value of the variable's type.
+fn typed(text: &str, var_type: VarType) -> Result<fmi2::Value, String> {
+    let bad = |e: &dyn std::fmt::Display| format!("not {}: {e}", article(var_type));
+    Ok(match var_type {
+        VarType::Real => fmi2::Value::Real(text.trim().parse().map_err(|e| bad(&e))?),
+        VarType::Integer => fmi2::Value::Integer(text.trim().parse().map_err(|e| bad(&e))?),
+        VarType::Boolean => fmi2::Value::Boolean(text.trim().parse().map_err(|e| bad(&e))?),
+        VarType::String => fmi2::Value::String(text.to_owned()),
+    })
+}
+
+/// "a Real", "an Integer", ...
+fn article(t: VarType) -> String {
+    let name = type_name(t);
+    if name.starts_with(['A', 'E', 'I', 'O', 'U']) { format!("an {name}") } else { format!("a {name}") }
 }
 
 /// fmi2Discard from doStep ends the run; anything else is a failure.

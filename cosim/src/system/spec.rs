@@ -54,20 +54,15 @@ pub struct Connection {
 /// A parameter value: typed (SSP), or text converted to the variable's type (scene).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Value {
-    Real(f64),
-    Integer(i32),
-    Boolean(bool),
-    String(String),
+    Typed(fmi2::Value),
     Text(String),
 }
 
 impl std::fmt::Display for Value {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Value::Real(x) => write!(f, "{x:?}"),
-            Value::Integer(x) => write!(f, "{x}"),
-            Value::Boolean(x) => write!(f, "{x}"),
-            Value::String(x) | Value::Text(x) => write!(f, "\"{x}\""),
+            Value::Typed(fmi2::Value::String(x)) | Value::Text(x) => write!(f, "\"{x}\""),
+            Value::Typed(v) => write!(f, "{v}"),
         }
     }
 }

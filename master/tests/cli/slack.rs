@@ -19,21 +19,13 @@ use cable_fmu::element::Bar;
 use feedcore::scene::Scene;
 use master::cosim::{Options, Scheme};
 use master::simulate::{Method, simulate};
+use master::sweep::with_platform_mass_factor;
 use monolithic::Monolithic;
 
 /// The platform `f` times heavier, on a circle of radius `r` at speed `v`.
 fn heavier_and_wider(s: &mut Scene) {
     let (f, r, v) = (8.0, 0.4, 0.4);
-    let st = &mut s.stewart;
-    st.platform.mass_kg *= f;
-    for row in st.platform.inertia_kg_m2.iter_mut() {
-        row.iter_mut().for_each(|x| *x *= f);
-    }
-    for part in [&mut st.upper_leg, &mut st.lower_leg] {
-        part.mass_kg *= f;
-        part.inertia_transverse_kg_m2 *= f;
-        part.inertia_axial_kg_m2 *= f;
-    }
+    *s = with_platform_mass_factor(s, f);
     s.motion.radius_m = r;
     s.motion.speed_m_s = v;
 }
