@@ -135,6 +135,32 @@ impl Compensation {
         }
     }
 
+    /// What a scene without `[control]` reports: no compensation, the feed point at the platform
+    /// centre, held at its start position.
+    pub fn uncontrolled() -> Control {
+        Control {
+            feed_point_m: [0.0; 3],
+            target: TargetKind::Hold,
+            circle_center_offset_m: None,
+            circle_speed_m_s: None,
+            samples_time_s: None,
+            samples_x_m: None,
+            samples_y_m: None,
+            samples_z_m: None,
+            sensor: SensorKind::Off,
+            sample_rate_hz: None,
+            delay_s: 0.0,
+            noise_m: 0.0,
+            noise_rad: 0.0,
+            seed: 0,
+            bandwidth_hz: None,
+            min_leg_m: None,
+            max_leg_m: None,
+            stroke_m: None,
+            force_limit_n: None,
+        }
+    }
+
     pub fn sensor(&self) -> SensorKind {
         self.sensor
     }
@@ -232,11 +258,12 @@ impl Compensation {
         PathPoint { position: self.rest, velocity: Vec3::zeros(), acceleration: Vec3::zeros() }
     }
 
-    /// The feed's position error (world frame, m) and tilt (rad) at time `t` for the platform
+    /// The feed's position error (world frame, m) and its rotation from the start attitude
+    /// (world rotation vector, rad; its length is the tilt error) at time `t` for the platform
     /// (centre) at this world pose.
-    pub fn feed_error(&self, platform_position: &Vec3, platform_orientation: &Quat, t: f64) -> (Vec3, f64) {
+    pub fn feed_error(&self, platform_position: &Vec3, platform_orientation: &Quat, t: f64) -> (Vec3, Vec3) {
         let feed = platform_position + platform_orientation * self.feed_point;
-        (feed - self.target(t).position, (platform_orientation * self.reference.1.inverse()).angle())
+        (feed - self.target(t).position, (platform_orientation * self.reference.1.inverse()).scaled_axis())
     }
 
     /// The state of a sampled sensor and its command at the start.

@@ -109,19 +109,20 @@ impl Stewart {
     /// The model of a scene; with a `[control]` section the platform rests at its start point
     /// relative to the cabin unless the compensation moves it (`[motion]` is not used).
     pub fn from_scene(scene: &Scene) -> Result<Stewart, StewartError> {
-        let Some(control) = &scene.control else {
-            return Self::new(scene.stewart_geometry(), &scene.motion, scene.gravity_m_s2);
-        };
         let mut motion = scene.motion.clone();
-        motion.speed_m_s = 0.0;
+        if scene.control.is_some() {
+            motion.speed_m_s = 0.0;
+        }
         let mut stewart = Self::new(scene.stewart_geometry(), &motion, scene.gravity_m_s2)?;
         let rest = stewart.path.at_rest();
         let legs = stewart.strokes_at(&rest, 0.0)?.map(|s| s.length);
-        stewart.compensation = Some(Compensation::new(scene, control, rest.position, legs));
+        let control = scene.control.clone().unwrap_or_else(Compensation::uncontrolled);
+        stewart.compensation = Some(Compensation::new(scene, &control, rest.position, legs));
         Ok(stewart)
     }
 
-    /// The compensation of the scene's `[control]`, if any.
+    /// The compensation of the scene's `[control]` (a model built from a scene without one has an
+    /// `off` compensation: the feed point is the platform centre, its target its start position).
     pub fn compensation(&self) -> Option<&Compensation> {
         self.compensation.as_ref()
     }
