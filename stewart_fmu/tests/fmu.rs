@@ -270,7 +270,7 @@ fn a_sampled_sensor_rolls_back_bit_exactly() {
     );
     let mut m = ready(&name);
     let outputs: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
-    let mut step = |m: &mut StewartFmu, n: usize| {
+    let step = |m: &mut StewartFmu, n: usize| {
         for (k, x) in displaced(n + 1).iter().enumerate() {
             m.set_real(k as u32, *x).unwrap();
         }
