@@ -7,6 +7,7 @@
 
 pub mod benchkit;
 pub mod genalpha;
+pub mod random;
 pub mod rigid;
 pub mod scene;
 pub mod shipped;

@@ -293,6 +293,206 @@ impl Disturbance {
     }
 }
 
+/// What the feed point follows in the world frame (see [`Control`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TargetKind {
+    /// The feed point's start position, held still.
+    Hold,
+    /// A horizontal circle through the start position, centre `circle_center_offset_m` from it.
+    Circle,
+    /// Displacements from the start position at given times, interpolated linearly.
+    Samples,
+}
+
+/// How the compensation measures the cabin's pose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SensorKind {
+    /// No compensation: the platform holds its start pose relative to the cabin (the feed error
+    /// is still reported: the uncompensated reference).
+    Off,
+    /// The true pose, continuously, with no delay or noise.
+    Ideal,
+    /// Sampled at `sample_rate_hz`, delayed by `delay_s`, with uniform noise.
+    Sampled,
+}
+
+/// The second level: the Stewart platform puts a feed point on a target in the world frame,
+/// from the measured cabin pose. Absent: the platform follows `[motion]` relative to the cabin.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Control {
+    /// The feed point, platform body frame (from the platform's centre of mass).
+    #[serde(deserialize_with = "exact::array")]
+    pub feed_point_m: [f64; 3],
+    pub target: TargetKind,
+    /// `circle`: centre of the circle from the feed's start position (horizontal, world frame);
+    /// the radius is its length, the target starts at the start position.
+    #[serde(default, deserialize_with = "exact::option", skip_serializing_if = "Option::is_none")]
+    pub circle_center_offset_m: Option<[f64; 3]>,
+    /// `circle`: speed along the circle (counter-clockwise about world Z), m/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub circle_speed_m_s: Option<f64>,
+    /// `samples`: ascending times, s, and the target's displacement from the start position at
+    /// them (world frame, m); held before the first and after the last.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples_time_s: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples_x_m: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples_y_m: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples_z_m: Option<Vec<f64>>,
+    pub sensor: SensorKind,
+    /// `sampled`: measurement rate, Hz; delay from measurement to command, s; amplitudes of the
+    /// uniform noise on each position component (m) and rotation-vector component (rad); seed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sample_rate_hz: Option<f64>,
+    #[serde(default)]
+    pub delay_s: f64,
+    #[serde(default)]
+    pub noise_m: f64,
+    #[serde(default)]
+    pub noise_rad: f64,
+    #[serde(default)]
+    pub seed: u64,
+    /// Bandwidth of the command filter (two first-order stages, critically damped), Hz; absent:
+    /// each new command is reached along a smooth step in half a sample period.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bandwidth_hz: Option<f64>,
+    /// Leg length limits (joint centre to joint centre), m: absolute, or a stroke around each
+    /// leg's length at the start pose. Reaching one is reported, not clipped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_leg_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_leg_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stroke_m: Option<f64>,
+    /// Largest actuator force in magnitude, N; reaching it is reported, not clipped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub force_limit_n: Option<f64>,
+}
+
+impl Control {
+    /// Sample period of a sampled sensor, s.
+    pub fn sample_period(&self) -> Option<f64> {
+        match self.sensor {
+            SensorKind::Sampled => self.sample_rate_hz.map(|f| 1.0 / f),
+            _ => None,
+        }
+    }
+
+    fn validate(&self, c: &Check) -> Result<(), SceneError> {
+        c.vector("control.feed_point_m", &self.feed_point_m)?;
+        let unused = |key: &str, given: bool, what: &str| -> Result<(), SceneError> {
+            if given {
+                Err(c.err(&format!("control.{key}"), "", &format!("only used with {what}; remove it")))
+            } else {
+                Ok(())
+            }
+        };
+        let circle = self.target == TargetKind::Circle;
+        let samples = self.target == TargetKind::Samples;
+        unused("circle_center_offset_m", !circle && self.circle_center_offset_m.is_some(), "target = \"circle\"")?;
+        unused("circle_speed_m_s", !circle && self.circle_speed_m_s.is_some(), "target = \"circle\"")?;
+        for (key, v) in [
+            ("samples_time_s", &self.samples_time_s),
+            ("samples_x_m", &self.samples_x_m),
+            ("samples_y_m", &self.samples_y_m),
+            ("samples_z_m", &self.samples_z_m),
+        ] {
+            unused(key, !samples && v.is_some(), "target = \"samples\"")?;
+            if samples {
+                let v =
+                    v.as_ref().ok_or_else(|| c.err(&format!("control.{key}"), "", "target = \"samples\" needs it"))?;
+                c.vector(&format!("control.{key}"), v)?;
+            }
+        }
+        if circle {
+            let offset = self.circle_center_offset_m.ok_or_else(|| {
+                c.err("control.circle_center_offset_m", "", "target = \"circle\" needs the circle's centre")
+            })?;
+            c.vector("control.circle_center_offset_m", &offset)?;
+            if offset[2] != 0.0 || offset[0].hypot(offset[1]) == 0.0 {
+                return Err(c.err(
+                    "control.circle_center_offset_m",
+                    &format!("{offset:?}"),
+                    "the circle is horizontal: give a non-zero horizontal offset with z = 0",
+                ));
+            }
+            let speed = self
+                .circle_speed_m_s
+                .ok_or_else(|| c.err("control.circle_speed_m_s", "", "target = \"circle\" needs a speed"))?;
+            c.finite_nonneg("control.circle_speed_m_s", speed)?;
+        }
+        if samples {
+            let t = self.samples_time_s.as_ref().expect("checked above");
+            let n = t.len();
+            if n == 0 {
+                return Err(c.err("control.samples_time_s", "[]", "at least one sample is needed"));
+            }
+            if let Some(i) = (1..n).find(|&i| t[i] <= t[i - 1]) {
+                return Err(c.err(&format!("control.samples_time_s[{i}]"), &show(t[i]), "times must ascend strictly"));
+            }
+            for (key, v) in [
+                ("samples_x_m", &self.samples_x_m),
+                ("samples_y_m", &self.samples_y_m),
+                ("samples_z_m", &self.samples_z_m),
+            ] {
+                let len = v.as_ref().expect("checked above").len();
+                if len != n {
+                    return Err(c.err(
+                        &format!("control.{key}"),
+                        &format!("{len} values"),
+                        &format!("needs one value per time of control.samples_time_s ({n})"),
+                    ));
+                }
+            }
+        }
+        let sampled = self.sensor == SensorKind::Sampled;
+        let what = "sensor = \"sampled\"";
+        unused("sample_rate_hz", !sampled && self.sample_rate_hz.is_some(), what)?;
+        unused("delay_s", !sampled && self.delay_s != 0.0, what)?;
+        unused("noise_m", !sampled && self.noise_m != 0.0, what)?;
+        unused("noise_rad", !sampled && self.noise_rad != 0.0, what)?;
+        unused("bandwidth_hz", !sampled && self.bandwidth_hz.is_some(), what)?;
+        if sampled {
+            let rate = self
+                .sample_rate_hz
+                .ok_or_else(|| c.err("control.sample_rate_hz", "", "sensor = \"sampled\" needs a sample rate"))?;
+            c.positive("control.sample_rate_hz", rate)?;
+            c.finite_nonneg("control.delay_s", self.delay_s)?;
+            c.finite_nonneg("control.noise_m", self.noise_m)?;
+            c.finite_nonneg("control.noise_rad", self.noise_rad)?;
+            if let Some(b) = self.bandwidth_hz {
+                c.positive("control.bandwidth_hz", b)?;
+            }
+        }
+        if self.stroke_m.is_some() && (self.min_leg_m.is_some() || self.max_leg_m.is_some()) {
+            return Err(c.err("control.stroke_m", "", "give either `stroke_m` or `min_leg_m`/`max_leg_m`, not both"));
+        }
+        if let Some(s) = self.stroke_m {
+            c.positive("control.stroke_m", s)?;
+        }
+        if let Some(x) = self.min_leg_m {
+            c.positive("control.min_leg_m", x)?;
+        }
+        if let Some(x) = self.max_leg_m {
+            c.positive("control.max_leg_m", x)?;
+            if let Some(lo) = self.min_leg_m
+                && x <= lo
+            {
+                return Err(c.err("control.max_leg_m", &show(x), &format!("must exceed control.min_leg_m = {lo}")));
+            }
+        }
+        if let Some(f) = self.force_limit_n {
+            c.positive("control.force_limit_n", f)?;
+        }
+        Ok(())
+    }
+}
+
 /// One FMU of a co-simulation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -351,6 +551,9 @@ pub struct Scene {
     /// A prescribed wrench on the cabin, for runs of the cable–cabin model alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub disturbance: Option<Disturbance>,
+    /// The platform compensates the cabin's motion (optional: absent, it follows `[motion]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub control: Option<Control>,
 }
 
 /// Largest scene file read by default (the reference scenes have about 5 kB).
@@ -578,6 +781,9 @@ impl Scene {
             c.vector("disturbance.force_amplitude_n", &d.force_amplitude_n)?;
             c.vector("disturbance.moment_amplitude_nm", &d.moment_amplitude_nm)?;
             c.finite_nonneg("disturbance.frequency_hz", d.frequency_hz)?;
+        }
+        if let Some(control) = &self.control {
+            control.validate(&c)?;
         }
         if let Some(sys) = &self.system {
             let names: Vec<&str> = sys.fmus.iter().map(|f| f.name.as_str()).collect();

@@ -6,9 +6,10 @@ use std::path::Path;
 use crate::scene::Scene;
 
 /// (file name, text) of every shipped scene.
-pub const SCENES: [(&str, &str); 2] = [
+pub const SCENES: [(&str, &str); 3] = [
     ("lt50m_B.toml", include_str!("../../scenes/lt50m_B.toml")),
     ("lt50m_C.toml", include_str!("../../scenes/lt50m_C.toml")),
+    ("lt50m_C_compensated.toml", include_str!("../../scenes/lt50m_C_compensated.toml")),
 ];
 
 /// The text of a shipped scene.

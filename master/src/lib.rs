@@ -6,6 +6,7 @@
 //! * [`plot`]: SVG figures (time histories like the paper's Figs. 4–5, log–log work–precision,
 //!   stability maps);
 //! * [`simulate`]: one run of a method (monolithic, a co-simulation scheme, decoupled) as a trace;
+//! * [`feed`]: the feed's error in the world frame and the platform's limits (`[control]`);
 //! * [`stepping`]: the step loop of every run (fixed or adaptive steps, caps, totals);
 //! * [`system`]: the scene's `[system]` as a system description, and runs of any FMU system;
 //! * [`progress`]: a progress bar for long runs on a terminal;
@@ -15,6 +16,7 @@
 
 pub use cosim;
 pub use monolithic;
+pub mod feed;
 pub mod limits;
 pub mod parallel;
 pub mod plot;

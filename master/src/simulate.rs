@@ -16,10 +16,12 @@ use std::path::Path;
 use std::time::Instant;
 
 use feedcore::Vec3;
-use feedcore::scene::{Quantity, Scene, StewartMode};
+use feedcore::scene::{LEGS, Quantity, Scene, SensorKind, StewartMode};
+use stewart_fmu::{Compensation, Stewart};
 
 use cosim::{Coupled, FmuSystem, Options, Scheme, StepError};
 
+use crate::feed::{FeedSample, FeedTrace};
 use crate::limits::{Footprint, Limits, Plan, PlanError, Schedule, check_memory};
 use crate::monolithic::{Monolithic, MonolithicError};
 use crate::stepping::{Flow, Request, Step, drive};
@@ -165,6 +167,8 @@ pub struct Trace {
     /// What the Stewart platform exerts on the cabin (force N; moment about the centre point
     /// N·m); zero unless the scene asks for the wrench or the method prescribes it.
     pub wrench: Vec<[f64; 6]>,
+    /// The feed, legs and limits (scenes with `[control]`).
+    pub feed: Option<FeedTrace>,
     pub summary: Summary,
     pub wall_time_s: f64,
 }
@@ -245,6 +249,9 @@ impl Trace {
         for g in &chosen {
             write!(f, ",{}", g.1)?;
         }
+        if self.feed.is_some() {
+            write!(f, ",{}", crate::feed::csv_header())?;
+        }
         writeln!(f)?;
         for i in 0..self.t.len() {
             write!(f, "{}", self.t[i])?;
@@ -256,17 +263,21 @@ impl Trace {
                     write!(f, ",{x:e}")?;
                 }
             }
+            if let Some(feed) = &self.feed {
+                feed.write_row(&mut f, i)?;
+            }
             writeln!(f)?;
         }
         f.flush()
     }
 }
 
-/// The cabin pose and the wrench now.
+/// The cabin pose and the wrench now (and the feed, with `[control]`).
 struct Probe {
     position: Vec3,
     orientation: feedcore::Quat,
     wrench: [f64; 6],
+    feed: Option<FeedSample>,
 }
 
 /// Watches every step: refuses non-finite values, keeps the summary, samples every `every`
@@ -312,6 +323,13 @@ impl Recorder {
             s.peak_mm = distance;
             s.peak_time_s = t;
         }
+        if let (Some(trace), Some(sample)) = (self.trace.feed.as_mut(), p.feed.as_ref()) {
+            let names = ["x", "y", "z"];
+            if let Some(i) = sample.err_mm.iter().position(|x| !x.is_finite()) {
+                return Err(self.stopped(t, format!("the feed error {} is {}", names[i], sample.err_mm[i])));
+            }
+            trace.observe(t, sample, k.is_multiple_of(self.every));
+        }
         if k.is_multiple_of(self.every) {
             let r = (p.orientation * q0.inverse()).scaled_axis() * 1e3;
             self.trace.t.push(t);
@@ -330,6 +348,9 @@ struct CosimProbe {
     w: [u32; 6],
     /// Read the wrench only when the scene asks for it.
     read_wrench: bool,
+    /// With `[control]`: the Stewart FMU's platform position and cabin inputs (r, q), leg
+    /// lengths and actuator forces, and the compensation that places the feed.
+    feed: Option<(Vec<u32>, Compensation)>,
 }
 
 impl CosimProbe {
@@ -355,7 +376,21 @@ impl CosimProbe {
                 vr("stewart", "wrench.m[3]")?,
             ],
             read_wrench,
+            feed: None,
         })
+    }
+
+    /// Also reads the feed (scenes with `[control]`).
+    fn with_feed(mut self, c: &mut Coupled<FmuSystem>, comp: Compensation) -> Result<Self, Box<dyn std::error::Error>> {
+        let inst = c.units_mut().instance("stewart").ok_or("the system has no FMU named `stewart`")?;
+        let mut names: Vec<String> = (1..=3).map(|i| format!("platform.r[{i}]")).collect();
+        names.extend((1..=3).map(|i| format!("cabin.r[{i}]")));
+        names.extend((1..=4).map(|i| format!("cabin.q[{i}]")));
+        names.extend((1..=LEGS).map(|i| format!("leg.length[{i}]")));
+        names.extend((1..=LEGS).map(|i| format!("actuator.force[{i}]")));
+        let vrs = names.iter().map(|n| inst.fmu().value_reference(n)).collect::<Result<Vec<_>, _>>()?;
+        self.feed = Some((vrs, comp));
+        Ok(self)
     }
 
     fn read(&self, c: &mut Coupled<FmuSystem>) -> Result<Probe, fmi2::import::Error> {
@@ -366,12 +401,25 @@ impl CosimProbe {
         if self.read_wrench {
             c.units_mut().instance("stewart").expect("checked in new").get_real(&self.w, &mut w)?;
         }
-        Ok(Probe {
-            position: Vec3::from(r),
-            // a non-finite quaternion normalizes to NaN, which the recorder refuses
-            orientation: feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3])),
-            wrench: w,
-        })
+        let position = Vec3::from(r);
+        // a non-finite quaternion normalizes to NaN, which the recorder refuses
+        let orientation = feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+        let feed = match &self.feed {
+            Some((vrs, comp)) => {
+                let mut v = [0.0; 22];
+                c.units_mut().instance("stewart").expect("checked in new").get_real(vrs, &mut v)?;
+                // the platform relative to the cabin the Stewart FMU saw, placed on the cabin
+                // of the cable model (the same one at convergence)
+                let seen = feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(v[6], v[7], v[8], v[9]));
+                let relative =
+                    seen.inverse_transform_vector(&(Vec3::new(v[0], v[1], v[2]) - Vec3::new(v[3], v[4], v[5])));
+                let six = |i: usize| std::array::from_fn(|k| v[i + k]);
+                let now = c.time();
+                Some(FeedSample::place(comp, now, (&position, &orientation), &relative, six(10), six(16)))
+            }
+            None => None,
+        };
+        Ok(Probe { position, orientation, wrench: w, feed })
     }
 }
 
@@ -436,6 +484,18 @@ impl<'a> Run<'a> {
                     scene.analyses.stewart
                 )));
             }
+            Method::Monolithic | Method::MonolithicAdaptive(_) | Method::Decoupled(_)
+                if scene.control.as_ref().is_some_and(|c| c.sensor != SensorKind::Off) =>
+            {
+                return Err(refused(format!(
+                    "{}: the scene's [control] compensates the cabin (sensor = {:?}), which the {} model does not \
+                     have yet: run it with a coupling scheme (ijcsa, iqn-ils, ...), or set control.sensor = \"off\" \
+                     for the uncompensated feed",
+                    scene_file.display(),
+                    scene.control.as_ref().map(|c| c.sensor).expect("matched"),
+                    method.name()
+                )));
+            }
             Method::Monolithic | Method::MonolithicAdaptive(_) => {}
             _ if !scene.analyses.wrench.is_full() => {
                 return Err(refused(format!(
@@ -492,6 +552,14 @@ impl<'a> Run<'a> {
             method: name,
         };
         let setup = |e: &(dyn std::error::Error + 'static)| RunError::setup(name, e);
+        // the feed (scenes with [control]): placed by the scene's compensation
+        let comp = match &scene.control {
+            Some(_) if method != Method::CableOnly => {
+                Stewart::from_scene(scene).map_err(|e| setup(&e))?.compensation().cloned()
+            }
+            _ => None,
+        };
+        rec.trace.feed = comp.as_ref().map(FeedTrace::new);
         let start = Instant::now();
         let stopped = |time: f64, reason: String| RunError::Stopped { method: name, time, reason };
         // the fixed step of the methods without an adaptive one (prepare gives them no other)
@@ -511,7 +579,12 @@ impl<'a> Run<'a> {
                     .map_err(|e| setup(&e))?;
                 let probe = |dy: &cable_fmu::dynamics::Dynamics, t: f64| {
                     let c = dy.cabin();
-                    Probe { position: c.position, orientation: c.orientation, wrench: vec6(&disturbance(t)) }
+                    Probe {
+                        position: c.position,
+                        orientation: c.orientation,
+                        wrench: vec6(&disturbance(t)),
+                        feed: None,
+                    }
                 };
                 let first = probe(&dy, 0.0);
                 self.drive(&mut rec, quiet, first, |r| {
@@ -535,10 +608,24 @@ impl<'a> Run<'a> {
                     }
                     _ => None,
                 };
+                // the platform held at its start relative to the cabin (sensor "off")
+                let rest = match &comp {
+                    Some(_) => {
+                        let st = Stewart::from_scene(scene).map_err(|e| setup(&e))?;
+                        let point = st.path().at_rest();
+                        let legs = st.strokes_at(&point, 0.0).map_err(|e| setup(&e))?.map(|s| s.length);
+                        Some((point.position, legs))
+                    }
+                    None => None,
+                };
                 let probe = |s: &crate::monolithic::Sample| Probe {
                     position: s.cabin.position,
                     orientation: s.cabin.orientation,
                     wrench: vec6(&s.wrench),
+                    feed: comp.as_ref().zip(rest).map(|(c, (relative, legs))| {
+                        let cabin = (&s.cabin.position, &s.cabin.orientation);
+                        FeedSample::place(c, s.time, cabin, &relative, legs, s.actuator_forces)
+                    }),
                 };
                 let first = probe(&m.model.sample());
                 let failed = |e: MonolithicError, t: f64| match e {
@@ -587,7 +674,10 @@ impl<'a> Run<'a> {
                     .transpose()
                     .map_err(|reason| RunError::Refused { method: name, reason })?;
                 let read_wrench = scene.outputs.quantities.contains(&Quantity::Wrench);
-                let probe = CosimProbe::new(&mut c, read_wrench).map_err(|e| setup(&*e))?;
+                let mut probe = CosimProbe::new(&mut c, read_wrench).map_err(|e| setup(&*e))?;
+                if let Some(comp) = comp.clone() {
+                    probe = probe.with_feed(&mut c, comp).map_err(|e| setup(&*e))?;
+                }
                 let first = probe.read(&mut c).map_err(|e| stopped(0.0, e.to_string()))?;
                 self.drive(&mut rec, quiet, first, |r| {
                     let (h, report, rejected) = match (r, controller.as_mut(), adaptive) {

@@ -36,12 +36,13 @@ use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::{Matrix3x6, Vector6};
 use serde::{Deserialize, Serialize};
 
-use crate::{CabinMotion, Evaluation, Stewart, Wrench, WrenchJacobians};
+use crate::{CabinMotion, CommandState, Evaluation, PathPoint, Stewart, Wrench, WrenchJacobians};
+use feedcore::scene::SensorKind;
 
 /// The scene used unless the `scene` parameter names another one.
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
 /// Identifies the variable table: change it whenever the table changes.
-pub const GUID: &str = "{9a47c3e1-52b8-4d0f-a6e3-7c1b2d8f4e96}";
+pub const GUID: &str = "{3c1e9f27-84b5-4a6d-9e02-5f7d1b8c6a43}";
 /// Number of Real inputs: r 3, q 4, v 3, ω 3, a 3, α 3.
 pub const INPUTS: usize = 19;
 
@@ -59,6 +60,9 @@ pub mod vr {
         /// Real outputs: the wrench on the cabin (force, moment), the actuator forces, the
         /// moving platform's position and orientation.
         FORCE: 3, MOMENT: 3, ACTUATOR: LEGS, PLATFORM_R: 3, PLATFORM_Q: 4,
+        /// Real outputs: leg lengths, the feed's position error and its rotation from the start
+        /// attitude (world rotation vector; its length is the feed's tilt error).
+        LEG: LEGS, FEED_ERR: 3, FEED_ROT: 3,
         /// Real parameters.
         RADIUS: 1, SPEED: 1, RAMP_TIME: 1,
     }
@@ -106,14 +110,19 @@ pub struct StewartFmu {
     cache: Cache,
 }
 
-/// Everything but the scene file: the model has no state but time.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+/// Everything but the scene file: time, and with a sampled sensor its state.
+#[derive(Clone, Debug, Serialize, Deserialize)]
 struct Data {
     settings: Settings,
     initialized: bool,
     time: f64,
     inputs: [f64; INPUTS],
     rates: [f64; INPUTS],
+    /// The cabin pose inputs (r, q) at `time` as last stepped to: what a sample measures (the
+    /// inputs may meanwhile hold an importer's guess for the end of the next step).
+    accepted: [f64; 7],
+    /// A sampled sensor's state (scene `[control]`, sensor = "sampled").
+    command: Option<CommandState>,
 }
 
 /// A saved state: the scene file's name and the rest.
@@ -145,6 +154,21 @@ fn outputs() -> Vec<(String, &'static str, String)> {
     block("platform.r", "m", vec!["position of the moving platform's centre, world frame".into(); 3]);
     let component = |c| format!("orientation of the moving platform ({c}), body to world");
     block("platform.q", "", ["w", "x", "y", "z"].map(component).to_vec());
+    let leg = |k| format!("length of leg {k}, joint centre to joint centre");
+    block("leg.length", "m", (1..=LEGS).map(leg).collect());
+    block(
+        "feed.err",
+        "m",
+        vec![
+            "feed point minus its target, world frame ([control]; else the platform centre minus its start)".into();
+            3
+        ],
+    );
+    block(
+        "feed.rot",
+        "rad",
+        vec!["rotation of the feed (the platform) from its start attitude, world rotation vector".into(); 3],
+    );
     v
 }
 
@@ -188,6 +212,25 @@ fn rotation_of(q: &[f64], dq: &[f64]) -> Vec3 {
     (dn * n.conjugate()).imag() * 2.0
 }
 
+/// The (output, input) value-reference pairs <ModelStructure> declares for step mode.
+fn step_dependencies() -> Result<&'static std::collections::HashSet<(u32, u32)>, ModelError> {
+    static PAIRS: std::sync::OnceLock<std::collections::HashSet<(u32, u32)>> = std::sync::OnceLock::new();
+    if let Some(p) = PAIRS.get() {
+        return Ok(p);
+    }
+    let d = StewartFmu::description()?;
+    let inputs = input_names();
+    let mut pairs = std::collections::HashSet::new();
+    for v in &d.variables {
+        for name in v.depends_on.iter().flatten() {
+            if let Some(k) = inputs.iter().position(|n| n == name) {
+                pairs.insert((v.value_reference, k as u32));
+            }
+        }
+    }
+    Ok(PAIRS.get_or_init(|| pairs))
+}
+
 impl StewartFmu {
     fn model(&mut self) -> Result<&Stewart, ModelError> {
         let key = (self.data.settings, self.data.initialized);
@@ -229,12 +272,35 @@ impl StewartFmu {
         cabin_motion(&self.data.inputs)
     }
 
+    /// Whether the platform's motion follows the current cabin inputs (an ideal sensor, in
+    /// step mode): then every output depends on every input and derivatives are differences.
+    fn follows_inputs(&mut self) -> Result<bool, ModelError> {
+        let initialized = self.data.initialized;
+        Ok(initialized && self.model()?.compensation().is_some_and(|c| c.sensor() == SensorKind::Ideal))
+    }
+
+    /// Where the platform centre is commanded (cabin frame) at the current time.
+    fn point(&mut self) -> Result<PathPoint, ModelError> {
+        let (t, initialized) = (self.data.time, self.data.initialized);
+        let cabin = self.cabin()?;
+        let command = self.data.command.clone();
+        let model = self.model()?;
+        Ok(match model.compensation() {
+            Some(c) if initialized => match (c.sensor(), command) {
+                (SensorKind::Ideal, _) => c.ideal(&cabin, t),
+                (SensorKind::Sampled, Some(state)) => state.at(c, t),
+                _ => model.path().at(t),
+            },
+            _ => model.path().at(t),
+        })
+    }
+
     fn wrench(&mut self) -> Result<(Wrench, WrenchJacobians), ModelError> {
         if let Some(w) = self.cache.wrench {
             return Ok(w);
         }
-        let (t, cabin) = (self.data.time, self.cabin()?);
-        let w = self.model()?.wrench_with_jacobians(&cabin, t).map_err(|e| e.to_string())?;
+        let (t, cabin, point) = (self.data.time, self.cabin()?, self.point()?);
+        let w = self.model()?.wrench_with_jacobians_at(&cabin, &point, t).map_err(|e| e.to_string())?;
         Ok(*self.cache.wrench.insert(w))
     }
 
@@ -242,8 +308,8 @@ impl StewartFmu {
         let e = match self.cache.evaluation.take() {
             Some(e) => e,
             None => {
-                let (t, cabin) = (self.data.time, self.cabin()?);
-                self.model()?.evaluate(&cabin, t).map_err(|e| e.to_string())?
+                let (t, cabin, point) = (self.data.time, self.cabin()?, self.point()?);
+                self.model()?.evaluate_at(&cabin, &point, t).map_err(|e| e.to_string())?
             }
         };
         Ok(self.cache.evaluation.insert(e))
@@ -256,9 +322,10 @@ impl StewartFmu {
             return Ok(r);
         }
         let t = self.data.time;
-        let cabin = self.cabin()?;
+        let (cabin, point) = (self.cabin()?, self.point()?);
         let model = self.model()?;
-        let forces = |c: &CabinMotion| model.evaluate(c, t).map(|e| e.actuator_forces).map_err(|e| e.to_string());
+        let forces =
+            |c: &CabinMotion| model.evaluate_at(c, &point, t).map(|e| e.actuator_forces).map_err(|e| e.to_string());
         let base = forces(&cabin)?;
         let mut r = ActuatorRates {
             acceleration: Matrix3x6::zeros(),
@@ -284,6 +351,54 @@ impl StewartFmu {
         }
         self.cache.actuator_rates = Some(r);
         Ok(r)
+    }
+
+    /// Directional derivatives by central differences of the outputs (an ideal sensor: the
+    /// platform's motion is a function of the cabin inputs, and the outputs of its relative
+    /// motion; the analytic derivative of that chain is not written out).
+    fn differences(&mut self, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
+        let Seeds { unknowns, knowns, seed } = at;
+        let mut du = [0.0; INPUTS];
+        for (k, s) in knowns.iter().zip(seed) {
+            let slot = du.get_mut(*k as usize).ok_or_else(|| {
+                format!("derivatives with respect to value reference {k} are not provided (only the cabin inputs)")
+            })?;
+            *slot += s;
+        }
+        // each input apart, kept only where <ModelStructure> declares the dependence (elsewhere
+        // the output is independent of it and the difference is rounding)
+        let declared = step_dependencies()?;
+        let (inputs, cache) = (self.data.inputs, std::mem::take(&mut self.cache));
+        out.iter_mut().for_each(|o| *o = 0.0);
+        let mut result = Ok(());
+        for (k, &d) in du.iter().enumerate().filter(|(_, d)| **d != 0.0) {
+            // fourth-order central differences: exact for the quadratic dependence on ω, error
+            // O(ε⁴) elsewhere
+            let eps = 1e-4 * inputs[k].abs().max(1.0);
+            let mut at = |x: f64| -> Result<Vec<f64>, ModelError> {
+                self.data.inputs[k] = x;
+                self.cache = Cache::default();
+                unknowns.iter().map(|&u| self.get_real(u)).collect()
+            };
+            let values: Result<Vec<Vec<f64>>, ModelError> =
+                [1.0, -1.0, 2.0, -2.0].iter().map(|s| at(inputs[k] + s * eps)).collect();
+            self.data.inputs = inputs;
+            let values = match values {
+                Ok(v) => v,
+                Err(e) => {
+                    result = Err(e);
+                    break;
+                }
+            };
+            for (j, o) in out.iter_mut().enumerate() {
+                if declared.contains(&(unknowns[j], k as u32)) {
+                    let (p1, m1, p2, m2) = (values[0][j], values[1][j], values[2][j], values[3][j]);
+                    *o += d * (8.0 * (p1 - m1) - (p2 - m2)) / (12.0 * eps);
+                }
+            }
+        }
+        self.cache = cache;
+        result
     }
 
     fn settings_changed(&mut self) {
@@ -341,15 +456,29 @@ impl Model for StewartFmu {
             d
         };
         let all_but_position: Vec<&str> = (3..7).chain(10..19).map(name).collect();
+        let pose: Vec<&str> = (0..7).map(name).collect();
+        let all: Vec<&str> = (0..INPUTS).map(name).collect();
         // in initialization mode the platform rests at its start pose: speed and start do not count
         let params = ["scene", "radius"];
-        let deps = |vr: u32| -> Vec<&str> {
+        // The platform's own motion: with an ideal sensor ([control], step mode) it follows the
+        // cabin's pose, velocity and acceleration, so the wrench and the actuator forces depend
+        // on every input, the platform's position, the leg lengths and the feed on the pose.
+        let deps = |vr: u32, initial: bool| -> Vec<&str> {
             match vr {
+                vr::FORCE..vr::ACTUATOR if !initial => all.clone(),
                 vr::FORCE..vr::MOMENT => force((vr - vr::FORCE) as usize),
                 vr::MOMENT..vr::ACTUATOR => moment((vr - vr::MOMENT) as usize),
+                vr::ACTUATOR..vr::PLATFORM_R if !initial => all.clone(),
                 vr::ACTUATOR..vr::PLATFORM_R => all_but_position.clone(),
                 vr::PLATFORM_R..vr::PLATFORM_Q => {
                     let mut d = vec![inputs[(vr - vr::PLATFORM_R) as usize].as_str()];
+                    d.extend(&orientation);
+                    d
+                }
+                vr::LEG..vr::FEED_ERR if initial => vec![],
+                vr::LEG..vr::FEED_ERR => pose.clone(),
+                vr::FEED_ERR..vr::FEED_ROT => {
+                    let mut d = vec![inputs[(vr - vr::FEED_ERR) as usize].as_str()];
                     d.extend(&orientation);
                     d
                 }
@@ -357,8 +486,8 @@ impl Model for StewartFmu {
             }
         };
         let mut out = |name: String, vr: u32, unit: &str, text: String| {
-            let d = deps(vr);
-            let initially: Vec<&str> = d.iter().copied().chain(params).collect();
+            let d = deps(vr, false);
+            let initially: Vec<&str> = deps(vr, true).into_iter().chain(params).collect();
             variables.push(
                 Variable::real_output(name, vr, unit).describe(text).depends_on(&d).initially_depends_on(&initially),
             );
@@ -407,8 +536,17 @@ impl Model for StewartFmu {
         // Inputs start at their declared start values (FMI 2.0): scene C's pose at rest.
         let inputs = rest_inputs(scene.value());
         let settings = Settings { radius: -1.0, speed: -1.0, ramp_time: -1.0, start: 0 };
+        let accepted = std::array::from_fn(|k| inputs[k]);
         Ok(StewartFmu {
-            data: Data { settings, initialized: false, time: 0.0, inputs, rates: [0.0; INPUTS] },
+            data: Data {
+                settings,
+                initialized: false,
+                time: 0.0,
+                inputs,
+                rates: [0.0; INPUTS],
+                accepted,
+                command: None,
+            },
             scene,
             model: None,
             built_for: None,
@@ -435,13 +573,25 @@ impl Model for StewartFmu {
     fn get_real(&mut self, vr: u32) -> Result<f64, ModelError> {
         match vr {
             0..19 => Ok(self.data.inputs[vr as usize]),
+            vr::LEG..vr::FEED_ERR => Ok(self.evaluation()?.leg_lengths[(vr - vr::LEG) as usize]),
+            vr::FEED_ERR..vr::RADIUS => {
+                let t = self.data.time;
+                let p = self.evaluation()?.platform;
+                let c = self.model()?.compensation().ok_or("the model has no feed point")?;
+                let (err, rot) = c.feed_error(&p.position, &p.orientation, t);
+                Ok(if vr < vr::FEED_ROT {
+                    err[(vr - vr::FEED_ERR) as usize]
+                } else {
+                    rot[(vr - vr::FEED_ROT) as usize]
+                })
+            }
             vr::FORCE..vr::ACTUATOR => {
                 let (w, _) = self.wrench()?;
                 Ok(w.to_vector()[(vr - vr::FORCE) as usize])
             }
             vr::ACTUATOR..vr::PLATFORM_R => Ok(self.evaluation()?.actuator_forces[(vr - vr::ACTUATOR) as usize]),
             vr::PLATFORM_R..vr::PLATFORM_Q => Ok(self.evaluation()?.platform.position[(vr - vr::PLATFORM_R) as usize]),
-            vr::PLATFORM_Q..vr::RADIUS => {
+            vr::PLATFORM_Q..vr::LEG => {
                 let q = self.evaluation()?.platform.orientation;
                 Ok([q.w, q.i, q.j, q.k][(vr - vr::PLATFORM_Q) as usize])
             }
@@ -479,7 +629,10 @@ impl Model for StewartFmu {
 
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
         self.data.initialized = true;
-        self.model()?;
+        let model = self.model()?;
+        let command = model.compensation().filter(|c| c.sensor() == SensorKind::Sampled).map(|c| c.start_state());
+        self.data.command = command;
+        self.data.accepted = std::array::from_fn(|k| self.data.inputs[k]);
         self.data.time = start_time;
         self.cache = Cache::default();
         Ok(())
@@ -487,6 +640,24 @@ impl Model for StewartFmu {
 
     fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {
         self.model()?;
+        if let Some(mut state) = self.data.command.take() {
+            // the sample at the start of the step measures the pose stepped to last
+            let a = self.data.accepted;
+            let pose = cabin_motion(&std::array::from_fn(|k| if k < 7 { a[k] } else { 0.0 }))?;
+            let c = self.model()?.compensation().expect("a command state comes with a compensation");
+            if h > c.max_step() * (1.0 + 1e-9) {
+                let (period, most) = (c.sample_period(), c.max_step());
+                self.data.command = Some(state);
+                return Err(format!(
+                    "communication step {h} s at t = {t} s is longer than a quarter of the sensor's sample period \
+                     {period} s ([control] sample_rate_hz): a sample is taken at the first communication point \
+                     after its instant; take steps of at most {most} s or lower the sample rate"
+                )
+                .into());
+            }
+            state.sample(c, t, &pose.position, &pose.orientation);
+            self.data.command = Some(state);
+        }
         for k in 0..INPUTS {
             self.data.inputs[k] += self.data.rates[k] * h;
         }
@@ -495,6 +666,7 @@ impl Model for StewartFmu {
         self.cache = Cache::default();
         // evaluate now, so that a leg leaving its stroke, or a non-finite result, is reported
         // by this step
+        self.data.accepted = std::array::from_fn(|k| self.data.inputs[k]);
         let (w, _) = self.wrench()?;
         let w = w.to_vector();
         if let Some(k) = w.iter().position(|x| !x.is_finite()) {
@@ -515,6 +687,9 @@ impl Model for StewartFmu {
     /// Every output follows the inputs at the same instant, and after a step the inputs at its
     /// end: the step map's derivative is the instantaneous one at the current time.
     fn derivative(&mut self, _kind: Derivative, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
+        if self.follows_inputs()? {
+            return self.differences(at, out);
+        }
         let Seeds { unknowns, knowns, seed } = at;
         let mut du = [0.0; INPUTS];
         for (k, s) in knowns.iter().zip(seed) {
@@ -533,6 +708,20 @@ impl Model for StewartFmu {
         let needs_wrench = unknowns.iter().any(|u| (vr::FORCE..vr::ACTUATOR).contains(u));
         let needs_actuators = unknowns.iter().any(|u| (vr::ACTUATOR..vr::PLATFORM_R).contains(u));
         let needs_platform = unknowns.iter().any(|u| (vr::PLATFORM_R..vr::RADIUS).contains(u));
+        let needs_feed = unknowns.iter().any(|u| (vr::FEED_ERR..vr::RADIUS).contains(u));
+        let (df, dtilt) = if needs_feed {
+            let cabin_r = Vec3::new(self.data.inputs[0], self.data.inputs[1], self.data.inputs[2]);
+            let t = self.data.time;
+            let p = self.evaluation()?.platform;
+            let c = self.model()?.compensation().ok_or("the model has no feed point")?;
+            let feed = p.position + p.orientation * c.feed_point();
+            // φ = log(R Rₛᵀ): a world rotation δθ moves it by J(φ)⁻¹ δθ (J the left Jacobian)
+            let (_, phi) = c.feed_error(&p.position, &p.orientation, t);
+            let jinv = feedcore::rigid::left_jacobian_so3(&phi).try_inverse().ok_or("the feed's rotation reaches π")?;
+            (dr + dth.cross(&(feed - cabin_r)), jinv * dth)
+        } else {
+            (Vec3::zeros(), Vec3::zeros())
+        };
         let dwrench = if needs_wrench {
             let (_, j) = self.wrench()?;
             j.pose * stack(dr, dth) + j.velocity * stack(dv, dw) + j.acceleration * stack(da, dal)
@@ -567,7 +756,11 @@ impl Model for StewartFmu {
                 vr::FORCE..vr::ACTUATOR => dwrench[(*u - vr::FORCE) as usize],
                 vr::ACTUATOR..vr::PLATFORM_R => dact[(*u - vr::ACTUATOR) as usize],
                 vr::PLATFORM_R..vr::PLATFORM_Q => dp[(*u - vr::PLATFORM_R) as usize],
-                vr::PLATFORM_Q..vr::RADIUS => [dq.w, dq.i, dq.j, dq.k][(*u - vr::PLATFORM_Q) as usize],
+                vr::PLATFORM_Q..vr::LEG => [dq.w, dq.i, dq.j, dq.k][(*u - vr::PLATFORM_Q) as usize],
+                // the legs follow the commanded relative motion, fixed within a step
+                vr::LEG..vr::FEED_ERR => 0.0,
+                vr::FEED_ERR..vr::FEED_ROT => df[(*u - vr::FEED_ERR) as usize],
+                vr::FEED_ROT..vr::RADIUS => dtilt[(*u - vr::FEED_ROT) as usize],
                 other => return Err(format!("value reference {other} is not an output").into()),
             };
         }
@@ -575,7 +768,7 @@ impl Model for StewartFmu {
     }
 
     fn save(&mut self) -> Result<SavedStewart<'_>, ModelError> {
-        Ok(SavedStewart { scene: self.scene.name(), data: self.data })
+        Ok(SavedStewart { scene: self.scene.name(), data: self.data.clone() })
     }
 
     fn restore(&mut self, saved: SavedStewart<'_>) -> Result<(), ModelError> {

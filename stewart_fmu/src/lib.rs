@@ -15,6 +15,7 @@
 //! point); actuator forces are tensions (positive when pulling the platform towards the cabin).
 //! Before t = 0 the platform rests at its start point, so any negative time gives the static state.
 
+pub mod compensation;
 pub mod constraints;
 mod error;
 pub mod fmu;
@@ -28,7 +29,9 @@ use feedcore::scene::{LEGS, Motion, Scene};
 use feedcore::stewart_geometry::{BODIES, StewartGeometry};
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{Rotation3, Vector6};
+pub use path::PathPoint;
 
+pub use compensation::{CommandState, Compensation};
 pub use constraints::{CABIN, CONSTRAINTS, ConstraintRow, Joints, SYSTEM_BODIES};
 pub use error::StewartError;
 pub use path::CirclePath;
@@ -63,6 +66,8 @@ pub struct Evaluation {
     pub legs: [LegReactions; LEGS],
     /// All multipliers λ of eq. (5), in the row order of [`constraints`].
     pub multipliers: [f64; CONSTRAINTS],
+    /// Leg lengths (joint centre to joint centre), m.
+    pub leg_lengths: [f64; LEGS],
 }
 
 /// Extremes over the first revolution of the platform with the cabin held at rest.
@@ -96,11 +101,30 @@ pub struct Stewart {
     joints: Joints,
     bodies: [BodyInertia; BODIES],
     length_range: (f64, f64),
+    /// The scene's `[control]`: the platform's motion comes from the measured cabin pose.
+    compensation: Option<Compensation>,
 }
 
 impl Stewart {
+    /// The model of a scene; with a `[control]` section the platform rests at its start point
+    /// relative to the cabin unless the compensation moves it (`[motion]` is not used).
     pub fn from_scene(scene: &Scene) -> Result<Stewart, StewartError> {
-        Self::new(scene.stewart_geometry(), &scene.motion, scene.gravity_m_s2)
+        let mut motion = scene.motion.clone();
+        if scene.control.is_some() {
+            motion.speed_m_s = 0.0;
+        }
+        let mut stewart = Self::new(scene.stewart_geometry(), &motion, scene.gravity_m_s2)?;
+        let rest = stewart.path.at_rest();
+        let legs = stewart.strokes_at(&rest, 0.0)?.map(|s| s.length);
+        let control = scene.control.clone().unwrap_or_else(Compensation::uncontrolled);
+        stewart.compensation = Some(Compensation::new(scene, &control, rest.position, legs));
+        Ok(stewart)
+    }
+
+    /// The compensation of the scene's `[control]` (a model built from a scene without one has an
+    /// `off` compensation: the feed point is the platform centre, its target its start position).
+    pub fn compensation(&self) -> Option<&Compensation> {
+        self.compensation.as_ref()
     }
 
     /// The model for a geometry, a platform motion and the magnitude of gravity. Checks the whole
@@ -130,6 +154,7 @@ impl Stewart {
             hooke_axes,
             bodies,
             geometry,
+            compensation: None,
         };
         stewart.check_path()?;
         Ok(stewart)
@@ -184,7 +209,23 @@ impl Stewart {
         if !t.is_finite() {
             return Err(StewartError::Input { what: "time".into(), value: t.to_string() });
         }
-        self.checked(RelativeState::new(&self.leg_geometry(), &self.path.at(t), t))
+        self.relative_at(&self.path.at(t), t)
+    }
+
+    /// The motion of all bodies relative to the cabin with the platform centre at `point`
+    /// (cabin frame) at time `t`.
+    pub fn relative_at(&self, point: &PathPoint, t: f64) -> Result<RelativeState, StewartError> {
+        if !t.is_finite() {
+            return Err(StewartError::Input { what: "time".into(), value: t.to_string() });
+        }
+        let finite = |v: &Vec3| v.iter().all(|x| x.is_finite());
+        if !(finite(&point.position) && finite(&point.velocity) && finite(&point.acceleration)) {
+            return Err(StewartError::Input {
+                what: format!("platform command at t = {t} s"),
+                value: format!("{point:?}"),
+            });
+        }
+        self.checked(RelativeState::new(&self.leg_geometry(), point, t))
     }
 
     /// The relative state with the platform at rest at its start point.
@@ -263,8 +304,19 @@ impl Stewart {
         cabin: &CabinMotion,
         t: f64,
     ) -> Result<(Wrench, WrenchJacobians), StewartError> {
+        self.wrench_with_jacobians_at(cabin, &self.path.at(t), t)
+    }
+
+    /// [`Stewart::wrench_with_jacobians`] with the platform centre at `point` (cabin frame); the
+    /// Jacobians are at fixed relative motion.
+    pub fn wrench_with_jacobians_at(
+        &self,
+        cabin: &CabinMotion,
+        point: &PathPoint,
+        t: f64,
+    ) -> Result<(Wrench, WrenchJacobians), StewartError> {
         Self::check_cabin(cabin)?;
-        Ok(self.relative(t)?.wrench_with_jacobians(cabin, &self.gravity))
+        Ok(self.relative_at(point, t)?.wrench_with_jacobians(cabin, &self.gravity))
     }
 
     /// Wrench on a cabin at rest at the given pose with the platform at rest at its start point.
@@ -298,8 +350,18 @@ impl Stewart {
     /// The cabin and the 13 bodies placed consistently at time `t`, in the order of
     /// [`constraints`] (cabin at index [`CABIN`]).
     pub fn system_motion(&self, cabin: &CabinMotion, t: f64) -> Result<[RigidMotion; SYSTEM_BODIES], StewartError> {
+        self.system_motion_at(cabin, &self.path.at(t), t)
+    }
+
+    /// [`Stewart::system_motion`] with the platform centre at `point` (cabin frame).
+    pub fn system_motion_at(
+        &self,
+        cabin: &CabinMotion,
+        point: &PathPoint,
+        t: f64,
+    ) -> Result<[RigidMotion; SYSTEM_BODIES], StewartError> {
         Self::check_cabin(cabin)?;
-        let rel = self.relative(t)?;
+        let rel = self.relative_at(point, t)?;
         let bodies = self.place_bodies(cabin, &rel);
         Ok(std::array::from_fn(|i| if i == CABIN { *cabin } else { bodies[i] }))
     }
@@ -309,7 +371,12 @@ impl Stewart {
         if !t.is_finite() {
             return Err(StewartError::Input { what: "time".into(), value: t.to_string() });
         }
-        let (strokes, hooke_sine) = relative::strokes(&self.leg_geometry(), &self.path.at(t));
+        self.strokes_at(&self.path.at(t), t)
+    }
+
+    /// Actuator strokes with the platform centre at `point` (cabin frame).
+    pub fn strokes_at(&self, point: &PathPoint, t: f64) -> Result<[Stroke; LEGS], StewartError> {
+        let (strokes, hooke_sine) = relative::strokes(&self.leg_geometry(), point);
         self.check_legs(&strokes, &hooke_sine, t)?;
         Ok(strokes)
     }
@@ -329,9 +396,15 @@ impl Stewart {
     /// Joint reactions, actuator forces and platform motion at time `t` for the given cabin
     /// motion: Newton–Euler equations of the 13 bodies with Lagrange multipliers.
     pub fn evaluate(&self, cabin: &CabinMotion, t: f64) -> Result<Evaluation, StewartError> {
-        let system = self.system_motion(cabin, t)?;
+        self.evaluate_at(cabin, &self.path.at(t), t)
+    }
+
+    /// [`Stewart::evaluate`] with the platform centre at `point` (cabin frame).
+    pub fn evaluate_at(&self, cabin: &CabinMotion, point: &PathPoint, t: f64) -> Result<Evaluation, StewartError> {
+        let system = self.system_motion_at(cabin, point, t)?;
         let mut rows = [ConstraintRow::EMPTY; CONSTRAINTS];
-        self.constraints(&system, t, &mut rows)?;
+        let strokes = self.strokes_at(point, t)?;
+        self.joints.evaluate(&system, &strokes, &mut rows);
         let forces = std::array::from_fn(|i| {
             reactions::net_force(&system[i], self.bodies[i].mass, &self.bodies[i].inertia, &self.gravity)
         });
@@ -347,6 +420,7 @@ impl Stewart {
             platform: system[constraints::PLATFORM],
             legs: std::array::from_fn(|k| reactions::leg_reactions(&self.joints, k, &rows, &lambda, &system)),
             multipliers: lambda,
+            leg_lengths: strokes.map(|s| s.length),
         })
     }
 

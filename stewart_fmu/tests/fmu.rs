@@ -8,7 +8,22 @@ use stewart_fmu::fmu::{INPUTS, StewartFmu, vr};
 use stewart_fmu::{CabinMotion, Stewart};
 
 fn scene(name: &str) -> Scene {
+    if std::path::Path::new(name).is_absolute() {
+        return Scene::load(name).unwrap();
+    }
     Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
+}
+
+/// Scene B with the feed held still by an ideal sensor ([control]): the platform follows the
+/// cabin inputs, so every output depends on them. Written to a private file; its absolute path.
+fn ideal_scene() -> String {
+    let dir = std::env::temp_dir().join(format!("stewart-fmu-tests-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("lt50m_B_ideal.toml");
+    let text = std::fs::read_to_string(format!("{}/../scenes/lt50m_B.toml", env!("CARGO_MANIFEST_DIR"))).unwrap()
+        + "\n[control]\nfeed_point_m = [0.0, 0.0, -0.2]\ntarget = \"hold\"\nsensor = \"ideal\"\n";
+    std::fs::write(&file, text).unwrap();
+    file.display().to_string()
 }
 
 /// A moving, tilted, accelerating cabin near scene B's pose, as input values.
@@ -109,7 +124,8 @@ fn step_map_derivatives_are_the_instantaneous_ones() {
     }
 }
 
-/// FMI 2.0 semantics, pair by pair, at B and C, in initialization and step mode, at the rest
+/// FMI 2.0 semantics, pair by pair, at B, C and B compensated by an ideal sensor, in
+/// initialization and step mode, at the rest
 /// pose and at a moving, tilted cabin: declared pairs match central differences of
 /// fmi2GetReal after fmi2SetReal, undeclared ones do not move, and every declared pair moves
 /// somewhere.
@@ -123,7 +139,8 @@ fn derivatives_and_dependencies_follow_the_standard() {
         deps.as_ref().unwrap().contains(&info.lookup(fmi2::VarType::Real, i).unwrap().index)
     };
     let mut seen = std::collections::HashSet::new();
-    for name in ["lt50m_C.toml", "lt50m_B.toml"] {
+    let ideal = ideal_scene();
+    for name in ["lt50m_C.toml", "lt50m_B.toml", ideal.as_str()] {
         for initial in [true, false] {
             for moving in [false, true] {
                 let mut m = StewartFmu::instantiate(None).unwrap();
@@ -222,4 +239,73 @@ fn bad_inputs_and_parameters_are_refused_with_their_values() {
     m.set_real(vr::RADIUS, 1.5).unwrap();
     let e = m.exit_initialization(0.0).unwrap_err().to_string();
     assert!(e.contains("leg"), "{e}");
+}
+
+/// Scene C with a `[control]` section appended, written to a private file; its absolute path.
+fn controlled_scene(tag: &str, control: &str) -> String {
+    let dir = std::env::temp_dir().join(format!("stewart-fmu-tests-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join(format!("lt50m_C_{tag}.toml"));
+    let text = std::fs::read_to_string(format!("{}/../scenes/lt50m_C.toml", env!("CARGO_MANIFEST_DIR"))).unwrap()
+        + "\n[control]\nfeed_point_m = [0.0, 0.0, -0.3]\ntarget = \"hold\"\n"
+        + control;
+    std::fs::write(&file, text).unwrap();
+    file.display().to_string()
+}
+
+/// The cabin displaced by a few millimetres and turning slowly at step n.
+fn displaced(n: usize) -> [f64; 7] {
+    let s = n as f64 * 0.01;
+    let q = feedcore::Quat::from_scaled_axis(feedcore::Vec3::new(1e-3 * s, -2e-3 * s, 5e-4));
+    [0.003 * s.sin(), -0.002 * s, 9.8 + 0.001 * s, q.w, q.i, q.j, q.k]
+}
+
+/// A sampled sensor (delay, noise, filter) keeps its state in the FMU state: a step retaken
+/// after restoring a saved state gives the same outputs bit for bit.
+#[test]
+fn a_sampled_sensor_rolls_back_bit_exactly() {
+    let name = controlled_scene(
+        "sampled",
+        "sensor = \"sampled\"\nsample_rate_hz = 25.0\ndelay_s = 0.03\nnoise_m = 1e-4\nnoise_rad = 1e-5\nseed = 9\nbandwidth_hz = 1.0\n",
+    );
+    let mut m = ready(&name);
+    let outputs: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
+    let step = |m: &mut StewartFmu, n: usize| {
+        for (k, x) in displaced(n + 1).iter().enumerate() {
+            m.set_real(k as u32, *x).unwrap();
+        }
+        m.do_step(n as f64 * 0.01, 0.01).unwrap();
+        outputs.iter().map(|&o| m.get_real(o).unwrap()).collect::<Vec<_>>()
+    };
+    for n in 0..20 {
+        step(&mut m, n);
+    }
+    let saved = serde_json::to_string(&m.save().unwrap()).unwrap();
+    let first: Vec<Vec<f64>> = (20..40).map(|n| step(&mut m, n)).collect();
+    m.restore(serde_json::from_str(&saved).unwrap()).unwrap();
+    let again: Vec<Vec<f64>> = (20..40).map(|n| step(&mut m, n)).collect();
+    assert_eq!(first, again);
+    // the platform moved to compensate: its legs changed
+    let legs = |o: &Vec<f64>| o[(vr::LEG - vr::FORCE) as usize];
+    assert!((legs(&first[19]) - legs(&step(&mut ready(&name), 0))).abs() > 1e-4);
+    // a step longer than a quarter sample period is refused, naming the key
+    let e = ready(&name).do_step(0.0, 0.02).unwrap_err().to_string();
+    assert!(e.contains("sample_rate_hz") && e.contains("0.01"), "{e}");
+}
+
+/// An ideal sensor puts the feed on its target whatever the cabin does: zero error, to rounding.
+#[test]
+fn an_ideal_sensor_holds_the_feed_on_its_target() {
+    let name = controlled_scene("ideal", "sensor = \"ideal\"\n");
+    let mut m = ready(&name);
+    for n in 0..5 {
+        for (k, x) in displaced(n * 10).iter().enumerate() {
+            m.set_real(k as u32, *x).unwrap();
+        }
+        m.do_step(n as f64 * 0.01, 0.01).unwrap();
+        for k in 0..3 {
+            let e = m.get_real(vr::FEED_ERR + k).unwrap();
+            assert!(e.abs() < 1e-14, "step {n}: feed error {k} = {e:e} m");
+        }
+    }
 }

@@ -144,6 +144,10 @@ fn replay_stewart(scene: &Scene, header: &[String], rows: &[Vec<f64>], f: &mut d
         v.extend(e.actuator_forces.iter());
         v.extend(e.platform.position.iter());
         v.extend([pq.w, pq.i, pq.j, pq.k]);
+        v.extend(e.leg_lengths.iter());
+        let comp = model.compensation().ok_or("the model has no feed point")?;
+        let (err, rot) = comp.feed_error(&e.platform.position, &pq, t);
+        v.extend(err.iter().chain(rot.iter()));
         writeln!(f, "{}", v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(","))?;
     }
     Ok(())

@@ -57,7 +57,7 @@ pub(crate) struct Args {
 /// for an adaptive run).
 pub(crate) fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
     let fixed = |x: f64| if t.is_adaptive() { None } else { Some(x) };
-    json!({
+    let mut v = json!({
         "scene": scene.name,
         "scheme": t.method,
         "adaptive": t.is_adaptive(),
@@ -75,7 +75,12 @@ pub(crate) fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
         "mean_iterations": t.mean_iterations(),
         "max_interface_residual": t.max_residual(),
         "max_constraint_residual_m": t.constraint_residual(),
-    })
+    });
+    // the feed (scenes with [control]): its error figures and the limits reached
+    if let (Some(feed), Some(map)) = (&t.feed, v.as_object_mut()) {
+        map.extend(feed.json().as_object().cloned().unwrap_or_default());
+    }
+    v
 }
 
 /// The displacement histories as three stacked panels, into output `id`.
@@ -134,6 +139,16 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     outputs.commit()?;
 
     let mut out = std::io::stdout().lock();
+    if let Some(feed) = trace.feed.as_ref().filter(|f| !f.summary.events.is_empty()) {
+        eprintln!(
+            "warning: the platform reached a leg-stroke or actuator-force limit {} times (first: leg {} {} at t = {} s); \
+             the run did not clip it — see the limit events",
+            feed.summary.events.len(),
+            feed.summary.events[0].leg,
+            feed.summary.events[0].limit,
+            feed.summary.events[0].time_s
+        );
+    }
     if args.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&summary(&scene, &trace))?)?;
         return Ok(());
@@ -175,6 +190,21 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             trace.mean_iterations(),
             trace.max_residual()
         )?,
+    }
+    if let Some(feed) = &trace.feed {
+        let f = &feed.summary;
+        writeln!(
+            out,
+            "feed error: RMS {:.4} mm, peak {:.4} mm at t = {} s; tilt peak {:.4} mrad",
+            f.rms_mm, f.peak_mm, f.peak_time_s, f.tilt_peak_mrad
+        )?;
+        for e in &f.events {
+            writeln!(
+                out,
+                "LIMIT REACHED: leg {} {} at t = {} s: {:.6} (limit {}) — not clipped",
+                e.leg, e.limit, e.time_s, e.value, e.bound
+            )?;
+        }
     }
     if let Some(p) = &args.out {
         writeln!(out, "time histories: {}", p.display())?;

@@ -19,6 +19,7 @@ mod common;
 mod adaptive;
 mod analyses;
 mod cosim;
+mod feed;
 mod misuse;
 mod mutants;
 mod package;

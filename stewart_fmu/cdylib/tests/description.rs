@@ -9,5 +9,9 @@ fn the_model_description_reads_back_equal() {
     let text = fmi2::xml::model_description_xml(&declared.description).unwrap();
     let read = fmi2::xml::parse_model_description(&text).unwrap();
     assert_eq!(read, declared.description);
-    assert_eq!(read.variables.len(), 19 + 19 + 5, "inputs, outputs, parameters");
+    assert_eq!(
+        read.variables.len(),
+        19 + 31 + 5,
+        "inputs, outputs (wrench, actuators, platform, legs, feed), parameters"
+    );
 }

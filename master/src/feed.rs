@@ -1,0 +1,154 @@
+//! The feed in the world frame (scene `[control]`): its position and tilt error against the
+//! target, the leg lengths and actuator forces, and the leg-stroke and actuator-force limits —
+//! recorded at every step, reported when reached (never clipped).
+//!
+//! The feed is placed from the cabin's pose (the cable–cabin model's) and the platform's
+//! position relative to the cabin: `feed = p + R (c + f)`; the platform's attitude is the
+//! cabin's (it only translates relative to it), so the tilt error is the cabin's rotation from
+//! its reference attitude.
+
+use std::io::Write;
+
+use feedcore::scene::LEGS;
+use feedcore::{Quat, Vec3};
+use serde::Serialize;
+use stewart_fmu::Compensation;
+
+/// The feed and the legs after one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FeedSample {
+    /// Feed position minus target, world frame, mm.
+    pub err_mm: [f64; 3],
+    /// Angle of the feed's rotation from its start attitude, mrad.
+    pub tilt_mrad: f64,
+    pub legs_m: [f64; LEGS],
+    /// Actuator tensions, N.
+    pub forces_n: [f64; LEGS],
+}
+
+impl FeedSample {
+    /// The feed of a cabin at (p, R) with the platform centre at `relative` (cabin frame).
+    pub fn place(
+        c: &Compensation,
+        t: f64,
+        cabin: (&Vec3, &Quat),
+        relative: &Vec3,
+        legs_m: [f64; LEGS],
+        forces_n: [f64; LEGS],
+    ) -> FeedSample {
+        let (p, r) = cabin;
+        let (err, rot) = c.feed_error(&(p + r * relative), r, t);
+        FeedSample { err_mm: (err * 1e3).into(), tilt_mrad: rot.norm() * 1e3, legs_m, forces_n }
+    }
+
+    fn error_mm(&self) -> f64 {
+        Vec3::from(self.err_mm).norm()
+    }
+}
+
+/// A limit reached: when, which leg (1-based), what, the value and the limit.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LimitEvent {
+    pub time_s: f64,
+    pub leg: usize,
+    /// `shortest_leg`, `longest_leg` or `actuator_force`.
+    pub limit: &'static str,
+    pub value: f64,
+    pub bound: f64,
+}
+
+/// Figures of the feed over every step.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FeedSummary {
+    pub rms_mm: f64,
+    pub peak_mm: f64,
+    pub peak_time_s: f64,
+    pub tilt_peak_mrad: f64,
+    /// Every time a limit was reached (a leg staying beyond it counts once, until it returns).
+    pub events: Vec<LimitEvent>,
+}
+
+/// The feed's record of a run.
+#[derive(Clone, Debug, Default)]
+pub struct FeedTrace {
+    /// At the trace's sample times.
+    pub samples: Vec<FeedSample>,
+    pub summary: FeedSummary,
+    legs: Option<[(f64, f64); LEGS]>,
+    force: Option<f64>,
+    /// Per leg: beyond its shortest, longest, force limit now.
+    beyond: [[bool; 3]; LEGS],
+    sum_sq: f64,
+    steps: u64,
+}
+
+/// CSV column names of the feed, in [`FeedTrace::write_row`] order.
+pub fn csv_header() -> String {
+    let mut h = String::from("feed_err_x_mm,feed_err_y_mm,feed_err_z_mm,feed_err_tilt_mrad");
+    for k in 1..=LEGS {
+        h += &format!(",leg{k}_m");
+    }
+    for k in 1..=LEGS {
+        h += &format!(",actuator{k}_n");
+    }
+    h
+}
+
+impl FeedTrace {
+    pub fn new(c: &Compensation) -> FeedTrace {
+        FeedTrace { legs: c.leg_limits(), force: c.force_limit(), ..Default::default() }
+    }
+
+    /// The feed after a step at time `t`; `keep`: a sample time of the trace.
+    pub fn observe(&mut self, t: f64, s: &FeedSample, keep: bool) {
+        let e = s.error_mm();
+        self.sum_sq += e * e;
+        self.steps += 1;
+        let sum = &mut self.summary;
+        sum.rms_mm = (self.sum_sq / self.steps as f64).sqrt();
+        if e > sum.peak_mm {
+            sum.peak_mm = e;
+            sum.peak_time_s = t;
+        }
+        sum.tilt_peak_mrad = sum.tilt_peak_mrad.max(s.tilt_mrad);
+        for k in 0..LEGS {
+            let (lo, hi) = self.legs.map_or((f64::NEG_INFINITY, f64::INFINITY), |l| l[k]);
+            let force = self.force.unwrap_or(f64::INFINITY);
+            let checks = [
+                ("shortest_leg", s.legs_m[k] < lo, s.legs_m[k], lo),
+                ("longest_leg", s.legs_m[k] > hi, s.legs_m[k], hi),
+                ("actuator_force", s.forces_n[k].abs() > force, s.forces_n[k], force),
+            ];
+            for (i, (limit, beyond, value, bound)) in checks.into_iter().enumerate() {
+                if beyond && !self.beyond[k][i] {
+                    sum.events.push(LimitEvent { time_s: t, leg: k + 1, limit, value, bound });
+                }
+                self.beyond[k][i] = beyond;
+            }
+        }
+        if keep {
+            self.samples.push(*s);
+        }
+    }
+
+    /// The feed columns of sample `i`, each with a leading comma.
+    pub fn write_row(&self, f: &mut dyn Write, i: usize) -> std::io::Result<()> {
+        let s = &self.samples[i];
+        for x in s.err_mm.iter().chain([s.tilt_mrad].iter()).chain(&s.legs_m).chain(&s.forces_n) {
+            write!(f, ",{x:e}")?;
+        }
+        Ok(())
+    }
+
+    /// The JSON figures.
+    pub fn json(&self) -> serde_json::Value {
+        let s = &self.summary;
+        serde_json::json!({
+            "feed_err_rms_mm": s.rms_mm,
+            "feed_err_peak_mm": s.peak_mm,
+            "feed_err_peak_time_s": s.peak_time_s,
+            "feed_err_tilt_peak_mrad": s.tilt_peak_mrad,
+            "limit_events": s.events,
+        })
+    }
+}

@@ -1,0 +1,133 @@
+//! The second level (`[control]`): the feed's error in the world frame, its JSON figures against
+//! its CSV columns, and limits reported when reached.
+
+use feedcore::scene::{Control, Scene, SensorKind, TargetKind};
+
+use crate::{common, master};
+
+/// Scene C with the feed on a target, compensated by the given sensor.
+fn controlled(tag: &str, edit: impl FnOnce(&mut Control)) -> (Scene, std::path::PathBuf) {
+    common::scene("lt50m_C_compensated.toml", tag, |s| edit(s.control.as_mut().unwrap()))
+}
+
+/// Runs `master run --json --out` on `file` and returns the JSON and the CSV rows by column.
+fn run(file: &std::path::Path, scheme: &str, t_end: &str, dt: &str) -> (serde_json::Value, Vec<String>, Vec<Vec<f64>>) {
+    let csv = file.with_extension("csv");
+    let out = master(&[
+        "run",
+        "--scene",
+        file.to_str().unwrap(),
+        "--scheme",
+        scheme,
+        "--t-end",
+        t_end,
+        "--dt",
+        dt,
+        "--json",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header: Vec<String> = text.lines().next().unwrap().split(',').map(str::to_string).collect();
+    let rows = text.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    (v, header, rows)
+}
+
+fn column(header: &[String], name: &str) -> usize {
+    header.iter().position(|c| c == name).unwrap_or_else(|| panic!("column {name} missing: {header:?}"))
+}
+
+/// An ideal sensor with the feed on a moving target: the platform works against the cabin's
+/// motion, which it causes itself, and the feed stays on the target to the solver's tolerance;
+/// the JSON figures are the CSV's.
+#[test]
+fn an_ideal_sensor_puts_the_feed_on_its_target_and_the_json_is_the_csv() {
+    for (scheme, tag) in [("ijcsa", "ideal-ijcsa"), ("iqn-ils", "ideal-iqn")] {
+        let (_, file) = controlled(tag, |c| {
+            c.sensor = SensorKind::Ideal;
+            (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz) = (None, 0.0, 0.0, 0.0, None);
+            c.target = TargetKind::Circle;
+            c.circle_center_offset_m = Some([-0.05, 0.0, 0.0]);
+            c.circle_speed_m_s = Some(0.02);
+        });
+        let (v, header, rows) = run(&file, scheme, "3", "0.01");
+        // the cabin does move (some mm), the feed does not leave its target
+        assert!(v["peak_disp_mm"].as_f64().unwrap() > 0.5, "{v}");
+        let peak = v["feed_err_peak_mm"].as_f64().unwrap();
+        assert!(peak < 1e-6, "{scheme}: feed error peak {peak:e} mm");
+        // JSON against CSV (samples at every step)
+        let (x, y, z, tilt) = (
+            column(&header, "feed_err_x_mm"),
+            column(&header, "feed_err_y_mm"),
+            column(&header, "feed_err_z_mm"),
+            column(&header, "feed_err_tilt_mrad"),
+        );
+        let norms: Vec<f64> = rows.iter().map(|r| (r[x] * r[x] + r[y] * r[y] + r[z] * r[z]).sqrt()).collect();
+        let csv_peak = norms.iter().cloned().fold(0.0, f64::max);
+        let csv_rms = (norms.iter().map(|e| e * e).sum::<f64>() / norms.len() as f64).sqrt();
+        let json_rms = v["feed_err_rms_mm"].as_f64().unwrap();
+        assert!((csv_peak - peak).abs() <= 1e-12 * peak.max(1e-300), "{csv_peak:e} vs {peak:e}");
+        assert!((csv_rms - json_rms).abs() <= 1e-9 * json_rms, "{csv_rms:e} vs {json_rms:e}");
+        let tilt_peak = rows.iter().map(|r| r[tilt]).fold(0.0, f64::max);
+        assert!((tilt_peak - v["feed_err_tilt_peak_mrad"].as_f64().unwrap()).abs() <= 1e-12 * tilt_peak);
+        for k in 1..=6 {
+            column(&header, &format!("leg{k}_m"));
+            column(&header, &format!("actuator{k}_n"));
+        }
+        assert_eq!(v["limit_events"].as_array().unwrap().len(), 0);
+    }
+}
+
+/// The cabin held still (the platform at rest, nothing moves it) with an ideal sensor: zero error.
+#[test]
+fn a_cabin_held_still_with_an_ideal_sensor_gives_zero_feed_error() {
+    let (_, file) = controlled("still", |c| {
+        c.sensor = SensorKind::Ideal;
+        (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz) = (None, 0.0, 0.0, 0.0, None);
+    });
+    let (v, _, _) = run(&file, "ijcsa", "1", "0.01");
+    assert!(v["feed_err_peak_mm"].as_f64().unwrap() < 1e-7, "{v}");
+}
+
+/// A force limit below what the actuators carry and a stroke the circle exceeds: both reported
+/// with time, leg and value; the run completes (nothing clipped) and says so on stderr.
+#[test]
+fn limits_reached_are_reported_with_time_leg_and_value() {
+    let (_, file) = controlled("limits", |c| {
+        c.force_limit_n = Some(250.0);
+        c.stroke_m = Some(0.002);
+        c.target = TargetKind::Circle;
+        c.circle_center_offset_m = Some([-0.05, 0.0, 0.0]);
+        c.circle_speed_m_s = Some(0.02);
+    });
+    let (v, header, rows) = run(&file, "ijcsa", "2", "0.005");
+    let events = v["limit_events"].as_array().unwrap();
+    assert!(!events.is_empty(), "{v}");
+    let force = events.iter().find(|e| e["limit"] == "actuator_force").expect("a force event");
+    let leg = force["leg"].as_u64().unwrap() as usize;
+    let (t, value) = (force["time_s"].as_f64().unwrap(), force["value"].as_f64().unwrap());
+    assert!(value.abs() > 250.0 && force["bound"] == 250.0);
+    // the CSV holds that force at that time (samples at every step)
+    let row = rows.iter().find(|r| (r[0] - t).abs() < 1e-9).unwrap();
+    assert_eq!(row[column(&header, &format!("actuator{leg}_n"))], value);
+    assert!(events.iter().any(|e| e["limit"] == "longest_leg" || e["limit"] == "shortest_leg"), "{v}");
+    // the text report says so
+    let out =
+        master(&["run", "--scene", file.to_str().unwrap(), "--scheme", "ijcsa", "--t-end", "0.5", "--dt", "0.005"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("LIMIT REACHED") && text.contains("not clipped"), "{text}");
+}
+
+/// The monolithic and decoupled models refuse a compensating sensor with a clear reason.
+#[test]
+fn models_without_the_compensation_refuse_it() {
+    let (_, file) = controlled("refuse", |_| {});
+    for scheme in ["monolithic", "decoupled"] {
+        let out = master(&["run", "--scene", file.to_str().unwrap(), "--scheme", scheme, "--t-end", "0.1", "--quiet"]);
+        assert!(!out.status.success());
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(e.contains("[control]") && e.contains("sensor = \"off\""), "{e}");
+    }
+}
