@@ -5,21 +5,21 @@ use cable_fmu::net::CableNet;
 use cable_fmu::statics::{Equilibrium, form_find};
 use feedcore::scene::Scene;
 
-pub fn scene(name: &str) -> Scene {
+pub(crate) fn scene(name: &str) -> Scene {
     Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
 }
 
-pub fn equilibrium(scene: &Scene) -> (CableNet, Equilibrium) {
+pub(crate) fn equilibrium(scene: &Scene) -> (CableNet, Equilibrium) {
     let net = CableNet::from_scene(scene);
     let eq = form_find(&net, scene.target_position(), scene.target_orientation()).unwrap();
     (net, eq)
 }
 
 /// A deterministic pseudo-random number in [−0.5, 0.5).
-pub struct Rng(pub u64);
+pub(crate) struct Rng(pub u64);
 
 impl Rng {
-    pub fn next(&mut self) -> f64 {
+    pub(crate) fn next(&mut self) -> f64 {
         self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         ((self.0 >> 11) as f64 / (1u64 << 53) as f64) - 0.5
     }

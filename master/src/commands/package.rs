@@ -8,7 +8,7 @@ use fmi2::export::Model;
 use super::BoxResult as CmdResult;
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// Directory for the `.fmu` files (created if missing).
     #[arg(long, default_value = "dist")]
     pub out: PathBuf,
@@ -18,7 +18,7 @@ pub struct Args {
 }
 
 /// A model the workspace exports as an FMU.
-pub struct Exportable {
+pub(crate) struct Exportable {
     /// Cargo package of the cdylib (its library is `lib<package>.so`).
     pub package: &'static str,
     /// Writes `<out>/<modelIdentifier>.fmu` from the library; returns the archive path.
@@ -26,13 +26,13 @@ pub struct Exportable {
 }
 
 impl Exportable {
-    pub const fn of<M: Model>(package: &'static str) -> Exportable {
+    pub(crate) const fn of<M: Model>(package: &'static str) -> Exportable {
         Exportable { package, write: fmi2::package::package_model::<M> }
     }
 }
 
 /// Every FMU of the workspace: one line per model (its `Model` type and its cdylib package).
-pub const EXPORTABLE: &[Exportable] = &[
+pub(crate) const EXPORTABLE: &[Exportable] = &[
     Exportable::of::<fmi2_testmodel::Oscillator>("fmi2_testmodel"),
     Exportable::of::<cable_fmu::fmu::CableFmu>("cable_fmu_cdylib"),
     Exportable::of::<stewart_fmu::fmu::StewartFmu>("stewart_fmu_cdylib"),
@@ -45,7 +45,7 @@ pub const EXPORTABLE: &[Exportable] = &[
     Exportable::of::<zoo_fmus::resource::ResourceFmu>("zoo_resource"),
 ];
 
-pub fn run(args: &Args) -> CmdResult {
+pub(crate) fn run(args: &Args) -> CmdResult {
     let lib_dir = match &args.lib_dir {
         Some(d) => d.clone(),
         None => std::env::current_exe()?.parent().ok_or("the master executable has no parent directory")?.to_owned(),

@@ -13,7 +13,7 @@ use super::BoxResult as CmdResult;
 use super::output::Outputs;
 
 #[derive(clap::Args)]
-pub struct Args {
+pub(crate) struct Args {
     /// The model whose library is run: cable_fmu or stewart_fmu.
     #[arg(long)]
     pub model: String,
@@ -58,7 +58,7 @@ fn read_csv(path: &PathBuf) -> Result<(Vec<String>, Vec<Vec<f64>>), String> {
     Ok((header, rows))
 }
 
-pub fn run(args: &Args) -> anyhow::Result<()> {
+pub(crate) fn run(args: &Args) -> anyhow::Result<()> {
     // written whole or not at all: a failed replay leaves no output that looks complete
     let mut outputs = Outputs::new([args.scene.clone(), args.inputs.clone()]);
     let out = outputs.declare("--out", &args.out, None)?;

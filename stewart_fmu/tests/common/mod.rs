@@ -6,23 +6,23 @@ use feedcore::scene::Scene;
 use feedcore::{Quat, Vec3};
 use stewart_fmu::{CabinMotion, Stewart};
 
-pub fn scene(name: &str) -> Scene {
+pub(crate) fn scene(name: &str) -> Scene {
     let path = format!("{}/../scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"));
     Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
-pub fn stewart(name: &str) -> Stewart {
+pub(crate) fn stewart(name: &str) -> Stewart {
     Stewart::from_scene(&scene(name)).unwrap()
 }
 
 /// The cabin at the scene's target pose, at rest.
-pub fn cabin_at_target(scene: &Scene) -> CabinMotion {
+pub(crate) fn cabin_at_target(scene: &Scene) -> CabinMotion {
     CabinMotion::at_rest(scene.target_position(), scene.target_orientation())
 }
 
 /// A smooth cabin motion with translation and a rotation about a moving axis:
 /// R(t) = exp(ψ₁ n₁) exp(ψ₂ n₂) R₀, each term with closed-form derivatives.
-pub struct CabinPath {
+pub(crate) struct CabinPath {
     pub x0: Vec3,
     pub r0: Quat,
     pub amplitude: Vec3,
@@ -34,7 +34,7 @@ pub struct CabinPath {
 }
 
 impl CabinPath {
-    pub fn lively(x0: Vec3, r0: Quat) -> Self {
+    pub(crate) fn lively(x0: Vec3, r0: Quat) -> Self {
         Self {
             x0,
             r0,
@@ -52,7 +52,7 @@ impl CabinPath {
         (a * s, a * f * c, -a * f * f * s)
     }
 
-    pub fn at(&self, t: f64) -> CabinMotion {
+    pub(crate) fn at(&self, t: f64) -> CabinMotion {
         let (a, f) = (self.amplitude, self.frequency);
         let mut position = self.x0;
         let mut velocity = Vec3::zeros();
@@ -82,7 +82,7 @@ impl CabinPath {
 }
 
 /// Eighth-order central difference of a vector function of time.
-pub fn derivative<const N: usize>(
+pub(crate) fn derivative<const N: usize>(
     f: impl Fn(f64) -> nalgebra::SVector<f64, N>,
     t: f64,
     h: f64,
@@ -97,6 +97,6 @@ pub fn derivative<const N: usize>(
 }
 
 /// World-frame rotation vector taking orientation `a` to `b`: b = exp([θ]×) a.
-pub fn rotation_between(a: &Quat, b: &Quat) -> Vec3 {
+pub(crate) fn rotation_between(a: &Quat, b: &Quat) -> Vec3 {
     (b * a.inverse()).scaled_axis()
 }

@@ -8,7 +8,7 @@ use fmi2::import::{Fmu, Instance};
 use fmi2_testmodel::Oscillator;
 
 /// The cdylib cargo built beside this test binary (`target/<profile>/deps/`).
-pub fn library() -> PathBuf {
+pub(crate) fn library() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
     let deps = exe.parent().unwrap();
     for dir in [deps, deps.parent().unwrap()] {
@@ -21,7 +21,7 @@ pub fn library() -> PathBuf {
 }
 
 /// Packaged once per test binary into a private directory.
-pub fn archive() -> &'static Path {
+pub(crate) fn archive() -> &'static Path {
     static FMU: OnceLock<PathBuf> = OnceLock::new();
     FMU.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("fmi2-testmodel-{}", std::process::id()));
@@ -29,11 +29,11 @@ pub fn archive() -> &'static Path {
     })
 }
 
-pub fn fmu() -> Fmu {
+pub(crate) fn fmu() -> Fmu {
     Fmu::load(archive()).unwrap()
 }
 
-pub fn ready(fmu: &Fmu, name: &str) -> Instance {
+pub(crate) fn ready(fmu: &Fmu, name: &str) -> Instance {
     let mut i = fmu.instantiate(name, false).unwrap();
     i.setup_experiment(None, 0.0, None).unwrap();
     i.enter_initialization_mode().unwrap();
