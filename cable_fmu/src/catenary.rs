@@ -76,7 +76,7 @@ impl ElasticCatenary {
     }
 
     /// Horizontal and vertical position at Lagrangian coordinate `s`, relative to the start.
-    pub fn xz(&self, s: f64) -> (f64, f64) {
+    pub(crate) fn xz(&self, s: f64) -> (f64, f64) {
         let (h, v0, w, ea) = (self.h, self.v0, self.w, self.ea);
         let x = h * s / ea + (h / w) * (((v0 + w * s) / h).asinh() - (v0 / h).asinh());
         let z =

@@ -56,7 +56,7 @@ impl ChainMatrix {
         3 * self.cables * self.nodes + 6
     }
 
-    pub fn set_zero(&mut self) {
+    pub(crate) fn set_zero(&mut self) {
         self.diag.iter_mut().for_each(|b| b.fill(0.0));
         self.upper.iter_mut().for_each(|b| b.fill(0.0));
         self.node_cabin.iter_mut().for_each(|b| b.fill(0.0));
@@ -65,7 +65,7 @@ impl ChainMatrix {
     }
 
     /// `self += s · other`.
-    pub fn add_scaled(&mut self, s: f64, other: &ChainMatrix) {
+    pub(crate) fn add_scaled(&mut self, s: f64, other: &ChainMatrix) {
         for (a, b) in self.diag.iter_mut().zip(&other.diag) {
             *a += b * s;
         }
@@ -296,7 +296,7 @@ impl ChainElimination {
 
     /// The inverse pivot blocks D'⁻¹_j, every cable's nodes in turn (each has the inertia of its
     /// pivot block).
-    pub fn inverse_pivots(&self) -> &[Mat3] {
+    pub(crate) fn inverse_pivots(&self) -> &[Mat3] {
         &self.dinv
     }
 
@@ -378,7 +378,7 @@ impl ChainElimination {
     /// no node carries a right-hand side (a load on the cabin alone): `x_first = F·x_c`,
     /// `x_last = L·x_c`; returns (F, L). The back substitution with a zero right-hand side,
     /// multiplied out once.
-    pub fn end_response(&self, cable: usize) -> (Matrix3x6<f64>, Matrix3x6<f64>) {
+    pub(crate) fn end_response(&self, cable: usize) -> (Matrix3x6<f64>, Matrix3x6<f64>) {
         let m = self.nodes;
         if m == 0 {
             return (Matrix3x6::zeros(), Matrix3x6::zeros());
@@ -453,7 +453,7 @@ impl ChainFactor {
     }
 
     /// Every number of the factorization, for saving a simulation state.
-    pub fn encode(&self, out: &mut Vec<f64>) {
+    pub(crate) fn encode(&self, out: &mut Vec<f64>) {
         out.push(if self.cabin_lu.is_some() { 1.0 } else { 0.0 });
         self.chains.encode(out);
         out.extend_from_slice(self.condensed.as_slice());
@@ -468,7 +468,7 @@ impl ChainFactor {
     }
 
     /// As [`ChainFactor::decode`], into this factorization's storage (same shape; no allocation).
-    pub fn decode_into(&mut self, data: &[f64]) -> Result<(), FactorError> {
+    pub(crate) fn decode_into(&mut self, data: &[f64]) -> Result<(), FactorError> {
         let chain_len = self.chains.encoded_len();
         let expected = 1 + chain_len + 36;
         if data.len() != expected {
@@ -480,7 +480,7 @@ impl ChainFactor {
 
     /// The cabin's part of the solution of `S x = b` when `b` is zero on every node and `load`
     /// on the cabin (its nodes follow from [`ChainFactor::end_response`]).
-    pub fn solve_cabin_load(&self, load: &Vector6<f64>) -> Vector6<f64> {
+    pub(crate) fn solve_cabin_load(&self, load: &Vector6<f64>) -> Vector6<f64> {
         match &self.cabin_lu {
             Some(lu) => lu.solve(load).unwrap_or_else(Vector6::zeros),
             None => Vector6::zeros(),
@@ -488,7 +488,7 @@ impl ChainFactor {
     }
 
     /// See [`ChainElimination::end_response`].
-    pub fn end_response(&self, cable: usize) -> (Matrix3x6<f64>, Matrix3x6<f64>) {
+    pub(crate) fn end_response(&self, cable: usize) -> (Matrix3x6<f64>, Matrix3x6<f64>) {
         self.chains.end_response(cable)
     }
 
@@ -496,7 +496,7 @@ impl ChainFactor {
     /// elimination is a congruence, so by Sylvester's law of inertia the pivot blocks (the
     /// eliminated node blocks and the condensed cabin block) carry the matrix's inertia. With the
     /// cabin held fixed, of the node part only. Eigen solvers use it as a Sturm count.
-    pub fn negative_eigenvalues(&self) -> usize {
+    pub(crate) fn negative_eigenvalues(&self) -> usize {
         let negative = |eig: &[f64]| eig.iter().filter(|&&l| l < 0.0).count();
         let nodes: usize = self
             .chains
@@ -524,14 +524,14 @@ impl ChainFactor {
 
 /// A 3-vector from a slice of three.
 #[inline]
-pub fn vec3(v: &[f64]) -> Vec3 {
+pub(crate) fn vec3(v: &[f64]) -> Vec3 {
     let v: &[f64; 3] = v.try_into().expect("three entries");
     Vec3::new(v[0], v[1], v[2])
 }
 
 /// Adds a 3-vector to a slice of three.
 #[inline]
-pub fn add_to(v: &mut [f64], x: &Vec3) {
+pub(crate) fn add_to(v: &mut [f64], x: &Vec3) {
     let v: &mut [f64; 3] = v.try_into().expect("three entries");
     v[0] += x.x;
     v[1] += x.y;
@@ -539,7 +539,7 @@ pub fn add_to(v: &mut [f64], x: &Vec3) {
 }
 
 #[inline]
-pub fn get3(v: &[f64], node: usize) -> Vec3 {
+pub(crate) fn get3(v: &[f64], node: usize) -> Vec3 {
     Vec3::new(v[3 * node], v[3 * node + 1], v[3 * node + 2])
 }
 

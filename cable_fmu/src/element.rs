@@ -33,7 +33,7 @@ impl Bar {
         if length > l0 { delta * (ea * (length - l0) / (l0 * length)) } else { Vec3::zeros() }
     }
 
-    pub fn is_slack(&self) -> bool {
+    pub(crate) fn is_slack(&self) -> bool {
         self.force == 0.0
     }
 

@@ -36,7 +36,7 @@ use crate::dynamics::{CabinDelta, Dynamics};
 use crate::model::{CableCabin, Payload};
 
 /// Cables the FMU exposes (the LT50m net).
-pub const CABLES: usize = 6;
+pub(crate) const CABLES: usize = 6;
 /// The scene used unless the `scene` parameter names another one.
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
 /// Identifies the variable table: change it whenever the table changes.

@@ -193,7 +193,7 @@ impl CableCabin {
     /// As [`CableCabin::dynamics_with`], the cabin starting with `cabin_velocity` (velocity of
     /// its centre point and angular velocity, world frame; see [`CableCabin::start_twist`]); the
     /// cable nodes start at rest.
-    pub fn dynamics_from(
+    pub(crate) fn dynamics_from(
         &self,
         payload: Payload,
         t0: f64,

@@ -84,7 +84,7 @@ pub struct Dropped {
 
 /// The cabin's rotation–rotation stiffness from the cable-end forces turning with their arms,
 /// `Σ [pᵢ]×[dᵢ]×` (as `System::assemble` adds it), and from the weight, `−[m g]×[c]×`.
-pub fn rotational_load_stiffness(sys: &System, cfg: &Config) -> (Matrix3<f64>, Matrix3<f64>) {
+pub(crate) fn rotational_load_stiffness(sys: &System, cfg: &Config) -> (Matrix3<f64>, Matrix3<f64>) {
     let (m, ea) = (sys.free_nodes(), sys.net.spec.ea);
     let mut cables = Matrix3::zeros();
     for i in 0..sys.cables() {

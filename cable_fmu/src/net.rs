@@ -56,7 +56,7 @@ impl CableNet {
     }
 
     /// Mass lumped at each end node of cable `i` (half an element).
-    pub fn end_node_mass(&self, length: f64) -> f64 {
+    pub(crate) fn end_node_mass(&self, length: f64) -> f64 {
         0.5 * self.spec.mass_per_length * length / self.spec.elements as f64
     }
 }

@@ -21,14 +21,14 @@ pub struct ChainStatics {
 }
 
 impl ChainStatics {
-    pub fn first_tension(&self) -> f64 {
+    pub(crate) fn first_tension(&self) -> f64 {
         self.tension[0].norm()
     }
-    pub fn last_tension(&self) -> f64 {
+    pub(crate) fn last_tension(&self) -> f64 {
         self.tension[self.tension.len() - 1].norm()
     }
     /// Force the cable exerts on its second end point.
-    pub fn force_on_second_end(&self) -> Vec3 {
+    pub(crate) fn force_on_second_end(&self) -> Vec3 {
         -self.tension[self.tension.len() - 1]
     }
 }

@@ -100,7 +100,7 @@ pub fn form_find(net: &CableNet, position: Vec3, orientation: Quat) -> Result<Eq
 /// As [`form_find`], with the cabin carrying the `external` wrench (force; moment about the cabin
 /// centre point; world frame) in place of the payload's weight: what an external platform
 /// exerts on it (co-simulation).
-pub fn form_find_under(
+pub(crate) fn form_find_under(
     net: &CableNet,
     position: Vec3,
     orientation: Quat,
@@ -115,7 +115,7 @@ pub fn form_find_under(
 /// `[cable][0 anchor end, 1 cabin end][wrench component]`. Exact: the lengths move by
 /// `−J⁻¹ δW` (J the length Jacobian of the cabin equations), each cable's end tensions with
 /// its length through the shooting sensitivity.
-pub fn tension_wrench_sensitivity(net: &CableNet, eq: &Equilibrium) -> Result<Vec<[[f64; 6]; 2]>, StaticsError> {
+pub(crate) fn tension_wrench_sensitivity(net: &CableNet, eq: &Equilibrium) -> Result<Vec<[[f64; 6]; 2]>, StaticsError> {
     let n = net.cable_count();
     let singular = || StaticsError::NoConvergence {
         residual: eq.residual,

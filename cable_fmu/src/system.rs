@@ -198,7 +198,7 @@ impl System {
     /// Change of the end tensions (anchor end, cabin end) per cable for a change `du` of the
     /// configuration (node displacements, cabin displacement and world-frame rotation;
     /// tension-only: a slack element stays at zero).
-    pub fn end_tension_sensitivity(&self, cfg: &Config, du: &[f64]) -> Vec<(f64, f64)> {
+    pub(crate) fn end_tension_sensitivity(&self, cfg: &Config, du: &[f64]) -> Vec<(f64, f64)> {
         let (m, ea) = (self.free_nodes(), self.net.spec.ea);
         let c0 = self.cabin_offset();
         let (dr, dth) = (get3(du, c0 / 3), get3(du, c0 / 3 + 1));

@@ -32,7 +32,7 @@ const ERROR_CONSTANT: f64 = 6.0;
 const MEMORY: usize = 32;
 
 /// The order in h of the error norm (error per unit step of a second-order stepper).
-pub const ORDER: u32 = 2;
+pub(crate) const ORDER: u32 = 2;
 
 /// Accepted values of the watched quantities, newest first, and what the estimate remembers.
 #[derive(Clone, Debug)]
@@ -74,7 +74,7 @@ impl ErrorEstimate {
         }
     }
 
-    pub fn is_started(&self) -> bool {
+    pub(crate) fn is_started(&self) -> bool {
         self.started
     }
 
@@ -89,12 +89,12 @@ impl ErrorEstimate {
     }
 
     /// Whether there is history enough to judge a step (three accepted points).
-    pub fn can_judge(&self) -> bool {
+    pub(crate) fn can_judge(&self) -> bool {
         self.count >= 3
     }
 
     /// Where the values of the step being judged go.
-    pub fn candidate_mut(&mut self) -> &mut [f64] {
+    pub(crate) fn candidate_mut(&mut self) -> &mut [f64] {
         &mut self.candidate
     }
 

@@ -119,7 +119,7 @@ impl Accelerator {
     }
 
     /// A new time window: forget the last iterate and the windows beyond the reuse limit.
-    pub fn start_window(&mut self) {
+    pub(crate) fn start_window(&mut self) {
         self.window += 1;
         self.has_last = false;
         let keep_from = self.window.saturating_sub(self.options.reuse as u64);
@@ -130,7 +130,7 @@ impl Accelerator {
     }
 
     /// The window failed or was rejected: forget its secants.
-    pub fn discard_window(&mut self) {
+    pub(crate) fn discard_window(&mut self) {
         while self.cols.front().is_some_and(|c| c.window == self.window) {
             let c = self.cols.pop_front().expect("checked");
             self.spare.push(c);

@@ -99,7 +99,7 @@ impl Controller {
     }
 
     /// The step to try next.
-    pub fn next_step(&self) -> f64 {
+    pub(crate) fn next_step(&self) -> f64 {
         self.h_next
     }
 

@@ -67,7 +67,7 @@ impl MassProperties {
     }
 
     /// Inertia about `point` (parallel-axis theorem).
-    pub fn inertia_about(&self, point: &Vec3) -> Mat3 {
+    pub(crate) fn inertia_about(&self, point: &Vec3) -> Mat3 {
         let d = self.com - point;
         self.inertia_com + (Mat3::identity() * d.norm_squared() - d * d.transpose()) * self.mass
     }

@@ -567,10 +567,10 @@ const MESSAGE_CHARS: usize = 160;
 /// error times its condition); above 1e-6 the converged motion moves by more than the agreement
 /// of the coupling schemes the tool compares (at C over 10 s: 1e-6 moves the peak by 3e-5 mm,
 /// 1e-5 by 6e-4 mm, 1e-3 stops the run).
-pub const NEWTON_TOL_RANGE: (f64, f64) = (1e-14, 1e-6);
+pub(crate) const NEWTON_TOL_RANGE: (f64, f64) = (1e-14, 1e-6);
 /// Largest `solver.newton_max_iter`: Newton converges in 2–4 iterations here; a step that needs
 /// hundreds will not converge, and a huge limit only delays the error.
-pub const NEWTON_MAX_ITER: usize = 1000;
+pub(crate) const NEWTON_MAX_ITER: usize = 1000;
 
 /// Tolerance on the norm of a unit quaternion or a unit axis given in a scene.
 const UNIT_TOLERANCE: f64 = 1e-6;

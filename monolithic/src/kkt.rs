@@ -43,7 +43,7 @@ pub enum KktError {
 }
 
 /// Names of the bodies in the Stewart crate's order, the cabin last.
-pub const BODY_NAMES: [&str; SYSTEM_BODIES] = [
+pub(crate) const BODY_NAMES: [&str; SYSTEM_BODIES] = [
     "the Stewart platform",
     "the upper part of leg 1",
     "the upper part of leg 2",

@@ -95,12 +95,12 @@ impl Model {
     }
 
     /// Unknowns of the cable–cabin part (free nodes, then the cabin).
-    pub fn cable_dim(&self) -> usize {
+    pub(crate) fn cable_dim(&self) -> usize {
         self.system.dim()
     }
 
     /// Motion unknowns: the cable–cabin part, then 6 per Stewart body.
-    pub fn motion_dim(&self) -> usize {
+    pub(crate) fn motion_dim(&self) -> usize {
         self.cable_dim() + 6 * BODIES
     }
 

@@ -47,12 +47,12 @@ pub const PLATFORM: usize = 0;
 pub const ROWS_PER_LEG: usize = 13;
 pub const CONSTRAINTS: usize = LEGS * ROWS_PER_LEG;
 
-pub const HOOKE_POSITION: usize = 0;
-pub const HOOKE_ROTATION: usize = 3;
-pub const PRISMATIC_TRANSLATION: usize = 4;
-pub const PRISMATIC_ROTATION: usize = 6;
+pub(crate) const HOOKE_POSITION: usize = 0;
+pub(crate) const HOOKE_ROTATION: usize = 3;
+pub(crate) const PRISMATIC_TRANSLATION: usize = 4;
+pub(crate) const PRISMATIC_ROTATION: usize = 6;
 pub const DRIVING: usize = 9;
-pub const SPHERICAL: usize = 10;
+pub(crate) const SPHERICAL: usize = 10;
 
 /// Body index of the upper part of leg `k` (0-based).
 pub const fn upper(k: usize) -> usize {
@@ -174,7 +174,7 @@ impl Joints {
     }
 
     /// Spherical joint centre of leg `k`, world frame, from the lower part's pose.
-    pub fn sphere_center(&self, k: usize, lower: &RigidMotion) -> Vec3 {
+    pub(crate) fn sphere_center(&self, k: usize, lower: &RigidMotion) -> Vec3 {
         lower.position + lower.orientation * self.legs[k].sphere_in_lower
     }
 

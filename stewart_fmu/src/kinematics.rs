@@ -18,7 +18,7 @@ pub fn leg_lengths(geometry: &StewartGeometry, center: &Vec3, rotation: &Mat3) -
 
 /// ∂ℓ/∂(δc, δθ): row k is (u_k, (R P_k) × u_k). Its transpose maps the six leg tensions to the
 /// wrench the legs exert on the platform (about its centre), with a minus sign.
-pub fn leg_jacobian(geometry: &StewartGeometry, center: &Vec3, rotation: &Mat3) -> Matrix6<f64> {
+pub(crate) fn leg_jacobian(geometry: &StewartGeometry, center: &Vec3, rotation: &Mat3) -> Matrix6<f64> {
     let mut j = Matrix6::zeros();
     for k in 0..LEGS {
         let arm = rotation * geometry.platform_joints[k];
@@ -30,7 +30,7 @@ pub fn leg_jacobian(geometry: &StewartGeometry, center: &Vec3, rotation: &Mat3) 
 }
 
 /// Ratio of the largest to the smallest singular value (∞ when singular).
-pub fn condition_number(j: &Matrix6<f64>) -> f64 {
+pub(crate) fn condition_number(j: &Matrix6<f64>) -> f64 {
     let s = j.singular_values();
     let (max, min) = (s.max(), s.min());
     if min > 0.0 { max / min } else { f64::INFINITY }

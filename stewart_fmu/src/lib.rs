@@ -214,7 +214,7 @@ impl Stewart {
 
     /// The motion of all bodies relative to the cabin with the platform centre at `point`
     /// (cabin frame) at time `t`.
-    pub fn relative_at(&self, point: &PathPoint, t: f64) -> Result<RelativeState, StewartError> {
+    pub(crate) fn relative_at(&self, point: &PathPoint, t: f64) -> Result<RelativeState, StewartError> {
         if !t.is_finite() {
             return Err(StewartError::Input { what: "time".into(), value: t.to_string() });
         }
@@ -309,7 +309,7 @@ impl Stewart {
 
     /// [`Stewart::wrench_with_jacobians`] with the platform centre at `point` (cabin frame); the
     /// Jacobians are at fixed relative motion.
-    pub fn wrench_with_jacobians_at(
+    pub(crate) fn wrench_with_jacobians_at(
         &self,
         cabin: &CabinMotion,
         point: &PathPoint,
@@ -354,7 +354,7 @@ impl Stewart {
     }
 
     /// [`Stewart::system_motion`] with the platform centre at `point` (cabin frame).
-    pub fn system_motion_at(
+    pub(crate) fn system_motion_at(
         &self,
         cabin: &CabinMotion,
         point: &PathPoint,
@@ -400,7 +400,12 @@ impl Stewart {
     }
 
     /// [`Stewart::evaluate`] with the platform centre at `point` (cabin frame).
-    pub fn evaluate_at(&self, cabin: &CabinMotion, point: &PathPoint, t: f64) -> Result<Evaluation, StewartError> {
+    pub(crate) fn evaluate_at(
+        &self,
+        cabin: &CabinMotion,
+        point: &PathPoint,
+        t: f64,
+    ) -> Result<Evaluation, StewartError> {
         let system = self.system_motion_at(cabin, point, t)?;
         let mut rows = [ConstraintRow::EMPTY; CONSTRAINTS];
         let strokes = self.strokes_at(point, t)?;

@@ -39,7 +39,7 @@ impl Wrench {
         Vector6::new(self.force.x, self.force.y, self.force.z, self.moment.x, self.moment.y, self.moment.z)
     }
 
-    pub fn from_vector(v: &Vector6<f64>) -> Self {
+    pub(crate) fn from_vector(v: &Vector6<f64>) -> Self {
         Self { force: v.fixed_rows::<3>(0).into_owned(), moment: v.fixed_rows::<3>(3).into_owned() }
     }
 }

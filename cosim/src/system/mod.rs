@@ -56,7 +56,7 @@ impl Layout {
     }
 
     /// The unit that owns entry `y` of `Y`.
-    pub fn owner_of_output(&self, y: usize) -> Option<usize> {
+    pub(crate) fn owner_of_output(&self, y: usize) -> Option<usize> {
         self.units.iter().position(|u| u.outputs.contains(&y))
     }
 
@@ -70,7 +70,7 @@ impl Layout {
     /// input takes an output that responds at once to the one before (direct feedthrough all
     /// the way round), so no unit's outputs can be computed before the others'. Returns the
     /// inputs of the first loop found, in order.
-    pub fn algebraic_loop(&self) -> Option<Vec<usize>> {
+    pub(crate) fn algebraic_loop(&self) -> Option<Vec<usize>> {
         // input i → every input fed by an output that feeds through from i
         let next: Vec<Vec<usize>> = (0..self.inputs())
             .map(|i| {
@@ -120,7 +120,7 @@ impl Layout {
 
     /// A loop of [`Layout::algebraic_loop`] as text: every input, then the output it feeds
     /// through to, back to the first input.
-    pub fn describe_loop(&self, inputs: &[usize]) -> String {
+    pub(crate) fn describe_loop(&self, inputs: &[usize]) -> String {
         let mut text = String::new();
         for (n, &i) in inputs.iter().enumerate() {
             let next = inputs[(n + 1) % inputs.len()];

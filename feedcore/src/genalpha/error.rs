@@ -74,4 +74,4 @@ pub enum OptionsError {
 /// monolithic model at C (100 s; smallest length 0.4 m): against newton_tol = 1e-10 the cabin
 /// path moves by 5e-6 of its peak at 1e-7 m, 8e-5 at 1e-5 m, 4e-3 at 1e-4 m and 57 % at 1e-3 m
 /// (issue 10: 0.1 gave 67 mm instead of 1.66 mm and NaN rows before this bound).
-pub const RELATIVE_TOLERANCE_BOUND: f64 = 1e-5;
+pub(crate) const RELATIVE_TOLERANCE_BOUND: f64 = 1e-5;

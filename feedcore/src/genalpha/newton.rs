@@ -33,10 +33,10 @@ use super::state::{State, Workspace};
 /// 6 % less work at 0.25 than at 0.05 — and at 0.05 its outputs turn rough where a cable goes
 /// slack, so that IJCSA's interface Newton stalls (tests/slack.rs of the master). 0.1 keeps that
 /// robustness at 5 % more monolithic work than the optimum.
-pub const SLOW_CONTRACTION: f64 = 0.1;
+pub(crate) const SLOW_CONTRACTION: f64 = 0.1;
 /// A matrix refreshed in this step that still contracts by less than this has met an element at
 /// its slack limit: from then on the exact tangent (the first matrix of the old cable model).
-pub const STILL_SLOW: f64 = 0.25;
+pub(crate) const STILL_SLOW: f64 = 0.25;
 /// The error estimate ρ/(1−ρ)·|δ| is trusted below this contraction.
 const FAST_CONTRACTION: f64 = 0.2;
 /// Halvings of one correction at most while backtracking.
@@ -44,11 +44,11 @@ const BACKTRACKS: usize = 12;
 /// Residuals below this (N, N·m) are round-off of the forces involved: no backtracking.
 const RESIDUAL_FLOOR: f64 = 1e-6;
 /// A step that fails is retaken as halves, down to 1/2^HALVINGS of it.
-pub const HALVINGS: u32 = 6;
+pub(crate) const HALVINGS: u32 = 6;
 /// Constraint residual allowed at acceptance, in Newton tolerances: a converged position error
 /// below the tolerance moves a joint point by less than (1 + lever arm) tolerances, a few for
 /// the arms here; a hundred leaves a margin of ten.
-pub const CONSTRAINT_BOUND: f64 = 100.0;
+pub(crate) const CONSTRAINT_BOUND: f64 = 100.0;
 
 /// Newton settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -349,7 +349,7 @@ impl Integrator {
 }
 
 /// Largest magnitude; NaN if any entry is not finite (a plain `f64::max` would skip NaN).
-pub fn max_abs(v: &[f64]) -> f64 {
+pub(crate) fn max_abs(v: &[f64]) -> f64 {
     // Four lanes, so that it vectorizes; `x·0` is 0 for a finite x and NaN otherwise.
     let (mut m, mut zero) = ([0.0f64; 4], [0.0f64; 4]);
     let chunks = v.chunks_exact(4);
