@@ -3,9 +3,21 @@
 //! otherwise).
 
 use super::{Coupled, JacobianUpdate, StepReport};
-use crate::dense::solve_in_place;
+use std::ops::Range;
+
 use crate::error::StepError;
-use crate::system::Units;
+use crate::system::{Layout, Units};
+
+/// The inputs the interface Newton system eliminates first: those of the unit with the most
+/// inputs none of which takes one of its own outputs (their block of `C ∂Y/∂U` is then zero,
+/// ∂Y/∂U being block diagonal over the units); none if every unit feeds itself.
+pub(super) fn eliminated_first(l: &Layout) -> Range<usize> {
+    l.units
+        .iter()
+        .filter(|u| !u.inputs.clone().any(|i| u.outputs.contains(&l.source[i])))
+        .max_by_key(|u| u.inputs.len())
+        .map_or(0..0, |u| u.inputs.clone())
+}
 
 impl<S: Units> Coupled<S> {
     pub(super) fn step_ijcsa(&mut self, t: f64, h: f64) -> Result<StepReport, StepError> {
@@ -30,15 +42,16 @@ impl<S: Units> Coupled<S> {
             }
             last_res = res;
             // Newton: (I − C ∂Y/∂U) ΔU = C Y − U, in place
-            let Coupled { work, units, dydu, .. } = self;
+            let Coupled { work, units, dydu, interface, .. } = self;
             let l = units.layout();
             let n = work.r.len();
             for i in 0..n {
-                for j in 0..n {
-                    work.newton[i * n + j] = f64::from(u8::from(i == j)) - l.gain[i] * dydu[l.source[i] * n + j];
+                let (row, from) = (&mut work.newton[i * n..(i + 1) * n], &dydu[l.source[i] * n..(l.source[i] + 1) * n]);
+                for (m, d) in row.iter_mut().zip(from) {
+                    *m = l.gain[i] * d;
                 }
             }
-            if !solve_in_place(&mut work.newton, n, &mut work.r) {
+            if !interface.solve(&work.newton, &mut work.r) {
                 return Err(self.failed(t + h, "the interface Jacobian is singular"));
             }
             for (g, d) in work.guess.iter_mut().zip(&work.r) {

@@ -22,6 +22,7 @@ mod iqn;
 
 pub use adaptive::AdaptiveStep;
 
+use crate::dense::IdentityMinus;
 use crate::error::StepError;
 use crate::iqn::{Accelerator, IqnOptions};
 use crate::system::{UnitError, Units};
@@ -132,6 +133,8 @@ pub struct Coupled<S: Units> {
     /// Interface Jacobian ∂Y/∂U (block diagonal over the units), row-major ny × nu.
     dydu: Vec<f64>,
     has_jacobian: bool,
+    /// The interface Newton system's solver (a unit's inputs eliminated first where it can).
+    interface: IdentityMinus,
     /// The order in which Gauss–Seidel-type schemes step the units.
     order: Vec<usize>,
     iqn: Accelerator,
@@ -175,6 +178,8 @@ impl<S: Units> Coupled<S> {
                 source: Box::new(e),
             })?;
         }
+        let units_layout = units.layout();
+        let interface = IdentityMinus::new(nu, ijcsa::eliminated_first(units_layout));
         let mut c = Coupled {
             iqn: Accelerator::new(nu, options.iqn),
             iqn_before: Accelerator::new(nu, options.iqn),
@@ -187,6 +192,7 @@ impl<S: Units> Coupled<S> {
             has_prev: false,
             dydu: vec![0.0; ny * nu],
             has_jacobian: false,
+            interface,
             order: Vec::new(),
             work: Work::new(nu, ny),
         };
@@ -457,7 +463,7 @@ struct Work {
     end: Vec<f64>,
     seed: Vec<f64>,
     col: Vec<f64>,
-    /// The interface Newton matrix, row-major.
+    /// The interface Newton matrix's coupling part `C ∂Y/∂U`, row-major.
     newton: Vec<f64>,
     /// Scaled iterate and fixed-point image for the quasi-Newton update.
     x: Vec<f64>,
