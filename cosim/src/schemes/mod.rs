@@ -82,7 +82,10 @@ pub enum Relaxation {
 pub enum JacobianUpdate {
     /// Recomputed at the first iteration of every step.
     EveryStep,
-    /// Kept across steps while Newton contracts well (quasi-Newton); recomputed otherwise.
+    /// Kept across steps and updated by Broyden's secant from each step's iterates; a unit
+    /// whose block misses the secant by more than 1e-3 is recomputed at every step's first
+    /// iteration from then on, every unit's when Newton contracts by less than 10× (best with
+    /// linear extrapolation: a smaller first residual asks less of a reused Jacobian).
     Reuse,
 }
 
@@ -133,6 +136,8 @@ pub struct Coupled<S: Units> {
     /// Interface Jacobian ∂Y/∂U (block diagonal over the units), row-major ny × nu.
     dydu: Vec<f64>,
     has_jacobian: bool,
+    /// Units whose reused Jacobian block went stale: recomputed every step (`reuse`).
+    volatile: Vec<bool>,
     /// The interface Newton system's solver (a unit's inputs eliminated first where it can).
     interface: IdentityMinus,
     /// The order in which Gauss–Seidel-type schemes step the units.
@@ -180,6 +185,7 @@ impl<S: Units> Coupled<S> {
         }
         let units_layout = units.layout();
         let interface = IdentityMinus::new(nu, ijcsa::eliminated_first(units_layout));
+        let volatile = vec![false; units_layout.units.len()];
         let mut c = Coupled {
             iqn: Accelerator::new(nu, options.iqn),
             iqn_before: Accelerator::new(nu, options.iqn),
@@ -192,6 +198,7 @@ impl<S: Units> Coupled<S> {
             has_prev: false,
             dydu: vec![0.0; ny * nu],
             has_jacobian: false,
+            volatile,
             interface,
             order: Vec::new(),
             work: Work::new(nu, ny),
@@ -465,6 +472,9 @@ struct Work {
     col: Vec<f64>,
     /// The interface Newton matrix's coupling part `C ∂Y/∂U`, row-major.
     newton: Vec<f64>,
+    /// IJCSA's last iterate and its outputs (the secant of a reused Jacobian).
+    u_it: Vec<f64>,
+    y_it: Vec<f64>,
     /// Scaled iterate and fixed-point image for the quasi-Newton update.
     x: Vec<f64>,
     xt: Vec<f64>,
@@ -481,6 +491,8 @@ impl Work {
             seed: vec![0.0; nu],
             col: vec![0.0; ny],
             newton: vec![0.0; nu * nu],
+            u_it: vec![0.0; nu],
+            y_it: vec![0.0; ny],
             x: vec![0.0; nu],
             xt: vec![0.0; nu],
         }
