@@ -43,6 +43,8 @@ pub struct IdentityMinus {
     q: Vec<usize>,
     reduced: Vec<f64>,
     rhs: Vec<f64>,
+    /// `M_pq`, |p| × |q|.
+    mpq: Vec<f64>,
 }
 
 impl IdentityMinus {
@@ -52,7 +54,8 @@ impl IdentityMinus {
         assert!(p.end <= n, "the eliminated block {p:?} lies outside the {n} unknowns");
         let q: Vec<usize> = (0..n).filter(|i| !p.contains(i)).collect();
         let nq = q.len();
-        IdentityMinus { n, p, q, reduced: vec![0.0; nq * nq], rhs: vec![0.0; nq] }
+        let mpq = vec![0.0; p.len() * nq];
+        IdentityMinus { n, p, q, reduced: vec![0.0; nq * nq], rhs: vec![0.0; nq], mpq }
     }
 
     /// The unknowns solved densely.
@@ -62,34 +65,46 @@ impl IdentityMinus {
 
     /// `b` becomes x; false if the (reduced) matrix is singular.
     pub fn solve(&mut self, m: &[f64], b: &mut [f64]) -> bool {
-        let (n, nq) = (self.n, self.q.len());
+        let n = self.n;
         debug_assert!(m.len() == n * n && b.len() == n);
-        let IdentityMinus { p, q, reduced, rhs, .. } = self;
+        self.solve_by_rows(|i| (1.0, &m[i * n..(i + 1) * n]), b)
+    }
+
+    /// As [`IdentityMinus::solve`] with row i of `M` given as `(g, r)`: `M_ij = g · r_j` (the
+    /// interface: an input's gain times its source output's row of ∂Y/∂U, no n × n copy).
+    pub fn solve_by_rows<'m>(&mut self, row: impl Fn(usize) -> (f64, &'m [f64]), b: &mut [f64]) -> bool {
+        let nq = self.q.len();
+        let IdentityMinus { p, q, reduced, rhs, mpq, .. } = self;
+        // M_pq, compact
+        for (k, i) in p.clone().enumerate() {
+            let (g, r) = row(i);
+            for (x, &qc) in mpq[k * nq..(k + 1) * nq].iter_mut().zip(q.iter()) {
+                *x = g * r[qc];
+            }
+        }
         for (a, &qa) in q.iter().enumerate() {
-            let row = &m[qa * n..(qa + 1) * n];
+            let (g, r) = row(qa);
             let out = &mut reduced[a * nq..(a + 1) * nq];
             for (c, &qc) in q.iter().enumerate() {
-                out[c] = f64::from(u8::from(a == c)) - row[qc];
+                out[c] = f64::from(u8::from(a == c)) - g * r[qc];
             }
-            let mut r = b[qa];
-            for i in p.clone() {
-                let mqi = row[i];
+            let mut ra = b[qa];
+            for (k, i) in p.clone().enumerate() {
+                let mqi = g * r[i];
                 if mqi != 0.0 {
-                    let pi = &m[i * n..(i + 1) * n];
-                    for (c, &qc) in q.iter().enumerate() {
-                        out[c] -= mqi * pi[qc];
+                    for (o, x) in out.iter_mut().zip(&mpq[k * nq..(k + 1) * nq]) {
+                        *o -= mqi * x;
                     }
-                    r += mqi * b[i];
+                    ra += mqi * b[i];
                 }
             }
-            rhs[a] = r;
+            rhs[a] = ra;
         }
         if !solve_in_place(reduced, nq, rhs) {
             return false;
         }
-        for i in p.clone() {
-            let pi = &m[i * n..(i + 1) * n];
-            b[i] += q.iter().zip(rhs.iter()).map(|(&qc, x)| pi[qc] * x).sum::<f64>();
+        for (k, i) in p.clone().enumerate() {
+            b[i] += mpq[k * nq..(k + 1) * nq].iter().zip(rhs.iter()).map(|(m, x)| m * x).sum::<f64>();
         }
         for (&qa, x) in q.iter().zip(rhs.iter()) {
             b[qa] = *x;

@@ -15,6 +15,9 @@ use crate::system::{Layout, Units};
 /// (tolerance 1e-8 against a first residual of 4e-6).
 const STALE: f64 = 1e-3;
 
+/// How many steps a unit found stale has its block recomputed before it is tried again.
+const VOLATILE_STEPS: u32 = 100;
+
 /// The inputs the interface Newton system eliminates first: those of the unit with the most
 /// inputs none of which takes one of its own outputs (their block of `C ∂Y/∂U` is then zero,
 /// ∂Y/∂U being block diagonal over the units); none if every unit feeds itself.
@@ -52,7 +55,8 @@ impl<S: Units> Coupled<S> {
                 fresh_jacobian = true;
             } else if reuse && it == 1 {
                 for k in 0..self.volatile.len() {
-                    if self.volatile[k] {
+                    if self.volatile[k] > 0 {
+                        self.volatile[k] -= 1;
                         self.unit_jacobian(t, h, k)?;
                     }
                 }
@@ -66,13 +70,8 @@ impl<S: Units> Coupled<S> {
             let Coupled { work, units, dydu, interface, .. } = self;
             let l = units.layout();
             let n = work.r.len();
-            for i in 0..n {
-                let (row, from) = (&mut work.newton[i * n..(i + 1) * n], &dydu[l.source[i] * n..(l.source[i] + 1) * n]);
-                for (m, d) in row.iter_mut().zip(from) {
-                    *m = l.gain[i] * d;
-                }
-            }
-            if !interface.solve(&work.newton, &mut work.r) {
+            let row = |i: usize| (l.gain[i], &dydu[l.source[i] * n..(l.source[i] + 1) * n]);
+            if !interface.solve_by_rows(row, &mut work.r) {
                 return Err(self.failed(t + h, "the interface Jacobian is singular"));
             }
             for (g, d) in work.guess.iter_mut().zip(&work.r) {
@@ -90,7 +89,8 @@ impl<S: Units> Coupled<S> {
     /// (each scaled) is volatile: its block is recomputed at every step's first iteration from
     /// then on.
     fn secant_update(&mut self) {
-        let Coupled { units, work, dydu, y, volatile, .. } = self;
+        let Coupled { units, work, dydu, y, volatile, options, .. } = self;
+        let tol = options.tol;
         let l = units.layout();
         let nu = work.r.len();
         for (k, u) in l.units.iter().enumerate() {
@@ -117,8 +117,8 @@ impl<S: Units> Coupled<S> {
                     change = change.max((l.gain[i] * (y[r] - work.y_it[r]) / l.scale[i]).abs());
                 }
             }
-            if miss > STALE * change {
-                volatile[k] = true;
+            if miss > STALE * change && miss > tol {
+                volatile[k] = VOLATILE_STEPS;
             }
             for r in or {
                 let row = &mut dydu[r * nu + ir.start..r * nu + ir.end];

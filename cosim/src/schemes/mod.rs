@@ -136,8 +136,9 @@ pub struct Coupled<S: Units> {
     /// Interface Jacobian ∂Y/∂U (block diagonal over the units), row-major ny × nu.
     dydu: Vec<f64>,
     has_jacobian: bool,
-    /// Units whose reused Jacobian block went stale: recomputed every step (`reuse`).
-    volatile: Vec<bool>,
+    /// Per unit, the steps its block is still recomputed at every first iteration after it was
+    /// found stale (`reuse`).
+    volatile: Vec<u32>,
     /// The interface Newton system's solver (a unit's inputs eliminated first where it can).
     interface: IdentityMinus,
     /// The order in which Gauss–Seidel-type schemes step the units.
@@ -185,7 +186,7 @@ impl<S: Units> Coupled<S> {
         }
         let units_layout = units.layout();
         let interface = IdentityMinus::new(nu, ijcsa::eliminated_first(units_layout));
-        let volatile = vec![false; units_layout.units.len()];
+        let volatile = vec![0; units_layout.units.len()];
         let mut c = Coupled {
             iqn: Accelerator::new(nu, options.iqn),
             iqn_before: Accelerator::new(nu, options.iqn),
@@ -470,8 +471,6 @@ struct Work {
     end: Vec<f64>,
     seed: Vec<f64>,
     col: Vec<f64>,
-    /// The interface Newton matrix's coupling part `C ∂Y/∂U`, row-major.
-    newton: Vec<f64>,
     /// IJCSA's last iterate and its outputs (the secant of a reused Jacobian).
     u_it: Vec<f64>,
     y_it: Vec<f64>,
@@ -490,7 +489,6 @@ impl Work {
             end: vec![0.0; nu],
             seed: vec![0.0; nu],
             col: vec![0.0; ny],
-            newton: vec![0.0; nu * nu],
             u_it: vec![0.0; nu],
             y_it: vec![0.0; ny],
             x: vec![0.0; nu],
