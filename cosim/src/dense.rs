@@ -82,6 +82,7 @@ impl IdentityMinus {
                 *x = g * r[qc];
             }
         }
+        let bp = &b[p.clone()];
         for (a, &qa) in q.iter().enumerate() {
             let (g, r) = row(qa);
             let out = &mut reduced[a * nq..(a + 1) * nq];
@@ -89,13 +90,13 @@ impl IdentityMinus {
                 out[c] = f64::from(u8::from(a == c)) - g * r[qc];
             }
             let mut ra = b[qa];
-            for (k, i) in p.clone().enumerate() {
-                let mqi = g * r[i];
+            for ((&rk, &bk), mk) in r[p.clone()].iter().zip(bp).zip(mpq.chunks_exact(nq)) {
+                let mqi = g * rk;
                 if mqi != 0.0 {
-                    for (o, x) in out.iter_mut().zip(&mpq[k * nq..(k + 1) * nq]) {
+                    for (o, x) in out.iter_mut().zip(mk) {
                         *o -= mqi * x;
                     }
-                    ra += mqi * b[i];
+                    ra += mqi * bk;
                 }
             }
             rhs[a] = ra;
