@@ -9,7 +9,8 @@ use crate::error::StepError;
 use crate::system::{Layout, Units};
 
 /// A reused (secant-updated) block of ∂Y/∂U whose prediction of a step's correction misses by
-/// more than this fraction of it is recomputed every step. At LT50m C (h = 0.01, linear
+/// more than this fraction of it (and by more than the tolerance) is recomputed at the first
+/// iteration of the next [`VOLATILE_STEPS`] steps. At LT50m C (h = 0.01, linear
 /// extrapolation) the cable FMU's block misses by 1e-5–1e-4, the Stewart FMU's, which follows
 /// the prescribed platform motion, by 2e-3–1e-2; the interface Newton needs about 3e-3
 /// (tolerance 1e-8 against a first residual of 4e-6).
@@ -86,8 +87,8 @@ impl<S: Units> Coupled<S> {
     /// inputs' scales: the reused Jacobian maps the last correction exactly, and the next
     /// step's correction, along a smooth motion, points much the same way. A unit whose block
     /// missed the secant by more than [`STALE`] of the change it made in the inputs it feeds
-    /// (each scaled) is volatile: its block is recomputed at every step's first iteration from
-    /// then on.
+    /// (each scaled) and by more than the tolerance is volatile: its block is recomputed at the
+    /// first iteration of the next [`VOLATILE_STEPS`] steps.
     fn secant_update(&mut self) {
         let Coupled { units, work, dydu, y, volatile, options, .. } = self;
         let tol = options.tol;
@@ -143,49 +144,44 @@ impl<S: Units> Coupled<S> {
     /// Unit `k`'s block of ∂Y/∂U (see [`Coupled::interface_jacobian`]).
     fn unit_jacobian(&mut self, t: f64, h: f64, k: usize) -> Result<(), StepError> {
         let nu = self.work.r.len();
-        {
-            let Coupled { units, work, dydu, .. } = self;
-            let (ir, or) = (units.layout().units[k].inputs.clone(), units.layout().units[k].outputs.clone());
-            let (io, ni, oo, no) = (ir.start, ir.len(), or.start, or.len());
-            let (seed, col) = (&mut work.seed[..ni], &mut work.col[..no]);
-            let res = (|| {
-                if units.capabilities(k).step_derivatives {
-                    for c in 0..ni {
-                        seed.fill(0.0);
-                        seed[c] = 1.0;
-                        units.step_derivative(k, seed, col)?;
-                        for r in 0..no {
-                            dydu[(oo + r) * nu + io + c] = col[r];
-                        }
-                    }
-                    return Ok(());
-                }
-                // central differences, each from the saved state; the nominal step last
+        let Coupled { units, work, dydu, .. } = self;
+        let (ir, or) = (units.layout().units[k].inputs.clone(), units.layout().units[k].outputs.clone());
+        let (io, ni, oo, no) = (ir.start, ir.len(), or.start, or.len());
+        let (seed, col) = (&mut work.seed[..ni], &mut work.col[..no]);
+        let res = (|| {
+            if units.capabilities(k).step_derivatives {
                 for c in 0..ni {
-                    let delta = 1e-6 * units.layout().scale[io + c];
+                    seed.fill(0.0);
+                    seed[c] = 1.0;
+                    units.step_derivative(k, seed, col)?;
                     for r in 0..no {
-                        dydu[(oo + r) * nu + io + c] = 0.0;
-                    }
-                    for sign in [1.0, -1.0] {
-                        work.end[..ni].copy_from_slice(&work.guess[ir.clone()]);
-                        work.end[c] += sign * delta;
-                        units.restore_state(k)?;
-                        units.set_inputs(k, &work.end[..ni])?;
-                        units.do_step(k, t, h)?;
-                        units.get_outputs(k, col)?;
-                        for r in 0..no {
-                            dydu[(oo + r) * nu + io + c] += sign * col[r] / (2.0 * delta);
-                        }
+                        dydu[(oo + r) * nu + io + c] = col[r];
                     }
                 }
-                units.restore_state(k)?;
-                units.set_inputs(k, &work.guess[ir.clone()])?;
-                units.do_step(k, t, h)
-            })();
-            if let Err(e) = res {
-                return Err(self.unit_err(t + h, k, e));
+                return Ok(());
             }
-        }
-        Ok(())
+            // central differences, each from the saved state; the nominal step last
+            for c in 0..ni {
+                let delta = 1e-6 * units.layout().scale[io + c];
+                for r in 0..no {
+                    dydu[(oo + r) * nu + io + c] = 0.0;
+                }
+                for sign in [1.0, -1.0] {
+                    work.end[..ni].copy_from_slice(&work.guess[ir.clone()]);
+                    work.end[c] += sign * delta;
+                    units.restore_state(k)?;
+                    units.set_inputs(k, &work.end[..ni])?;
+                    units.do_step(k, t, h)?;
+                    units.get_outputs(k, col)?;
+                    for r in 0..no {
+                        dydu[(oo + r) * nu + io + c] += sign * col[r] / (2.0 * delta);
+                    }
+                }
+            }
+            units.restore_state(k)?;
+            units.set_inputs(k, &work.guess[ir.clone()])?;
+            units.do_step(k, t, h)
+        })();
+        res.map_err(|e| self.unit_err(t + h, k, e))
     }
 }
