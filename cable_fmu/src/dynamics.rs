@@ -309,8 +309,14 @@ impl Dynamics {
     /// How the state reached by the last step would change with the end-of-step wrench:
     /// `δ(motion, tensions) = ∂/∂W · seed`, from the exact iteration matrix at the converged
     /// state (factorized once per step, on the first call). Before any step, the direct
-    /// feedthrough: only the accelerations respond, through the mass matrix.
-    pub fn wrench_sensitivity(&mut self, seed: &Vector6<f64>) -> Result<CabinDelta, DynamicsError> {
+    /// feedthrough: only the accelerations respond, through the mass matrix. The end tensions'
+    /// response (the chain ends' response to the cabin, once per step, and a pass over the end
+    /// elements per seed) only `with_tensions`; otherwise `tensions` is empty.
+    pub fn wrench_sensitivity(
+        &mut self,
+        seed: &Vector6<f64>,
+        with_tensions: bool,
+    ) -> Result<CabinDelta, DynamicsError> {
         let c0 = self.system.cabin_offset();
         let fixed = self.system.support == Support::Fixed;
         let st = &self.state.motion;
@@ -343,8 +349,7 @@ impl Dynamics {
             );
             let f =
                 self.matrix.factorize(fixed).map_err(|source| DynamicsError::Sensitivity { time: st.time, source })?;
-            self.ends.clear();
-            self.ends.extend((0..self.system.cables()).map(|c| f.end_response(c)));
+            self.ends.clear(); // filled on the first call that asks for tensions
             self.sensitivity = Some(f);
         }
         // r contains −W on the cabin rows: S δu = δW there, and zero on the nodes, whose
@@ -360,8 +365,25 @@ impl Dynamics {
                 angular_velocity: Vec3::zeros(),
                 acceleration: dr,
                 angular_acceleration: dth,
-                tensions: vec![(0.0, 0.0); self.system.cables()],
+                tensions: if with_tensions { vec![(0.0, 0.0); self.system.cables()] } else { Vec::new() },
             });
+        }
+        // the rotation coordinate is an increment inside exp(); the world rotation it makes:
+        let dphi = left_jacobian_so3(&theta) * dth;
+        let motion = |tensions| CabinDelta {
+            position: dr,
+            rotation: dphi,
+            velocity: dr * gp,
+            angular_velocity: dth * gp,
+            acceleration: dr * bp,
+            angular_acceleration: dth * bp,
+            tensions,
+        };
+        if !with_tensions {
+            return Ok(motion(Vec::new()));
+        }
+        if self.ends.is_empty() {
+            self.ends.extend((0..self.system.cables()).map(|c| factor.end_response(c)));
         }
         let m = self.system.free_nodes();
         let du = &mut self.scratch;
@@ -371,20 +393,9 @@ impl Dynamics {
                 du[3 * (c * m + m - 1)..3 * (c * m + m)].copy_from_slice((last * xc).as_slice());
             }
         }
-        // the rotation coordinate is an increment inside exp(); the world rotation it makes:
-        let dphi = left_jacobian_so3(&theta) * dth;
         du[c0..c0 + 3].copy_from_slice(dr.as_slice());
         du[c0 + 3..c0 + 6].copy_from_slice(dphi.as_slice());
-        let tensions = self.system.end_tension_sensitivity(&st.config, du);
-        Ok(CabinDelta {
-            position: dr,
-            rotation: dphi,
-            velocity: dr * gp,
-            angular_velocity: dth * gp,
-            acceleration: dr * bp,
-            angular_acceleration: dth * bp,
-            tensions,
-        })
+        Ok(motion(self.system.end_tension_sensitivity(&st.config, du)))
     }
 
     /// The whole state as numbers (bit for bit), for saving and restoring a simulation.

@@ -345,7 +345,7 @@ impl CableFmu {
             _ => return Err("no step has been taken yet: the step map is defined after fmi2DoStep".into()),
         };
         let q = dy.cabin().orientation.into_inner();
-        let d = dy.wrench_sensitivity(&dw)?;
+        let d = dy.wrench_sensitivity(&dw, at.unknowns.iter().any(|u| is_tension(*u)))?;
         for (o, u) in out.iter_mut().zip(at.unknowns) {
             *o = delta_output(&d, &q, *u).ok_or_else(|| format!("value reference {u} is not an output"))?;
         }

@@ -4,7 +4,7 @@
 
 mod common;
 
-use cable_fmu::dynamics::Dynamics;
+use cable_fmu::dynamics::{CabinDelta, Dynamics};
 use cable_fmu::model::{CableCabin, Payload};
 use common::scene;
 use nalgebra::Vector6;
@@ -79,7 +79,11 @@ fn step_sensitivity_matches_central_differences() {
     for k in 0..6 {
         let mut seed = Vector6::zeros();
         seed[k] = 1.0;
-        let d = dy.wrench_sensitivity(&seed).unwrap();
+        let d = dy.wrench_sensitivity(&seed, true).unwrap();
+        // without tensions: the same motion, no tensions
+        let motion_only = dy.wrench_sensitivity(&seed, false).unwrap();
+        assert!(motion_only.tensions.is_empty());
+        assert_eq!(CabinDelta { tensions: d.tensions.clone(), ..motion_only }, d);
         // Central differences: truncation error grows as eps², round-off as 1/eps (an end tension
         // carries ≈ 1e-8 N of round-off from node coordinates of 30 m); these balance them.
         let eps = if k < 3 { 40.0 } else { 20.0 };

@@ -7,7 +7,10 @@
 //! the two normal modes.
 
 use cosim::step_control::{Controller, Limits, Tolerances};
-use cosim::{Capabilities, Coupled, IqnOptions, Layout, Options, Scheme, StepError, UnitError, UnitLayout, Units};
+use cosim::{
+    Capabilities, Coupled, Extrapolation, IqnOptions, JacobianUpdate, Layout, Options, Scheme, StepError, UnitError,
+    UnitLayout, Units,
+};
 
 const M: f64 = 1.0;
 const K: f64 = 40.0;
@@ -174,6 +177,16 @@ fn implicit_schemes_reach_the_monolithic_trapezoidal_rule() {
         eprintln!("{}: x = ({x1:.9}, {x2:.9}), reference {reference:?}, at most {worst} evaluations", scheme.name());
         assert!((x1 - reference[0]).abs() < 1e-10 && (x2 - reference[1]).abs() < 1e-10, "{}", scheme.name());
     }
+    // IJCSA with its Jacobian reused (a linear, time-invariant step map: the first one stays
+    // exact, and a secant update keeps it so): the same answer, one Newton update per step
+    let mut o = options(Scheme::Ijcsa);
+    (o.jacobian, o.extrapolation) = (JacobianUpdate::Reuse, Extrapolation::Linear);
+    let mut c = Coupled::new(TwoMasses::new(), o).unwrap();
+    let iterations: Vec<usize> = (0..steps).map(|_| c.step(h).unwrap().iterations).collect();
+    let (x1, x2) = (c.outputs()[0], c.outputs()[3]);
+    eprintln!("ijcsa, reused Jacobian: x = ({x1:.9}, {x2:.9}), at most {:?} evaluations", iterations.iter().max());
+    assert!((x1 - reference[0]).abs() < 1e-10 && (x2 - reference[1]).abs() < 1e-10);
+    assert!(iterations.iter().all(|&n| n <= 2), "{iterations:?}");
     // with reuse of past windows the secants of the last steps already span the interface
     let mut c = Coupled::new(TwoMasses::new(), options(Scheme::IqnIls)).unwrap();
     let total: usize = (0..steps).map(|_| c.step(h).unwrap().iterations).sum();

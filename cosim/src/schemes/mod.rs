@@ -22,6 +22,7 @@ mod iqn;
 
 pub use adaptive::AdaptiveStep;
 
+use crate::dense::IdentityMinus;
 use crate::error::StepError;
 use crate::iqn::{Accelerator, IqnOptions};
 use crate::system::{UnitError, Units};
@@ -81,7 +82,10 @@ pub enum Relaxation {
 pub enum JacobianUpdate {
     /// Recomputed at the first iteration of every step.
     EveryStep,
-    /// Kept across steps while Newton contracts well (quasi-Newton); recomputed otherwise.
+    /// Kept across steps and updated by Broyden's secant from each step's iterates; a unit
+    /// whose block misses the secant by more than 1e-3 is recomputed at every step's first
+    /// iteration from then on, every unit's when Newton contracts by less than 10× (best with
+    /// linear extrapolation: a smaller first residual asks less of a reused Jacobian).
     Reuse,
 }
 
@@ -132,6 +136,11 @@ pub struct Coupled<S: Units> {
     /// Interface Jacobian ∂Y/∂U (block diagonal over the units), row-major ny × nu.
     dydu: Vec<f64>,
     has_jacobian: bool,
+    /// Per unit, the steps its block is still recomputed at every first iteration after it was
+    /// found stale (`reuse`).
+    volatile: Vec<u32>,
+    /// The interface Newton system's solver (a unit's inputs eliminated first where it can).
+    interface: IdentityMinus,
     /// The order in which Gauss–Seidel-type schemes step the units.
     order: Vec<usize>,
     iqn: Accelerator,
@@ -175,6 +184,9 @@ impl<S: Units> Coupled<S> {
                 source: Box::new(e),
             })?;
         }
+        let units_layout = units.layout();
+        let interface = IdentityMinus::new(nu, ijcsa::eliminated_first(units_layout));
+        let volatile = vec![0; units_layout.units.len()];
         let mut c = Coupled {
             iqn: Accelerator::new(nu, options.iqn),
             iqn_before: Accelerator::new(nu, options.iqn),
@@ -187,6 +199,8 @@ impl<S: Units> Coupled<S> {
             has_prev: false,
             dydu: vec![0.0; ny * nu],
             has_jacobian: false,
+            volatile,
+            interface,
             order: Vec::new(),
             work: Work::new(nu, ny),
         };
@@ -457,8 +471,9 @@ struct Work {
     end: Vec<f64>,
     seed: Vec<f64>,
     col: Vec<f64>,
-    /// The interface Newton matrix, row-major.
-    newton: Vec<f64>,
+    /// IJCSA's last iterate and its outputs (the secant of a reused Jacobian).
+    u_it: Vec<f64>,
+    y_it: Vec<f64>,
     /// Scaled iterate and fixed-point image for the quasi-Newton update.
     x: Vec<f64>,
     xt: Vec<f64>,
@@ -474,7 +489,8 @@ impl Work {
             end: vec![0.0; nu],
             seed: vec![0.0; nu],
             col: vec![0.0; ny],
-            newton: vec![0.0; nu * nu],
+            u_it: vec![0.0; nu],
+            y_it: vec![0.0; ny],
             x: vec![0.0; nu],
             xt: vec![0.0; nu],
         }

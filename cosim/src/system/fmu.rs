@@ -33,6 +33,9 @@ struct FmuUnit {
     state: Option<FmuState>,
     /// Derivative orders (all 1) for fmi2SetRealInputDerivatives.
     ones: Vec<i32>,
+    /// The inputs with a nonzero seed and their seeds (a step-map derivative asks the FMU
+    /// about those only: a seed per input costs one known, not all of them).
+    seeded: (Vec<u32>, Vec<f64>),
 }
 
 /// A connection of Integer, Boolean or String variables, passed at communication points.
@@ -114,6 +117,7 @@ impl FmuSystem {
                 outputs: Vec::new(),
                 state: None,
                 ones: Vec::new(),
+                seeded: (Vec::new(), Vec::new()),
             });
         }
         for p in &spec.parameters {
@@ -699,7 +703,16 @@ impl Units for FmuSystem {
 
     fn step_derivative(&mut self, k: usize, seed: &[f64], out: &mut [f64]) -> Result<(), UnitError> {
         let unit = &mut self.units[k];
-        Ok(step_map_derivative(&mut unit.inst, &unit.outputs, &unit.inputs, seed, out)?)
+        let (knowns, seeds) = &mut unit.seeded;
+        knowns.clear();
+        seeds.clear();
+        for (&vr, &s) in unit.inputs.iter().zip(seed) {
+            if s != 0.0 {
+                knowns.push(vr);
+                seeds.push(s);
+            }
+        }
+        Ok(step_map_derivative(&mut unit.inst, &unit.outputs, knowns, seeds, out)?)
     }
 
     fn exchange_discrete(&mut self) -> Result<(), UnitError> {

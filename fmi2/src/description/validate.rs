@@ -57,6 +57,28 @@ pub struct ModelInfo {
     pub vars: Vec<VarInfo>,
     /// Per type (Real, Integer, Boolean, String): (value reference, position in `vars`), sorted.
     by_vr: [Vec<(u32, usize)>; 4],
+    /// Per type, position in `vars` + 1 indexed by value reference (0: none), where the value
+    /// references are dense enough (the get/set/derivative paths look one up per value).
+    direct: [Vec<u32>; 4],
+}
+
+/// A type's direct table when its largest value reference is below this many entries per
+/// variable (plus a constant): memory stays proportional to the variables.
+const DIRECT_PER_VARIABLE: usize = 4;
+const DIRECT_EXTRA: usize = 256;
+
+/// Position + 1 by value reference, or nothing if the references are too sparse for a table.
+fn direct_table(list: &[(u32, usize)]) -> Vec<u32> {
+    let Some(&(largest, _)) = list.last() else { return Vec::new() };
+    let len = largest as usize + 1;
+    if len > DIRECT_PER_VARIABLE * list.len() + DIRECT_EXTRA {
+        return Vec::new();
+    }
+    let mut table = vec![0; len];
+    for &(vr, pos) in list {
+        table[vr as usize] = u32::try_from(pos + 1).expect("fewer than 2^32 variables");
+    }
+    table
 }
 
 fn type_slot(t: VarType) -> usize {
@@ -198,12 +220,21 @@ impl ModelInfo {
             let [dependencies, initial_dependencies] = resolved;
             vars.push(VarInfo { var: d.variables[pos].clone(), index: pos + 1, dependencies, initial_dependencies });
         }
-        Ok(ModelInfo { description: d, vars, by_vr })
+        let direct = [0, 1, 2, 3].map(|slot| direct_table(&by_vr[slot]));
+        Ok(ModelInfo { description: d, vars, by_vr, direct })
     }
 
     /// The variable of this type with this value reference.
     pub fn lookup(&self, t: VarType, vr: u32) -> Option<&VarInfo> {
-        let list = &self.by_vr[type_slot(t)];
+        let slot = type_slot(t);
+        let table = &self.direct[slot];
+        if !table.is_empty() {
+            return match table.get(vr as usize) {
+                Some(&p) if p > 0 => Some(&self.vars[p as usize - 1]),
+                _ => None,
+            };
+        }
+        let list = &self.by_vr[slot];
         list.binary_search_by_key(&vr, |&(r, _)| r).ok().map(|i| &self.vars[list[i].1])
     }
 }
@@ -362,7 +393,29 @@ mod tests {
         assert_eq!(info.lookup(VarType::Integer, 0).unwrap().var.name, "n");
         assert_eq!(info.lookup(VarType::Real, 2).unwrap().var.name, "p");
         assert!(info.lookup(VarType::Real, 99).is_none());
+        assert!(info.lookup(VarType::Boolean, 1).is_none());
         assert_eq!(info.description.units.iter().map(|u| u.name.as_str()).collect::<Vec<_>>(), ["N", "m"]);
+    }
+
+    #[test]
+    fn lookup_by_table_and_by_search_agree() {
+        // dense references get a direct table; a reference far beyond the variable count does not
+        let dense: Vec<Variable> = (0..40).map(|k| Variable::real_input(format!("u{k}"), 2 * k, 0.0, "N")).collect();
+        let mut sparse = dense.clone();
+        sparse.push(Variable::real_input("far", 4_000_000_000, 0.0, "N"));
+        for (vars, table) in [(dense, true), (sparse, false)] {
+            let n = vars.len();
+            let info = ModelInfo::new(desc(vars)).unwrap();
+            assert_eq!(!info.direct[0].is_empty(), table);
+            for k in 0..40u32 {
+                assert_eq!(info.lookup(VarType::Real, 2 * k).unwrap().var.name, format!("u{k}"));
+                assert!(info.lookup(VarType::Real, 2 * k + 1).is_none());
+                assert!(info.lookup(VarType::Integer, 2 * k).is_none());
+            }
+            assert!(info.lookup(VarType::Real, 80).is_none());
+            assert!(info.lookup(VarType::Real, u32::MAX).is_none());
+            assert_eq!(info.lookup(VarType::Real, 4_000_000_000).is_some(), n == 41);
+        }
     }
 
     #[test]
