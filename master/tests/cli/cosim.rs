@@ -2,7 +2,7 @@
 
 use crate::common;
 
-use master::cosim::{Coupled, FmuSystem, Options, Scheme, Units};
+use master::cosim::{Coupled, Extrapolation, FmuSystem, JacobianUpdate, Options, Scheme, Units};
 use master::simulate::{Method, Trace, simulate};
 
 fn options(scheme: Scheme) -> Options {
