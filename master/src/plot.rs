@@ -145,6 +145,25 @@ fn draw_error<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) ->
     e.into()
 }
 
+/// The legend of a chart as every figure here draws it: upper right, on a translucent white box
+/// with a grey frame, labels at `font_size`.
+pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    font_size: u32,
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((FONT, font_size))
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(160, 160, 160))
+        .draw()
+        .map_err(draw_error)
+}
+
 /// One run's displacement history: its name, the sample times (s) and the displacement (mm).
 pub struct History<'a> {
     pub name: &'a str,
@@ -251,14 +270,7 @@ pub fn stacked(title: &str, panels: &[Panel<'_>], panel_height: u32) -> Result<S
                 }
             }
             if panel.legend && !panel.lines.is_empty() {
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperRight)
-                    .label_font((FONT, 13))
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(RGBColor(160, 160, 160))
-                    .draw()
-                    .map_err(draw_error)?;
+                legend(&mut chart, 13)?;
             }
         }
         root.present().map_err(draw_error)?;

@@ -338,22 +338,8 @@ impl Instance {
         out: &mut [f64],
     ) -> Result<(), Error> {
         self.fmu.require(Capability::DirectionalDerivative)?;
-        same_len("directional_derivative (knowns)", knowns.len(), seed.len())?;
-        same_len("directional_derivative (unknowns)", unknowns.len(), out.len())?;
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); every array holds the
-        // length passed with it (checked above).
-        let s = unsafe {
-            (self.api().get_directional_derivative)(
-                self.component,
-                unknowns.as_ptr(),
-                unknowns.len(),
-                knowns.as_ptr(),
-                knowns.len(),
-                seed.as_ptr(),
-                out.as_mut_ptr(),
-            )
-        };
-        self.check("fmi2GetDirectionalDerivative", s)
+        let f = self.api().get_directional_derivative;
+        self.derivative("fmi2GetDirectionalDerivative", f, unknowns, knowns, seed, out)
     }
 
     /// The extension `feedsimGetStepMapDerivative`: `out = J · seed` with `J` the derivative of
@@ -367,13 +353,28 @@ impl Instance {
         out: &mut [f64],
     ) -> Result<(), Error> {
         self.fmu.require(Capability::StepMapDerivative)?;
-        same_len("step_map_derivative (knowns)", knowns.len(), seed.len())?;
-        same_len("step_map_derivative (unknowns)", unknowns.len(), out.len())?;
         let f = self.api().step_map_derivative.ok_or_else(|| Error::Capability {
             fmu: self.fmu.name().to_owned(),
             capability: Capability::StepMapDerivative,
         })?;
-        // SAFETY: a live component; every array holds the length passed with it (checked above).
+        self.derivative("feedsimGetStepMapDerivative", f, unknowns, knowns, seed, out)
+    }
+
+    /// Calls a function with the signature of `fmi2GetDirectionalDerivative` (`name` in errors).
+    fn derivative(
+        &mut self,
+        name: &'static str,
+        f: fmi2GetDirectionalDerivativeTYPE,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), Error> {
+        same_len(name, knowns.len(), seed.len())?;
+        same_len(name, unknowns.len(), out.len())?;
+        // SAFETY: a live component and a function of this FMU's loaded library with the signature of
+        // fmi2GetDirectionalDerivative (the invariants of `Instance`); every array holds the length
+        // passed with it (checked above).
         let s = unsafe {
             f(
                 self.component,
@@ -385,7 +386,7 @@ impl Instance {
                 out.as_mut_ptr(),
             )
         };
-        self.check("feedsimGetStepMapDerivative", s)
+        self.check(name, s)
     }
 
     /// Input derivatives of the given orders at the current communication point.

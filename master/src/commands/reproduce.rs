@@ -578,14 +578,7 @@ fn figure_time(title: &str, runs: &[&Response], bands: &[(usize, Vec<(&str, f64)
                     .label(r.case.name)
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .label_font(("sans-serif", 11))
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(160, 160, 160))
-                .draw()
-                .map_err(draw)?;
+            master::plot::legend(&mut chart, 11)?;
         }
         root.present().map_err(draw)?;
     }
@@ -649,14 +642,7 @@ fn figure_spectrum(responses: &[Response], natural: &[(&str, Vec<f64>)]) -> anyh
                     .label(r.case.name)
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .label_font(("sans-serif", 11))
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(160, 160, 160))
-                .draw()
-                .map_err(draw)?;
+            master::plot::legend(&mut chart, 11)?;
         }
         root.present().map_err(draw)?;
     }
