@@ -320,7 +320,7 @@ impl Segment {
 
 /// What a sampled sensor carries from step to step: the command being followed, the commands
 /// measured but not yet applied (the delay), the next sample and the noise generator.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
 pub struct CommandState {
     segment: Segment,
     /// (time it applies, command), in time order.
@@ -328,6 +328,25 @@ pub struct CommandState {
     /// Index k of the next sample, taken at the first communication point ≥ k·T.
     next_sample: u64,
     rng: SplitMix64,
+}
+
+impl Clone for CommandState {
+    fn clone(&self) -> Self {
+        CommandState {
+            segment: self.segment,
+            pending: self.pending.clone(),
+            next_sample: self.next_sample,
+            rng: self.rng,
+        }
+    }
+
+    /// Reuses the pending queue's storage (snapshots taken every step allocate nothing).
+    fn clone_from(&mut self, source: &Self) {
+        self.segment = source.segment;
+        self.pending.clone_from(&source.pending);
+        self.next_sample = source.next_sample;
+        self.rng = source.rng;
+    }
 }
 
 impl CommandState {
