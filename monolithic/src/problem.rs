@@ -52,6 +52,8 @@ pub struct Scratch {
     /// Change of the platform's first moment since the start, cabin frame (zero unless the
     /// weight shift is left out).
     weight_shift: Vec3,
+    /// The scene's own load on the cabin (wind) at the step's end.
+    load: Vector6<f64>,
     pub(crate) rows: Box<[ConstraintRow; CONSTRAINTS]>,
     /// The rows at the last configuration checked for acceptance, and its time.
     pub(crate) accepted: Box<[ConstraintRow; CONSTRAINTS]>,
@@ -71,6 +73,7 @@ impl Scratch {
             factor_step: None,
             strokes,
             weight_shift,
+            load: model.system.scene_load(time),
             accepted: rows.clone(),
             rows,
             accepted_time: f64::NAN,
@@ -87,6 +90,7 @@ impl Scratch {
     pub(crate) fn set_time(&mut self, model: &Model, point: &PathPoint, t: f64) -> Result<(), StewartError> {
         self.strokes = model.stewart.strokes_at(point, t)?;
         self.weight_shift = weight_shift(model, point, t)?;
+        self.load = model.system.scene_load(t);
         Ok(())
     }
 
@@ -109,8 +113,9 @@ impl Scratch {
             }
             _ => joints.evaluate_positions(&system_motion(model, at.config, None), &self.strokes, &mut self.rows),
         }
-        // the joints' reactions on the cabin, as the cable–cabin system's external wrench
-        let mut wrench = Vector6::zeros();
+        // the joints' reactions on the cabin and the scene's load, as the cable–cabin system's
+        // external wrench
+        let mut wrench = self.load;
         for (row, lambda) in self.rows.iter().zip(at.multipliers) {
             for s in 0..2 {
                 if row.bodies[s] == CABIN {
