@@ -206,3 +206,46 @@ fn ijcsa_agrees_with_the_monolithic_model_on_a_sampled_compensation() {
     assert!(cabin_peak > 1.0 && feed_peak > 1.0, "the cabin and the feed must move");
     assert!(cabin_gap <= 1e-3 * cabin_peak && feed_gap <= 1e-3 * feed_peak);
 }
+
+/// `master compensation`: its four files, the coupled run's feed error the same as `master run`'s
+/// (another code path: the recorder's), and the sweep's cases all listed.
+#[test]
+fn the_compensation_command_writes_its_figures_and_agrees_with_run() {
+    let (_, file) = common::scene("lt50m_C_compensated.toml", "command", |_| {});
+    let dir = file.with_extension("out");
+    let f = file.to_str().unwrap();
+    let out = master(&[
+        "compensation",
+        "--scene",
+        f,
+        "--out",
+        dir.to_str().unwrap(),
+        "--t-end",
+        "2",
+        "--sweep-t-end",
+        "1",
+        "--delays",
+        "0,0.02",
+        "--rates",
+        "25,50",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let rms_of = |label: &str| -> f64 {
+        let line = text.lines().find(|l| l.starts_with(label)).unwrap_or_else(|| panic!("{label}: {text}"));
+        line[label.len()..].split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let (v, _, _) = run(&file, "monolithic", "2", "0.0025");
+    let expected = v["feed_err_rms_mm"].as_f64().unwrap();
+    let shown = rms_of("compensated (coupled)");
+    assert!((shown - expected).abs() <= 5e-4 + 1e-9, "{shown} vs {expected}: {text}");
+    assert!(rms_of("uncompensated") > shown, "{text}");
+    for name in ["compensation.csv", "compensation.svg", "sweep.csv", "sweep.svg"] {
+        assert!(dir.join(name).is_file(), "{name}");
+    }
+    let sweep = std::fs::read_to_string(dir.join("sweep.csv")).unwrap();
+    assert_eq!(sweep.lines().count(), 1 + 4, "{sweep}");
+    let csv = std::fs::read_to_string(dir.join("compensation.csv")).unwrap();
+    // at the scene's 0.01 s sample interval over 2 s
+    assert_eq!(csv.lines().count(), 1 + 200, "{}", csv.lines().next().unwrap());
+}
