@@ -167,11 +167,11 @@ impl genalpha::Problem for Step<'_> {
         trial.set_displaced(base, increment);
     }
 
-    fn begin_step(&mut self, _time: f64, wrench: &Vector6<f64>) -> Result<(), CableFault> {
+    fn begin_step(&mut self, time: f64, wrench: &Vector6<f64>) -> Result<(), CableFault> {
         if wrench.iter().any(|w| !w.is_finite()) {
             return Err(CableFault::Wrench(std::array::from_fn(|k| wrench[k])));
         }
-        self.wrench = *wrench;
+        self.wrench = *wrench + self.system.scene_load(time);
         Ok(())
     }
 
@@ -246,7 +246,8 @@ impl Dynamics {
         let mut matrix = system.new_matrix();
         let zero = vec![0.0; n];
         // M v̇ = −r(v̇ = 0)
-        system.assemble(&config, &velocity, &zero, wrench, &mut residual, Some((&mut matrix, Coefficients::MASS)));
+        let load = wrench + system.scene_load(t0);
+        system.assemble(&config, &velocity, &zero, &load, &mut residual, Some((&mut matrix, Coefficients::MASS)));
         let mass = matrix.factorize(fixed).map_err(|e| start(StartError::Mass(e)))?;
         let mut acceleration: Vec<f64> = residual.iter().map(|r| -r).collect();
         mass.solve_in_place(&mut acceleration);

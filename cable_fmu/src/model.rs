@@ -71,6 +71,7 @@ impl CableCabin {
         let equilibrium =
             form_find(&net, scene.target_position(), scene.target_orientation()).map_err(ModelError::Statics)?;
         let mut locked = System::new(net.clone(), equilibrium.lengths(), true, Support::Free);
+        locked.wind = scene.wind.as_ref().map(|w| std::sync::Arc::new(feedcore::wind::WindLoad::new(w)));
         let cfg = locked.config_from(&equilibrium);
         let d = &scene.damping;
         let needed = Self::modes_built(scene, mode_count);
@@ -119,6 +120,7 @@ impl CableCabin {
             Payload::External => {
                 let mut s = System::new(self.net.clone(), self.equilibrium.lengths(), false, Support::Free);
                 s.damping = self.locked.damping.clone();
+                s.wind = self.locked.wind.clone();
                 s
             }
         }
@@ -133,6 +135,7 @@ impl CableCabin {
         let mut locked = System::new(self.net.clone(), equilibrium.lengths(), true, Support::Free);
         let cfg = locked.config_from(&equilibrium);
         locked.damping = Some(LinkedChain::new(rayleigh_matrix(&locked, &cfg, self.damping.alpha, self.damping.beta)));
+        locked.wind = self.locked.wind.clone();
         Ok(CableCabin {
             scene: self.scene.clone(),
             net: self.net.clone(),

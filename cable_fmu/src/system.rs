@@ -115,6 +115,8 @@ pub struct System {
     pub support: Support,
     /// Constant damping matrix (Rayleigh), if any.
     pub damping: Option<LinkedChain>,
+    /// The scene's wind on the cabin, if any (shared: its harmonics are drawn once).
+    pub wind: Option<std::sync::Arc<feedcore::wind::WindLoad>>,
 }
 
 /// Elastic and gravitational potential energy, and kinetic energy.
@@ -143,7 +145,19 @@ impl System {
         for (a, l) in net.attachments.iter().zip(&lengths) {
             body = body.combined(&MassProperties::point(net.end_node_mass(*l), *a));
         }
-        System { net, lengths, element_length, node_mass, body, support, damping: None }
+        System { net, lengths, element_length, node_mass, body, support, damping: None, wind: None }
+    }
+
+    /// The loads the scene itself puts on the cabin at time `t` (its wind), added to the external
+    /// wrench by every model at each step's end: force, moment about the centre point, world.
+    pub fn scene_load(&self, t: f64) -> Vector6<f64> {
+        match &self.wind {
+            Some(w) => {
+                let f = w.force(t);
+                Vector6::new(f.x, f.y, f.z, 0.0, 0.0, 0.0)
+            }
+            None => Vector6::zeros(),
+        }
     }
 
     pub fn cables(&self) -> usize {

@@ -3,7 +3,8 @@
 //! * [`scene`]: the scene file (TOML) both models and the master read, with validation;
 //! * [`rigid`]: rotations on SO(3) and rigid-body mass properties;
 //! * [`stewart_geometry`]: where the Stewart platform's joints and masses sit on the cabin;
-//! * [`genalpha`]: the generalized-α integrator with its Newton controller, used by every model.
+//! * [`genalpha`]: the generalized-α integrator with its Newton controller, used by every model;
+//! * [`wind`]: the wind load on the cabin (mean plus seeded Kaimal turbulence).
 
 pub mod benchkit;
 pub mod genalpha;
@@ -12,6 +13,7 @@ pub mod rigid;
 pub mod scene;
 pub mod shipped;
 pub mod stewart_geometry;
+pub mod wind;
 
 pub use nalgebra;
 

@@ -293,6 +293,46 @@ impl Disturbance {
     }
 }
 
+/// A wind load on the cabin: mean speed plus longitudinal turbulence from the Kaimal spectrum,
+/// drag `½ ρ C_d A |V| V` along the mean direction (see [`crate::wind`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wind {
+    /// Mean speed at the cabin, m/s.
+    pub mean_speed_m_s: f64,
+    /// Direction the wind blows towards: azimuth from world x, counter-clockwise about Z, degrees.
+    #[serde(default)]
+    pub direction_deg: f64,
+    /// Turbulence intensity σ_u / U.
+    pub turbulence_intensity: f64,
+    /// Height above the ground for the turbulence length scale (IEC 61400-1 Kaimal:
+    /// L = 8.1 · 0.7 · min(z, 60 m)), m.
+    pub reference_height_m: f64,
+    /// Drag coefficient times the cabin's projected area, m².
+    pub drag_area_m2: f64,
+    #[serde(default = "standard_air_density")]
+    pub air_density_kg_m3: f64,
+    /// The turbulence's frequency band [lowest, highest], Hz.
+    #[serde(deserialize_with = "exact::array")]
+    pub band_hz: [f64; 2],
+    /// Harmonics the band is split into (equal widths, one per band centre).
+    pub harmonics: usize,
+    /// Seed of the harmonics' phases.
+    #[serde(default)]
+    pub seed: u64,
+    /// The load rises from zero along a smooth step over this time, s (0: from t = 0 at once).
+    #[serde(default)]
+    pub ramp_s: f64,
+}
+
+/// Air at 15 °C and sea level, kg/m³.
+fn standard_air_density() -> f64 {
+    1.225
+}
+
+/// Most harmonics of a wind load (each costs a cosine per step).
+pub const MAX_WIND_HARMONICS: usize = 100_000;
+
 /// What the feed point follows in the world frame (see [`Control`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -554,6 +594,9 @@ pub struct Scene {
     /// The platform compensates the cabin's motion (optional: absent, it follows `[motion]`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub control: Option<Control>,
+    /// A wind load on the cabin (optional).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wind: Option<Wind>,
 }
 
 /// Largest scene file read by default (the reference scenes have about 5 kB).
@@ -784,6 +827,37 @@ impl Scene {
         }
         if let Some(control) = &self.control {
             control.validate(&c)?;
+        }
+        if let Some(w) = &self.wind {
+            c.finite_nonneg("wind.mean_speed_m_s", w.mean_speed_m_s)?;
+            c.finite("wind.direction_deg", w.direction_deg)?;
+            c.finite_nonneg("wind.turbulence_intensity", w.turbulence_intensity)?;
+            if w.turbulence_intensity >= 1.0 {
+                return Err(c.err(
+                    "wind.turbulence_intensity",
+                    &show(w.turbulence_intensity),
+                    "must be below 1 (a fraction: 0.15 is 15 %)",
+                ));
+            }
+            c.positive("wind.reference_height_m", w.reference_height_m)?;
+            c.positive("wind.drag_area_m2", w.drag_area_m2)?;
+            c.positive("wind.air_density_kg_m3", w.air_density_kg_m3)?;
+            c.vector("wind.band_hz", &w.band_hz)?;
+            if !(w.band_hz[0] >= 0.0 && w.band_hz[0] < w.band_hz[1]) {
+                return Err(c.err(
+                    "wind.band_hz",
+                    &format!("{:?}", w.band_hz),
+                    "must be [lowest, highest] with 0 ≤ lowest < highest (Hz)",
+                ));
+            }
+            if !(1..=MAX_WIND_HARMONICS).contains(&w.harmonics) {
+                return Err(c.err(
+                    "wind.harmonics",
+                    &w.harmonics.to_string(),
+                    &format!("must lie in [1, {MAX_WIND_HARMONICS}]"),
+                ));
+            }
+            c.finite_nonneg("wind.ramp_s", w.ramp_s)?;
         }
         if let Some(sys) = &self.system {
             let names: Vec<&str> = sys.fmus.iter().map(|f| f.name.as_str()).collect();

@@ -58,6 +58,9 @@ enum Command {
     Bench(commands::bench::Args),
     /// Stability map of the coupling schemes over the platform's mass and the macro step.
     Stability(commands::stability::Args),
+    /// The second level: cabin motion against feed error (uncompensated, coupled, decoupled) and
+    /// the feed error against sensor delay and rate.
+    Compensation(commands::compensation::Args),
     /// Statics, first frequencies and short coupled runs over a grid of poses and parameters, on every core.
     Sweep(commands::sweep::Args),
     /// Run time and peak memory against elements per cable, set-up and stepping apart.
@@ -92,6 +95,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => commands::compare::run(&args),
         Command::Bench(args) => commands::bench::run(&args),
         Command::Stability(args) => commands::stability::run(&args),
+        Command::Compensation(args) => commands::compensation::run(&args),
         Command::Sweep(args) => commands::sweep::run(&args),
         Command::Scaling(args) => commands::scaling::run(&args),
         Command::Stress(args) => commands::stress::run(&args),

@@ -484,16 +484,37 @@ impl<'a> Run<'a> {
                     scene.analyses.stewart
                 )));
             }
-            Method::Monolithic | Method::MonolithicAdaptive(_) | Method::Decoupled(_)
-                if scene.control.as_ref().is_some_and(|c| c.sensor != SensorKind::Off) =>
-            {
+            Method::Decoupled(_) if scene.control.as_ref().is_some_and(|c| c.sensor != SensorKind::Off) => {
                 return Err(refused(format!(
-                    "{}: the scene's [control] compensates the cabin (sensor = {:?}), which the {} model does not \
-                     have yet: run it with a coupling scheme (ijcsa, iqn-ils, ...), or set control.sensor = \"off\" \
-                     for the uncompensated feed",
+                    "{}: the scene's [control] compensates the cabin (sensor = {:?}), which the decoupled model \
+                     does not have: run it with a coupling scheme (ijcsa, iqn-ils, ...) or monolithic, or set \
+                     control.sensor = \"off\" for the uncompensated feed",
                     scene_file.display(),
                     scene.control.as_ref().map(|c| c.sensor).expect("matched"),
-                    method.name()
+                )));
+            }
+            Method::Monolithic | Method::MonolithicAdaptive(_)
+                if scene.control.as_ref().is_some_and(|c| c.sensor == SensorKind::Ideal) =>
+            {
+                return Err(refused(format!(
+                    "{}: [control] sensor = \"ideal\" makes the legs' strokes follow the cabin's velocity and \
+                     acceleration at the step's end, which the monolithic model's position-level driving \
+                     constraints cannot express (it would need another formulation): use sensor = \"sampled\", \
+                     or a coupling scheme (ijcsa, iqn-ils, ...) for the ideal sensor",
+                    scene_file.display(),
+                )));
+            }
+            Method::MonolithicAdaptive(a)
+                if scene.control.as_ref().and_then(|c| c.sample_period()).is_some_and(|t| a.h_max > 0.25 * t) =>
+            {
+                let period = scene.control.as_ref().and_then(|c| c.sample_period()).expect("matched");
+                return Err(refused(format!(
+                    "{}: --h-max {} s is longer than a quarter of the sensor's sample period {period} s ([control] \
+                     sample_rate_hz): a sample is taken at the first step start after its instant; set --h-max to \
+                     at most {} s",
+                    scene_file.display(),
+                    a.h_max,
+                    0.25 * period
                 )));
             }
             Method::Monolithic | Method::MonolithicAdaptive(_) => {}
@@ -608,23 +629,13 @@ impl<'a> Run<'a> {
                     }
                     _ => None,
                 };
-                // the platform held at its start relative to the cabin (sensor "off")
-                let rest = match &comp {
-                    Some(_) => {
-                        let st = Stewart::from_scene(scene).map_err(|e| setup(&e))?;
-                        let point = st.path().at_rest();
-                        let legs = st.strokes_at(&point, 0.0).map_err(|e| setup(&e))?.map(|s| s.length);
-                        Some((point.position, legs))
-                    }
-                    None => None,
-                };
                 let probe = |s: &crate::monolithic::Sample| Probe {
                     position: s.cabin.position,
                     orientation: s.cabin.orientation,
                     wrench: vec6(&s.wrench),
-                    feed: comp.as_ref().zip(rest).map(|(c, (relative, legs))| {
+                    feed: comp.as_ref().map(|c| {
                         let cabin = (&s.cabin.position, &s.cabin.orientation);
-                        FeedSample::place(c, s.time, cabin, &relative, legs, s.actuator_forces)
+                        FeedSample::place(c, s.time, cabin, &s.platform, s.leg_lengths, s.actuator_forces)
                     }),
                 };
                 let first = probe(&m.model.sample());

@@ -5,7 +5,7 @@ use cable_fmu::model::{CableCabin, ModelError, Payload};
 use cable_fmu::system::System;
 use feedcore::genalpha::{Integrator, Newton, OptionsError};
 use feedcore::rigid::MassProperties;
-use feedcore::scene::{Scene, WrenchModel};
+use feedcore::scene::{Scene, SensorKind, WrenchModel};
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
 use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ROWS_PER_LEG, SYSTEM_BODIES};
@@ -23,6 +23,15 @@ pub enum BuildError {
     Stewart(#[from] StewartError),
     #[error("monolithic model: {0}")]
     Options(#[from] OptionsError),
+    /// With an ideal sensor the strokes at the step's end follow the cabin's velocity and
+    /// acceleration there, which the driving constraints Φ(q, t) cannot express.
+    #[error(
+        "monolithic model: [control] sensor = \"ideal\" makes the legs' strokes depend on the cabin's \
+         velocity and acceleration at the step's end, which the index-3 formulation's driving \
+         constraints Φ(q, t) cannot express (it needs constraints on velocities and accelerations); \
+         use sensor = \"sampled\" (or \"off\"), or a coupling scheme for the ideal sensor"
+    )]
+    IdealSensor,
 }
 
 /// The immutable model.
@@ -49,6 +58,9 @@ pub struct Start {
 
 impl Model {
     pub fn build(scene: &Scene) -> Result<Start, BuildError> {
+        if scene.control.as_ref().is_some_and(|c| c.sensor == SensorKind::Ideal) {
+            return Err(BuildError::IdealSensor);
+        }
         let cc = CableCabin::build(scene, 0)?;
         let stewart = Stewart::from_scene(scene)?;
         let system = cc.system(Payload::External);

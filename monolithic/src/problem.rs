@@ -14,7 +14,7 @@ use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
 use nalgebra::{Matrix6, Vector6};
 use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ConstraintRow, SYSTEM_BODIES};
-use stewart_fmu::{StewartError, Stroke};
+use stewart_fmu::{CommandState, PathPoint, StewartError, Stroke};
 
 use crate::config::Config;
 use crate::kkt::{Kkt, KktError};
@@ -52,6 +52,8 @@ pub struct Scratch {
     /// Change of the platform's first moment since the start, cabin frame (zero unless the
     /// weight shift is left out).
     weight_shift: Vec3,
+    /// The scene's own load on the cabin (wind) at the step's end.
+    load: Vector6<f64>,
     pub(crate) rows: Box<[ConstraintRow; CONSTRAINTS]>,
     /// The rows at the last configuration checked for acceptance, and its time.
     pub(crate) accepted: Box<[ConstraintRow; CONSTRAINTS]>,
@@ -59,9 +61,9 @@ pub struct Scratch {
 }
 
 impl Scratch {
-    pub fn new(model: &Model, config: &Config, time: f64) -> Result<Scratch, StewartError> {
-        let strokes = model.stewart.strokes(time)?;
-        let weight_shift = weight_shift(model, time)?;
+    pub fn new(model: &Model, config: &Config, point: &PathPoint, time: f64) -> Result<Scratch, StewartError> {
+        let strokes = model.stewart.strokes_at(point, time)?;
+        let weight_shift = weight_shift(model, point, time)?;
         let mut rows = Box::new([ConstraintRow::EMPTY; CONSTRAINTS]);
         model.stewart.joints().evaluate_positions(&system_motion(model, config, None), &strokes, &mut rows);
         Ok(Scratch {
@@ -71,29 +73,24 @@ impl Scratch {
             factor_step: None,
             strokes,
             weight_shift,
+            load: model.system.scene_load(time),
             accepted: rows.clone(),
             rows,
             accepted_time: f64::NAN,
         })
     }
 
-    /// The joints at an accepted configuration at time `t` (for samples; the strokes of an
-    /// accepted time exist, so an error cannot occur and leaves the rows unset).
-    pub(crate) fn evaluate_accepted(&mut self, model: &Model, config: &Config, t: f64) {
-        if let Ok(strokes) = model.stewart.strokes(t) {
-            model.stewart.joints().evaluate_positions(
-                &system_motion(model, config, None),
-                &strokes,
-                &mut self.accepted,
-            );
-            self.accepted_time = t;
-        }
+    /// The joints at an accepted configuration at time `t` with these strokes (for samples).
+    pub(crate) fn evaluate_accepted(&mut self, model: &Model, config: &Config, strokes: &[Stroke; LEGS], t: f64) {
+        model.stewart.joints().evaluate_positions(&system_motion(model, config, None), strokes, &mut self.accepted);
+        self.accepted_time = t;
     }
 
-    /// Sets the prescribed strokes for time `t`.
-    pub(crate) fn set_time(&mut self, model: &Model, t: f64) -> Result<(), StewartError> {
-        self.strokes = model.stewart.strokes(t)?;
-        self.weight_shift = weight_shift(model, t)?;
+    /// Sets the prescribed strokes for time `t`, the platform centre commanded to `point`.
+    pub(crate) fn set_time(&mut self, model: &Model, point: &PathPoint, t: f64) -> Result<(), StewartError> {
+        self.strokes = model.stewart.strokes_at(point, t)?;
+        self.weight_shift = weight_shift(model, point, t)?;
+        self.load = model.system.scene_load(t);
         Ok(())
     }
 
@@ -116,8 +113,9 @@ impl Scratch {
             }
             _ => joints.evaluate_positions(&system_motion(model, at.config, None), &self.strokes, &mut self.rows),
         }
-        // the joints' reactions on the cabin, as the cable–cabin system's external wrench
-        let mut wrench = Vector6::zeros();
+        // the joints' reactions on the cabin and the scene's load, as the cable–cabin system's
+        // external wrench
+        let mut wrench = self.load;
         for (row, lambda) in self.rows.iter().zip(at.multipliers) {
             for s in 0..2 {
                 if row.bodies[s] == CABIN {
@@ -213,10 +211,22 @@ pub(crate) fn system_motion(model: &Model, config: &Config, velocity: Option<&[f
     })
 }
 
+/// Where the platform centre is commanded (cabin frame) at time `t`: by a sampled sensor's
+/// `command` (scene `[control]`; `t` after its last sample), else along the path (with
+/// `[control]` and no sensor: held at rest).
+pub(crate) fn command_point(model: &Model, command: Option<&CommandState>, t: f64) -> PathPoint {
+    match (command, model.stewart.compensation()) {
+        (Some(state), Some(c)) => state.at(c, t),
+        _ => model.stewart.path().at(t),
+    }
+}
+
 /// The model side of one generalized-α step.
 pub(crate) struct Step<'a> {
     pub model: &'a Model,
     pub scratch: &'a mut Scratch,
+    /// A sampled sensor's commands, sampled at the step's start.
+    pub command: Option<&'a CommandState>,
 }
 
 impl Problem for Step<'_> {
@@ -236,7 +246,11 @@ impl Problem for Step<'_> {
     }
 
     fn begin_step(&mut self, time: f64, _: &()) -> Result<(), Fault> {
-        Ok(self.scratch.set_time(self.model, time)?)
+        if !time.is_finite() {
+            return Err(StewartError::Input { what: "time".into(), value: time.to_string() }.into());
+        }
+        let point = command_point(self.model, self.command, time);
+        Ok(self.scratch.set_time(self.model, &point, time)?)
     }
 
     fn residual(&mut self, at: &Iterate<'_, Config>, constraint_scale: f64, residual: &mut [f64]) {
@@ -283,9 +297,9 @@ impl Problem for Step<'_> {
 /// Largest |Φ| of the rows; NaN if one is NaN.
 /// `S(t) − S(0)` of the platform and legs (cabin frame) when the model leaves the weight shift
 /// out; zero otherwise.
-fn weight_shift(model: &Model, t: f64) -> Result<Vec3, StewartError> {
+fn weight_shift(model: &Model, point: &PathPoint, t: f64) -> Result<Vec3, StewartError> {
     match model.weight_shift_from {
-        Some(s0) => Ok(model.stewart.relative(t)?.first_moment[0] - s0),
+        Some(s0) => Ok(model.stewart.relative_at(point, t)?.first_moment[0] - s0),
         None => Ok(Vec3::zeros()),
     }
 }

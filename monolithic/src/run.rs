@@ -1,14 +1,16 @@
 //! The monolithic model in time: model (immutable), state, and workspace kept apart.
 
+use feedcore::Vec3;
 use feedcore::genalpha::{self, Iterate, StepError, StepReport};
 use feedcore::rigid::RigidMotion;
-use feedcore::scene::{LEGS, Scene};
+use feedcore::scene::{LEGS, Scene, SensorKind};
 use nalgebra::Vector6;
+use stewart_fmu::CommandState;
 use stewart_fmu::constraints::{CABIN, DRIVING, ROWS_PER_LEG};
 
 use crate::config::Config;
 use crate::model::{BuildError, Model};
-use crate::problem::{Coefficients, Fault, Scratch, Step, largest_value};
+use crate::problem::{Coefficients, Fault, Scratch, Step, command_point, largest_value};
 
 /// Why the monolithic model cannot be built or go on.
 #[derive(Debug, thiserror::Error)]
@@ -25,6 +27,13 @@ pub enum MonolithicError {
          (last error {error:.3e} relative to the tolerance); lower --h-min"
     )]
     StepTooSmall { time: f64, error: f64, h_min: f64 },
+    /// A sampled sensor samples at step starts: a step must not skip a sample.
+    #[error(
+        "monolithic model at t = {time:.6} s: step {h} s is longer than a quarter of the sensor's sample \
+         period {period} s ([control] sample_rate_hz): a sample is taken at the first step start after \
+         its instant; take steps of at most {most} s or lower the sample rate"
+    )]
+    SensorStep { time: f64, h: f64, period: f64, most: f64 },
 }
 
 impl MonolithicError {
@@ -33,7 +42,8 @@ impl MonolithicError {
         match self {
             MonolithicError::Stopped { time, .. }
             | MonolithicError::Start { time, .. }
-            | MonolithicError::StepTooSmall { time, .. } => Some(*time),
+            | MonolithicError::StepTooSmall { time, .. }
+            | MonolithicError::SensorStep { time, .. } => Some(*time),
             MonolithicError::Build(_) => None,
         }
     }
@@ -50,11 +60,16 @@ pub struct Sample {
     pub actuator_forces: [f64; LEGS],
     /// Largest |Φ| of all position constraints (m or rad).
     pub constraint_residual: f64,
+    /// The platform centre as commanded (cabin frame; the joints hold it there to the Newton
+    /// tolerance).
+    pub platform: Vec3,
+    /// Leg lengths (joint centre to joint centre), m.
+    pub leg_lengths: [f64; LEGS],
 }
 
-/// A saved state (see [`Monolithic::save`]).
+/// A saved state (see [`Monolithic::save`]): the integrator's and a sampled sensor's.
 #[derive(Clone, Debug)]
-pub struct Snapshot(genalpha::State<Config>);
+pub struct Snapshot(genalpha::State<Config>, Option<CommandState>);
 
 /// The monolithic model of a scene, running.
 pub struct Monolithic {
@@ -62,6 +77,9 @@ pub struct Monolithic {
     state: genalpha::State<Config>,
     work: genalpha::Workspace<Config>,
     scratch: Scratch,
+    /// A sampled sensor's state (scene `[control]`, sensor = "sampled"): sampled at each step's
+    /// start from the accepted cabin pose, as the Stewart FMU does.
+    command: Option<CommandState>,
 }
 
 impl Monolithic {
@@ -71,10 +89,13 @@ impl Monolithic {
         let start = Model::build(scene)?;
         let model = start.model;
         let fail = |reason: Fault| MonolithicError::Start { time: 0.0, reason };
-        let scratch = Scratch::new(&model, &start.config, 0.0).map_err(|e| fail(e.into()))?;
+        let command =
+            model.stewart.compensation().filter(|c| c.sensor() == SensorKind::Sampled).map(|c| c.start_state());
+        let point = command_point(&model, command.as_ref(), 0.0);
+        let scratch = Scratch::new(&model, &start.config, &point, 0.0).map_err(|e| fail(e.into()))?;
         let (n, m) = (model.motion_dim(), stewart_fmu::CONSTRAINTS);
         let state = genalpha::State::new(0.0, start.config, start.velocity, vec![0.0; n], vec![0.0; m]);
-        let mut mono = Monolithic { work: genalpha::Workspace::new(&state), model, state, scratch };
+        let mut mono = Monolithic { work: genalpha::Workspace::new(&state), model, state, scratch, command };
         mono.initial_acceleration().map_err(fail)?;
         Ok(mono)
     }
@@ -128,7 +149,16 @@ impl Monolithic {
 
     /// One step of size `h` (halved internally should Newton fail).
     pub fn step(&mut self, h: f64) -> Result<StepReport, MonolithicError> {
-        let mut problem = Step { model: &self.model, scratch: &mut self.scratch };
+        if let (Some(state), Some(c)) = (self.command.as_mut(), self.model.stewart.compensation()) {
+            let time = self.state.time;
+            if h > c.max_step() * (1.0 + 1e-9) {
+                return Err(MonolithicError::SensorStep { time, h, period: c.sample_period(), most: c.max_step() });
+            }
+            // the sample at the step's start measures the accepted cabin pose
+            let cabin = &self.state.config.cable;
+            state.sample(c, time, &cabin.position, &cabin.orientation);
+        }
+        let mut problem = Step { model: &self.model, scratch: &mut self.scratch, command: self.command.as_ref() };
         let report = self
             .model
             .integrator
@@ -141,8 +171,13 @@ impl Monolithic {
     /// Cabin motion, Stewart wrench, actuator forces and constraint residual now.
     pub fn sample(&mut self) -> Sample {
         let (model, st, sc) = (&self.model, &self.state, &mut self.scratch);
-        if sc.accepted_time != st.time {
-            sc.evaluate_accepted(model, &st.config, st.time);
+        let point = command_point(model, self.command.as_ref(), st.time);
+        // the strokes of an accepted time exist (its step computed them)
+        let strokes = model.stewart.strokes_at(&point, st.time).ok();
+        if let Some(strokes) = &strokes
+            && sc.accepted_time != st.time
+        {
+            sc.evaluate_accepted(model, &st.config, strokes, st.time);
         }
         let c0 = model.body_offset(CABIN);
         let v3 = |v: &[f64], k: usize| nalgebra::Vector3::new(v[c0 + k], v[c0 + k + 1], v[c0 + k + 2]);
@@ -167,18 +202,27 @@ impl Monolithic {
                 actuator_forces[k / ROWS_PER_LEG] = lambda;
             }
         }
-        Sample { time: st.time, cabin, wrench, actuator_forces, constraint_residual: largest_value(&sc.accepted[..]) }
+        Sample {
+            time: st.time,
+            cabin,
+            wrench,
+            actuator_forces,
+            constraint_residual: largest_value(&sc.accepted[..]),
+            platform: point.position,
+            leg_lengths: strokes.map_or([f64::NAN; LEGS], |s| s.map(|s| s.length)),
+        }
     }
 
     /// The current state, to return to with [`Monolithic::restore`] (e.g. to retake a step
     /// with another size).
     pub fn snapshot(&self) -> Snapshot {
-        Snapshot(self.state.clone())
+        Snapshot(self.state.clone(), self.command.clone())
     }
 
     /// As [`Monolithic::snapshot`], into existing storage (no allocation).
     pub fn save(&self, into: &mut Snapshot) {
         into.0.clone_from(&self.state);
+        into.1.clone_from(&self.command);
     }
 
     /// Returns to a saved state. The kept factorization stays: it only steers Newton (and is
@@ -186,6 +230,7 @@ impl Monolithic {
     /// snapshot to the Newton tolerance.
     pub fn restore(&mut self, snapshot: &Snapshot) {
         self.state.clone_from(&snapshot.0);
+        self.command.clone_from(&snapshot.1);
         self.scratch.accepted_time = f64::NAN;
     }
 }

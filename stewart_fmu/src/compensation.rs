@@ -320,7 +320,7 @@ impl Segment {
 
 /// What a sampled sensor carries from step to step: the command being followed, the commands
 /// measured but not yet applied (the delay), the next sample and the noise generator.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
 pub struct CommandState {
     segment: Segment,
     /// (time it applies, command), in time order.
@@ -328,6 +328,25 @@ pub struct CommandState {
     /// Index k of the next sample, taken at the first communication point ≥ k·T.
     next_sample: u64,
     rng: SplitMix64,
+}
+
+impl Clone for CommandState {
+    fn clone(&self) -> Self {
+        CommandState {
+            segment: self.segment,
+            pending: self.pending.clone(),
+            next_sample: self.next_sample,
+            rng: self.rng,
+        }
+    }
+
+    /// Reuses the pending queue's storage (snapshots taken every step allocate nothing).
+    fn clone_from(&mut self, source: &Self) {
+        self.segment = source.segment;
+        self.pending.clone_from(&source.pending);
+        self.next_sample = source.next_sample;
+        self.rng = source.rng;
+    }
 }
 
 impl CommandState {
@@ -478,5 +497,92 @@ mod tests {
         assert_eq!(run(3), run(3));
         assert_ne!(run(3), run(4));
         assert!(run(3).amax() <= 0.001 && run(3).norm() > 0.0);
+    }
+
+    /// The compensation's wrench on the cabin against inverse dynamics done independently: the
+    /// bodies placed along the compensating motion (positions and attitudes only), their momentum
+    /// and angular momentum about the moving cabin centre point differentiated numerically, plus
+    /// their weight, against `Stewart::evaluate_at` (the joint multipliers of eq. 5, what the FMU
+    /// outputs). A cabin swaying by 4 cm and rocking by 10 mrad at 3 rad/s (a dynamic part of
+    /// 16–35 N and N·m on ~1800 N of weight); the feed on a circle, ideal sensor.
+    #[test]
+    fn the_compensating_wrench_is_the_bodies_rate_of_momentum_and_their_weight() {
+        let s = scene(
+            "\n[control]\nfeed_point_m = [0.0, 0.0, -0.3]\ntarget = \"circle\"\ncircle_center_offset_m = [-0.05, 0.0, 0.0]\ncircle_speed_m_s = 0.05\nsensor = \"ideal\"\n",
+        );
+        let st = crate::Stewart::from_scene(&s).unwrap();
+        let c = st.compensation().unwrap();
+        let (w0, amp, tilt) = (3.0, 0.04, 0.01);
+        let axis = Vec3::new(1.0, 0.5, 0.2).normalize();
+        let p0 = s.target_position();
+        // an analytic cabin motion: translation and a rotation about a fixed world axis
+        let cabin = |t: f64| {
+            let (sn, cs) = (w0 * t).sin_cos();
+            let (s2, c2) = (1.3 * w0 * t).sin_cos();
+            let theta = tilt * sn;
+            CabinMotion {
+                position: p0 + Vec3::new(sn, c2 - 1.0, 0.5 * sn) * amp,
+                velocity: Vec3::new(cs, -1.3 * s2, 0.5 * cs) * (amp * w0),
+                acceleration: Vec3::new(-sn, -1.69 * c2, -0.5 * sn) * (amp * w0 * w0),
+                orientation: Quat::from_scaled_axis(axis * theta),
+                angular_velocity: axis * (tilt * w0 * cs),
+                angular_acceleration: axis * (-tilt * w0 * w0 * sn),
+            }
+        };
+        let bodies = |t: f64| {
+            let m = cabin(t);
+            let rel = st.relative_at(&c.ideal(&m, t), t).unwrap();
+            st.place_bodies(&m, &rel)
+        };
+        let inertias = st.body_inertias();
+        let g = st.gravity();
+        // linear momentum and angular momentum about the cabin centre point, by differences of
+        // the bodies' placements (angular velocity from neighbouring attitudes)
+        let momenta = |t: f64| {
+            let (e, b0, b1, bm) = (1e-5, bodies(t), bodies(t + 1e-5), bodies(t - 1e-5));
+            let centre = cabin(t).position;
+            let (mut lin, mut ang) = (Vec3::zeros(), Vec3::zeros());
+            for k in 0..b0.len() {
+                let m = inertias[k].mass;
+                let v = (b1[k].position - bm[k].position) / (2.0 * e);
+                let w = (b1[k].orientation * bm[k].orientation.inverse()).scaled_axis() / (2.0 * e);
+                let r = b0[k].orientation.to_rotation_matrix();
+                let i_world = r.matrix() * inertias[k].inertia * r.matrix().transpose();
+                lin += v * m;
+                ang += (b0[k].position - centre).cross(&(v * m)) + i_world * w;
+            }
+            (lin, ang)
+        };
+        let dt = 1e-3;
+        for t in [0.4, 1.1, 2.3] {
+            let d = |k: usize| {
+                let f = |x: f64| if k == 0 { momenta(x).0 } else { momenta(x).1 };
+                (f(t - 2.0 * dt) - f(t - dt) * 8.0 + f(t + dt) * 8.0 - f(t + 2.0 * dt)) / (12.0 * dt)
+            };
+            let (dp, dh) = (d(0), d(1));
+            let (p, _) = momenta(t);
+            let m = cabin(t);
+            let b = bodies(t);
+            let mass: f64 = inertias.iter().map(|i| i.mass).sum();
+            let weight_moment = b
+                .iter()
+                .zip(inertias)
+                .fold(Vec3::zeros(), |acc, (x, i)| acc + (x.position - m.position).cross(&(g * i.mass)));
+            // the cabin's force and moment (about its centre point) on the bodies, then minus
+            let force = -(dp - g * mass);
+            let moment = -(dh + m.velocity.cross(&p) - weight_moment);
+            let w = st.evaluate_at(&m, &c.ideal(&m, t), t).unwrap().wrench;
+            let dynamic = (dp.norm(), dh.norm());
+            eprintln!(
+                "t {t}: force gap {:.2e} N of {:.1} N dynamic, moment gap {:.2e} N·m of {:.1}",
+                (w.force - force).norm(),
+                dynamic.0,
+                (w.moment - moment).norm(),
+                dynamic.1
+            );
+            assert!(dynamic.0 > 5.0, "the motion must be dynamic: {dynamic:?} N, N·m");
+            assert!((w.force - force).norm() < 1e-5 * dynamic.0, "t {t}: {:?} vs {force:?}", w.force);
+            assert!((w.moment - moment).norm() < 1e-5 * dynamic.1.max(1.0), "t {t}: {:?} vs {moment:?}", w.moment);
+        }
     }
 }

@@ -11,6 +11,7 @@ use master::limits::Limits;
 
 pub(crate) mod bench;
 pub(crate) mod compare;
+pub(crate) mod compensation;
 pub(crate) mod export_ssp;
 pub(crate) mod modes;
 pub(crate) mod output;

@@ -1,0 +1,384 @@
+//! `master compensation`: the second level of a scene with `[control]` and a sampled sensor, in
+//! the monolithic model (eq. 7 with the legs driven by the sensor's commands; IJCSA agrees with
+//! it within 1e-3 of the peaks, master/tests/cli/feed.rs):
+//!
+//! * the cabin's motion against the feed's error, uncompensated (sensor off), compensated
+//!   (coupled: the platform's reactions act on the cabin) and as a decoupled model predicts it
+//!   (the same sensor and commands replayed on the cabin poses of the uncompensated run: the
+//!   compensation's reactions never reach the cabin) — `compensation.csv`, `compensation.svg`;
+//! * the feed error against the sensor's delay and sample rate, each case marked unstable when
+//!   the run stops or its feed error keeps growing — `sweep.csv`, `sweep.svg`.
+//!
+//! Every run is independent: they run in parallel ([`master::parallel`]).
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use feedcore::Vec3;
+use feedcore::scene::{Scene, SensorKind};
+use master::monolithic::Monolithic;
+use master::plot::{Line, PALETTE, Panel, stacked};
+use master::table::Table;
+use plotters::prelude::*;
+use stewart_fmu::{Compensation, Stewart};
+
+use super::output::{Outputs, run_inputs};
+use super::scheme_args::positive;
+use super::{CmdResult, load_scene};
+
+#[derive(clap::Args)]
+pub(crate) struct Args {
+    /// Scene file (TOML) with a `[control]` section whose sensor is "sampled".
+    #[arg(long)]
+    pub(crate) scene: PathBuf,
+    /// Directory for compensation.csv/.svg and sweep.csv/.svg.
+    #[arg(long, default_value = "out/compensation")]
+    pub(crate) out: PathBuf,
+    /// Simulated time of the uncompensated, compensated and decoupled runs (s).
+    #[arg(long, default_value_t = 60.0, value_parser = positive, allow_negative_numbers = true)]
+    pub(crate) t_end: f64,
+    /// Simulated time of each run of the sweep (s).
+    #[arg(long, default_value_t = 20.0, value_parser = positive, allow_negative_numbers = true)]
+    pub(crate) sweep_t_end: f64,
+    /// Sensor delays of the sweep (s, comma-separated).
+    #[arg(long, value_delimiter = ',', value_parser = non_negative, allow_negative_numbers = true,
+          default_value = "0,0.02,0.05,0.1,0.2,0.3")]
+    pub(crate) delays: Vec<f64>,
+    /// Sample rates of the sweep (Hz, comma-separated).
+    #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
+          default_value = "10,25,50,100")]
+    pub(crate) rates: Vec<f64>,
+    /// The command filter's bandwidth for every run (Hz), instead of the scene's
+    /// `control.bandwidth_hz`.
+    #[arg(long, value_parser = positive, allow_negative_numbers = true)]
+    pub(crate) bandwidth: Option<f64>,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    pub(crate) jobs: Option<u16>,
+}
+
+fn non_negative(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(x) if x >= 0.0 && x.is_finite() => Ok(x),
+        Ok(x) => Err(format!("{x} is not a non-negative finite number")),
+        Err(e) => Err(format!("`{text}`: {e}")),
+    }
+}
+
+/// The largest step: a whole fraction of the sample period, at most T/8 and 2.5 ms.
+fn step_for(period: f64) -> f64 {
+    period / (period / 0.0025 - 1e-9).ceil().max(8.0)
+}
+
+/// One run of the monolithic model, step by step: time, |cabin displacement| and |feed error|
+/// (mm), and with `replay` the feed error a decoupled model predicts on these cabin poses.
+#[derive(Default)]
+struct History {
+    t: Vec<f64>,
+    cabin_mm: Vec<f64>,
+    feed_mm: Vec<f64>,
+    replayed_mm: Vec<f64>,
+}
+
+/// RMS and peak of a series (every step).
+fn rms_peak(x: &[f64]) -> (f64, f64) {
+    let rms = (x.iter().map(|e| e * e).sum::<f64>() / x.len().max(1) as f64).sqrt();
+    (rms, x.iter().copied().fold(0.0, f64::max))
+}
+
+/// Runs `scene` in the monolithic model with step `h` to `t_end`; the feed is placed by `comp`
+/// (the scene's own compensation); `replay`: a sampled compensation to replay on the poses.
+fn history(
+    scene: &Scene,
+    comp: &Compensation,
+    h: f64,
+    t_end: f64,
+    replay: Option<&Compensation>,
+) -> anyhow::Result<History> {
+    let steps = (t_end / h).round() as usize;
+    let mut m = Monolithic::new(scene)?;
+    let mut replayed = replay.map(|c| (c, c.start_state()));
+    let mut out = History::default();
+    let mut s = m.sample();
+    let origin = s.cabin.position;
+    let feed = |c: &Compensation, s: &master::monolithic::Sample, relative: &Vec3| {
+        let (p, r) = (&s.cabin.position, &s.cabin.orientation);
+        c.feed_error(&(p + r * relative), r, s.time).0.norm() * 1e3
+    };
+    for _ in 0..steps {
+        if let Some((c, state)) = replayed.as_mut() {
+            state.sample(c, s.time, &s.cabin.position, &s.cabin.orientation);
+        }
+        m.step(h)?;
+        s = m.sample();
+        out.t.push(s.time);
+        out.cabin_mm.push((s.cabin.position - origin).norm() * 1e3);
+        out.feed_mm.push(feed(comp, &s, &s.platform));
+        if let Some((c, state)) = &replayed {
+            out.replayed_mm.push(feed(c, &s, &state.at(c, s.time).position));
+        }
+        if !out.feed_mm.last().is_some_and(|e| e.is_finite()) {
+            bail!("the feed error is not finite at t = {} s", s.time);
+        }
+    }
+    Ok(out)
+}
+
+/// The scene with its sensor switched off (the uncompensated reference).
+fn uncompensated(scene: &Scene) -> Scene {
+    let mut s = scene.clone();
+    let c = s.control.as_mut().expect("checked");
+    c.sensor = SensorKind::Off;
+    (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz) = (None, 0.0, 0.0, 0.0, None);
+    s
+}
+
+/// One case of the sweep: whether it stayed stable, and its feed error RMS and peak (mm).
+struct Verdict {
+    stable: bool,
+    rms: f64,
+    peak: f64,
+    note: String,
+}
+
+pub(crate) fn run(args: &Args) -> CmdResult {
+    let mut scene = load_scene(&args.scene)?;
+    let shown = args.scene.display();
+    if let (Some(b), Some(c)) = (args.bandwidth, scene.control.as_mut()) {
+        c.bandwidth_hz = Some(b);
+        scene.validate(&shown.to_string()).context("--bandwidth")?;
+    }
+    let period = match &scene.control {
+        Some(c) if c.sensor == SensorKind::Sampled => c.sample_period().expect("validated scene"),
+        Some(c) => bail!(
+            "{shown}: [control] sensor = {:?}; `master compensation` studies a sampled sensor (set sensor = \"sampled\")",
+            c.sensor
+        ),
+        None => bail!("{shown}: the scene has no [control] section (the second level): nothing to compensate"),
+    };
+    let comp = Stewart::from_scene(&scene)?.compensation().cloned().expect("a scene with [control] has one");
+    let h = step_for(period);
+    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let mut declare = |f: &str| outputs.declare("--out", &args.out.join(f), f.rsplit('.').next());
+    let (csv_id, svg_id) = (declare("compensation.csv")?, declare("compensation.svg")?);
+    let (sweep_csv_id, sweep_svg_id) = (declare("sweep.csv")?, declare("sweep.svg")?);
+    outputs.open()?;
+    let jobs = args.jobs.map(usize::from);
+
+    // the uncompensated run (its poses also feed the decoupled replay) and the coupled one
+    let off = uncompensated(&scene);
+    eprintln!("{shown}: uncompensated, compensated and decoupled runs over {} s at h = {h} s …", args.t_end);
+    let mains = master::parallel::map_in_order(&[true, false], jobs, |_, &is_off| {
+        if is_off {
+            history(&off, &comp, h, args.t_end, Some(&comp))
+        } else {
+            history(&scene, &comp, h, args.t_end, None)
+        }
+    })?;
+    let mut mains = mains.into_iter();
+    let off_run = mains.next().expect("two runs").context("the uncompensated run")?;
+    let on_run = mains.next().expect("two runs").context("the compensated run")?;
+
+    // the sweep: delay × rate, the rest of the scene as it is; a case is unstable when it
+    // stops, when its feed error keeps growing, or when the platform's reactions drive the
+    // cabin to more than twice the uncompensated cabin's peak (the cable–cabin modes excited)
+    let off_cabin_peak = off_run
+        .t
+        .iter()
+        .zip(&off_run.cabin_mm)
+        .filter(|(t, _)| **t <= args.sweep_t_end + 1e-9)
+        .fold(0.0f64, |m, (_, d)| m.max(*d));
+    let mut cases = Vec::new();
+    for &rate in &args.rates {
+        for &delay in &args.delays {
+            let mut s = scene.clone();
+            let c = s.control.as_mut().expect("checked");
+            (c.sample_rate_hz, c.delay_s) = (Some(rate), delay);
+            s.validate(&shown.to_string()).with_context(|| format!("sweep case {rate} Hz, delay {delay} s"))?;
+            cases.push((rate, delay, s));
+        }
+    }
+    eprintln!("sweep: {} runs over {} s …", cases.len(), args.sweep_t_end);
+    let quiet = !std::io::stderr().is_terminal();
+    let results = master::parallel::map_in_order(&cases, jobs, |_, (rate, delay, s)| {
+        let c = Stewart::from_scene(s).map(|st| st.compensation().cloned().expect("has [control]"));
+        let c = match c {
+            Ok(c) => c,
+            Err(e) => return Verdict { stable: false, rms: f64::NAN, peak: f64::NAN, note: e.to_string() },
+        };
+        match history(s, &c, step_for(1.0 / rate), args.sweep_t_end, None) {
+            Ok(r) => {
+                let n = r.feed_mm.len();
+                let (rms, peak) = rms_peak(&r.feed_mm);
+                // a feed error that keeps growing is not stable either
+                let (middle, late) = (rms_peak(&r.feed_mm[n / 3..2 * n / 3]).1, rms_peak(&r.feed_mm[2 * n / 3..]).1);
+                let cabin = rms_peak(&r.cabin_mm).1;
+                if late > 3.0 * middle {
+                    let note = format!("growing: peak {middle:.3} → {late:.3} mm");
+                    Verdict { stable: false, rms, peak, note }
+                } else if cabin > 2.0 * off_cabin_peak {
+                    let note = format!("cabin peak {cabin:.3} mm against {off_cabin_peak:.3} mm uncompensated");
+                    Verdict { stable: false, rms, peak, note }
+                } else {
+                    Verdict { stable: true, rms, peak, note: String::new() }
+                }
+            }
+            Err(e) => {
+                let note = format!("{e:#}");
+                if !quiet {
+                    eprintln!("{rate} Hz, delay {delay} s: {note}");
+                }
+                Verdict { stable: false, rms: f64::NAN, peak: f64::NAN, note }
+            }
+        }
+    })?;
+
+    // compensation.csv (at the scene's sample interval) and its figure
+    let every = ((scene.outputs.sample_interval_s / h).round() as usize).max(1);
+    outputs.write(csv_id, |w| {
+        writeln!(w, "t,cabin_disp_mm,feed_err_uncompensated_mm,feed_err_compensated_mm,feed_err_decoupled_mm")?;
+        for i in (every - 1..off_run.t.len()).step_by(every) {
+            writeln!(
+                w,
+                "{},{:e},{:e},{:e},{:e}",
+                on_run.t[i], on_run.cabin_mm[i], off_run.feed_mm[i], on_run.feed_mm[i], off_run.replayed_mm[i]
+            )?;
+        }
+        Ok(())
+    })?;
+    let panels = [
+        Panel {
+            y_label: "|cabin displacement| (mm)".into(),
+            legend: true,
+            lines: vec![
+                Line { name: "compensated (coupled)", t: &on_run.t, y: on_run.cabin_mm.clone() },
+                Line { name: "uncompensated", t: &off_run.t, y: off_run.cabin_mm.clone() },
+            ],
+        },
+        Panel {
+            y_label: "|feed error| (mm)".into(),
+            legend: true,
+            lines: vec![
+                Line { name: "compensated (coupled)", t: &on_run.t, y: on_run.feed_mm.clone() },
+                Line { name: "uncompensated", t: &off_run.t, y: off_run.feed_mm.clone() },
+                Line { name: "compensated, decoupled prediction", t: &off_run.t, y: off_run.replayed_mm.clone() },
+            ],
+        },
+    ];
+    let svg = stacked(
+        &format!("{}: the cabin's motion and the feed's error (monolithic model, h = {h} s)", scene.name),
+        &panels,
+        300,
+    )
+    .context("drawing the compensation figure")?;
+    outputs.write(svg_id, |w| w.write_all(svg.as_bytes()))?;
+
+    // sweep.csv and its figure
+    outputs.write(sweep_csv_id, |w| {
+        writeln!(w, "sample_rate_hz,delay_s,verdict,feed_err_rms_mm,feed_err_peak_mm,note")?;
+        for ((rate, delay, _), v) in cases.iter().zip(&results) {
+            let verdict = if v.stable { "stable" } else { "unstable" };
+            writeln!(w, "{rate},{delay},{verdict},{:e},{:e},\"{}\"", v.rms, v.peak, v.note.replace('"', "'"))?;
+        }
+        Ok(())
+    })?;
+    let svg = sweep_figure(&scene.name, args, &cases, &results)
+        .map_err(|e| anyhow::anyhow!("drawing the sweep figure: {e}"))?;
+    outputs.write(sweep_svg_id, |w| w.write_all(svg.as_bytes()))?;
+    let paths: Vec<PathBuf> =
+        [csv_id, svg_id, sweep_csv_id, sweep_svg_id].iter().map(|&i| outputs.path(i).to_owned()).collect();
+    outputs.commit()?;
+
+    // the text
+    let mut out = std::io::stdout().lock();
+    let figures = |x: &[f64]| {
+        let (rms, peak) = rms_peak(x);
+        [format!("{rms:.3}"), format!("{peak:.3}")]
+    };
+    let mut table =
+        Table::new(["run".to_string(), "feed error RMS (mm)".into(), "peak (mm)".into(), "cabin peak (mm)".into()]);
+    let cabin_peak = |x: &[f64]| format!("{:.3}", rms_peak(x).1);
+    let [a, b] = figures(&off_run.feed_mm);
+    table.row(vec!["uncompensated".into(), a, b, cabin_peak(&off_run.cabin_mm)]);
+    let [a, b] = figures(&on_run.feed_mm);
+    table.row(vec!["compensated (coupled)".into(), a, b, cabin_peak(&on_run.cabin_mm)]);
+    let [a, b] = figures(&off_run.replayed_mm);
+    table.row(vec!["compensated, decoupled prediction".into(), a, b, cabin_peak(&off_run.cabin_mm)]);
+    writeln!(out, "{}: {} s, monolithic model, h = {h} s (every step counted)", scene.name, args.t_end)?;
+    write!(out, "{}", table.render())?;
+    let mut sweep = Table::new(
+        std::iter::once("rate \\ delay".to_string()).chain(args.delays.iter().map(|d| format!("{} ms", d * 1e3))),
+    );
+    for &rate in &args.rates {
+        let mut row = vec![format!("{rate} Hz")];
+        for &delay in &args.delays {
+            let i = cases.iter().position(|c| c.0 == rate && c.1 == delay).expect("every case ran");
+            let v = &results[i];
+            row.push(if v.stable { format!("{:.3}", v.rms) } else { "unstable".into() });
+        }
+        sweep.row(row);
+    }
+    writeln!(out, "\nfeed error RMS (mm) over {} s against sensor rate and delay:", args.sweep_t_end)?;
+    write!(out, "{}", sweep.render())?;
+    writeln!(out, "\n{} written", paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))?;
+    Ok(())
+}
+
+/// Feed error RMS against delay, a line per sample rate; unstable cases as crosses on the top.
+fn sweep_figure(
+    name: &str,
+    args: &Args,
+    cases: &[(f64, f64, Scene)],
+    results: &[Verdict],
+) -> Result<String, Box<dyn std::error::Error + Send + Sync>> {
+    let stable_max = results.iter().filter(|v| v.stable).map(|v| v.rms).fold(0.0, f64::max);
+    let top = if stable_max > 0.0 { stable_max * 1.25 } else { 1.0 };
+    let x_max = args.delays.iter().copied().fold(0.0, f64::max).max(1e-3) * 1e3 * 1.05;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (900, 520)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("{name}: feed error RMS over {} s against sensor delay (× unstable)", args.sweep_t_end),
+                ("sans-serif", 18),
+            )
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..x_max, 0.0..top * 1.1)?;
+        chart
+            .configure_mesh()
+            .x_desc("sensor delay (ms)")
+            .y_desc("feed error RMS (mm)")
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        for (k, &rate) in args.rates.iter().enumerate() {
+            let color = PALETTE[k % PALETTE.len()];
+            let points: Vec<(f64, f64, bool)> = cases
+                .iter()
+                .zip(results)
+                .filter(|(c, _)| c.0 == rate)
+                .map(|(c, v)| (c.1 * 1e3, v.rms, v.stable))
+                .collect();
+            let stable: Vec<(f64, f64)> = points.iter().filter(|p| p.2).map(|p| (p.0, p.1)).collect();
+            chart
+                .draw_series(LineSeries::new(stable.clone(), color.stroke_width(2)))?
+                .label(format!("{rate} Hz"))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(2)));
+            chart.draw_series(stable.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
+            chart.draw_series(
+                points.iter().filter(|p| !p.2).map(|p| Cross::new((p.0, top), 6, color.stroke_width(2))),
+            )?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(160, 160, 160))
+            .draw()?;
+        root.present()?;
+    }
+    Ok(svg)
+}
