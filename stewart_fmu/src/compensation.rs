@@ -173,7 +173,7 @@ impl Compensation {
     /// Largest macro step a sampled sensor allows: a sample is taken at the first communication
     /// point at or after its instant, so a step of at most a quarter period keeps that jitter
     /// below a quarter period and every smooth step complete before the next command.
-    pub(crate) fn max_step(&self) -> f64 {
+    pub fn max_step(&self) -> f64 {
         0.25 * self.period
     }
 
@@ -267,7 +267,7 @@ impl Compensation {
     }
 
     /// The state of a sampled sensor and its command at the start.
-    pub(crate) fn start_state(&self) -> CommandState {
+    pub fn start_state(&self) -> CommandState {
         let rest = self.rest.into();
         CommandState {
             segment: Segment { start: 0.0, from: rest, velocity: [0.0; 3], to: rest },

@@ -214,7 +214,7 @@ impl Stewart {
 
     /// The motion of all bodies relative to the cabin with the platform centre at `point`
     /// (cabin frame) at time `t`.
-    pub(crate) fn relative_at(&self, point: &PathPoint, t: f64) -> Result<RelativeState, StewartError> {
+    pub fn relative_at(&self, point: &PathPoint, t: f64) -> Result<RelativeState, StewartError> {
         if !t.is_finite() {
             return Err(StewartError::Input { what: "time".into(), value: t.to_string() });
         }
