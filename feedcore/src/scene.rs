@@ -360,6 +360,9 @@ pub enum SensorKind {
 
 /// The second level: the Stewart platform puts a feed point on a target in the world frame,
 /// from the measured cabin pose. Absent: the platform follows `[motion]` relative to the cabin.
+/// How far from the platform's centre a feed point may lie, m.
+const FEED_POINT_REACH_M: f64 = 100.0;
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Control {
@@ -425,6 +428,16 @@ impl Control {
 
     fn validate(&self, c: &Check) -> Result<(), SceneError> {
         c.vector("control.feed_point_m", &self.feed_point_m)?;
+        // a point on the platform (a metre across): a point kilometres away is a unit mistake,
+        // and its squared error would overflow the RMS
+        let reach = self.feed_point_m.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if !(reach <= FEED_POINT_REACH_M) {
+            return Err(c.err(
+                "control.feed_point_m",
+                &format!("{:?}", self.feed_point_m),
+                &format!("the feed point must lie within {FEED_POINT_REACH_M} m of the platform's centre (metres, platform frame)"),
+            ));
+        }
         let unused = |key: &str, given: bool, what: &str| -> Result<(), SceneError> {
             if given {
                 Err(c.err(&format!("control.{key}"), "", &format!("only used with {what}; remove it")))

@@ -329,6 +329,10 @@ impl Recorder {
                 return Err(self.stopped(t, format!("the feed error {} is {}", names[i], sample.err_mm[i])));
             }
             trace.observe(t, sample, k.is_multiple_of(self.every));
+            let rms = trace.summary.rms_mm;
+            if !rms.is_finite() {
+                return Err(self.stopped(t, format!("the feed error's RMS is {rms} mm")));
+            }
         }
         if k.is_multiple_of(self.every) {
             let r = (p.orientation * q0.inverse()).scaled_axis() * 1e3;

@@ -159,7 +159,12 @@ fn command_for(path: &str) -> &'static [&'static str] {
     const COSIM: &[&str] = &["run", "--scheme", "ijcsa", "--t-end", "0.02", "--dt", "0.01", "--json", "--quiet"];
     const MODES: &[&str] = &["modes", "--json"];
     const CABLE: &[&str] = &["run", "--scheme", "cable", "--t-end", "0.05", "--dt", "0.01", "--json", "--quiet"];
-    if path.starts_with("system") {
+    // the compensated scene: steps within a quarter of its 50 Hz sensor's period
+    const COMPENSATED: &[&str] =
+        &["run", "--scheme", "monolithic", "--t-end", "0.01", "--dt", "0.0025", "--json", "--quiet"];
+    if path.starts_with("control") || path.starts_with("wind") {
+        COMPENSATED
+    } else if path.starts_with("system") {
         COSIM
     } else if path.starts_with("analyses.modes") {
         MODES
@@ -360,6 +365,9 @@ fn every_scene_key_survives_hostile_values() {
     let cable_only = std::fs::read_to_string(common::scene_path("lt50m_C_cable_only.toml")).unwrap();
     let mut mutants = mutants_of(&coupled, None);
     mutants.extend(mutants_of(&cable_only, Some("disturbance")));
+    let (compensated, _) = scene_text("lt50m_C_compensated.toml");
+    mutants.extend(mutants_of(&compensated, Some("control")));
+    mutants.extend(mutants_of(&compensated, Some("wind")));
     let results = run_all(&mutants);
     let mut counts: BTreeMap<Outcome, usize> = BTreeMap::new();
     let mut failures = Vec::new();
