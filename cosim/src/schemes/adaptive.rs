@@ -21,6 +21,11 @@ pub(super) struct History {
     pub(super) y_prev: Vec<f64>,
     pub(super) has_prev: bool,
     pub(super) t_before: f64,
+    /// IJCSA's reused interface Jacobian before the last step (its blocks, whether there is one,
+    /// which units are recomputed), kept only with `--jacobian reuse`.
+    pub(super) dydu: Vec<f64>,
+    pub(super) has_jacobian: bool,
+    pub(super) volatile: Vec<u32>,
 }
 
 impl History {
@@ -31,6 +36,9 @@ impl History {
             y_prev: vec![0.0; ny],
             has_prev: false,
             t_before: 0.0,
+            dydu: Vec::new(),
+            has_jacobian: false,
+            volatile: Vec::new(),
         }
     }
 }
@@ -71,6 +79,11 @@ impl<S: Units> Coupled<S> {
         self.time = t;
         if self.options.scheme == super::Scheme::IqnIls {
             self.iqn_before.copy_into(&mut self.iqn);
+        }
+        if self.reuses_jacobian() {
+            self.dydu.copy_from_slice(&self.adaptive.dydu);
+            self.has_jacobian = self.adaptive.has_jacobian;
+            self.volatile.copy_from_slice(&self.adaptive.volatile);
         }
         Ok(())
     }

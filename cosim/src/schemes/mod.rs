@@ -241,6 +241,12 @@ impl<S: Units> Coupled<S> {
         if self.options.scheme == Scheme::IqnIls {
             self.iqn.copy_into(&mut self.iqn_before);
         }
+        if self.reuses_jacobian() {
+            let a = &mut self.adaptive;
+            a.dydu.clone_from(&self.dydu);
+            a.has_jacobian = self.has_jacobian;
+            a.volatile.clone_from(&self.volatile);
+        }
         self.units.exchange_discrete().map_err(|e| self.unit_err(t, 0, e))?;
         let report = match self.options.scheme {
             Scheme::Jacobi => self.step_jacobi(t, h).map_err(|e| self.unstable(e))?,
@@ -264,10 +270,14 @@ impl<S: Units> Coupled<S> {
         Ok(report)
     }
 
+    /// Whether IJCSA keeps its interface Jacobian from step to step (`--jacobian reuse`).
+    fn reuses_jacobian(&self) -> bool {
+        self.options.scheme == Scheme::Ijcsa && self.options.jacobian == JacobianUpdate::Reuse
+    }
+
     /// Undoes the last step of an implicit scheme: every unit back to the state saved at its
-    /// start (bit for bit), the coupled values, the quasi-Newton history and the time as before
-    /// it — the step taken again repeats the same iterates. (The `reuse` Jacobian of IJCSA is
-    /// not restored.)
+    /// start (bit for bit), the coupled values, the quasi-Newton history, IJCSA's reused
+    /// Jacobian and the time as before it — the step taken again repeats the same iterates.
     pub fn undo_step(&mut self) -> Result<(), StepError> {
         if !self.options.scheme.is_implicit() {
             return Err(self.failed(self.time, "only the implicit schemes save the states to undo a step"));

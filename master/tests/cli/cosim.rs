@@ -197,8 +197,11 @@ fn fmu_system(scene: &feedcore::scene::Scene, file: &std::path::Path, o: Options
 #[test]
 fn a_rejected_step_restores_every_fmu_bit_for_bit() {
     let (scene, file) = common::scene("lt50m_C.toml", "undo", |_| {});
-    for scheme in [Scheme::IqnIls, Scheme::Ijcsa] {
-        let mut c = fmu_system(&scene, &file, options(scheme));
+    let reused =
+        Options { jacobian: JacobianUpdate::Reuse, extrapolation: Extrapolation::Linear, ..options(Scheme::Ijcsa) };
+    for o in [options(Scheme::IqnIls), options(Scheme::Ijcsa), reused] {
+        let scheme = o.scheme;
+        let mut c = fmu_system(&scene, &file, o);
         for _ in 0..20 {
             c.step(0.01).unwrap();
         }
@@ -217,12 +220,20 @@ fn a_rejected_step_restores_every_fmu_bit_for_bit() {
 }
 
 /// An adaptive run whose steps were rejected is the same, bit for bit, as a run that took the
-/// accepted steps directly: the rejected tries leave no trace.
+/// accepted steps directly: the rejected tries leave no trace (IQN-ILS's history and IJCSA's
+/// reused Jacobian included).
 #[test]
 fn adaptive_rejections_leave_no_trace() {
     let (scene, file) = common::scene("lt50m_C.toml", "adaptive", |_| {});
-    let o = options(Scheme::IqnIls);
-    let mut c = fmu_system(&scene, &file, o);
+    let reused =
+        Options { jacobian: JacobianUpdate::Reuse, extrapolation: Extrapolation::Linear, ..options(Scheme::Ijcsa) };
+    for o in [options(Scheme::IqnIls), reused] {
+        rejections_leave_no_trace(&scene, &file, o);
+    }
+}
+
+fn rejections_leave_no_trace(scene: &feedcore::scene::Scene, file: &std::path::Path, o: Options) {
+    let mut c = fmu_system(scene, file, o);
     let mut ctl =
         cosim::step_control::Controller::new(cosim::step_control::Limits { h_min: 1e-5, h_max: 0.1, h_init: 1e-4 })
             .unwrap();
@@ -234,7 +245,7 @@ fn adaptive_rejections_leave_no_trace() {
     eprintln!("{} steps, {} rejected, h {:.1e} … {:.1e}", steps.len(), ctl.rejected, ctl.h_min_used, ctl.h_max_used);
     assert!(ctl.rejected > 0, "no step was rejected: the test shows nothing");
     assert!(ctl.h_max_used > 10.0 * ctl.h_min_used, "the step did not adapt");
-    let mut direct = fmu_system(&scene, &file, o);
+    let mut direct = fmu_system(scene, file, o);
     for h in &steps {
         direct.step(*h).unwrap();
     }
