@@ -128,9 +128,10 @@ pub(crate) fn tolerance(text: &str) -> Result<f64, String> {
 /// Options of the coupling schemes.
 #[derive(clap::Args, Clone, Debug)]
 pub(crate) struct SchemeOptions {
-    /// First guess of the end-of-step inputs.
-    #[arg(long, value_enum, default_value_t = ExtrapolationArg::Constant)]
-    pub(crate) extrapolation: ExtrapolationArg,
+    /// First guess of the end-of-step inputs [default: linear for ijcsa (its reused Jacobian
+    /// then needs no more iterations than a fresh one), constant for the other schemes].
+    #[arg(long, value_enum)]
+    pub(crate) extrapolation: Option<ExtrapolationArg>,
     /// Interface tolerance of iterating schemes: every |U − C·Y| ≤ tol · s, with s the largest
     /// start value (at least 1) among the inputs of the same FMU and unit (e.g. the weight for
     /// forces).
@@ -144,7 +145,7 @@ pub(crate) struct SchemeOptions {
     #[arg(long, default_value = "0.5", value_parser = relaxation)]
     pub(crate) relaxation: Relaxation,
     /// Interface Jacobian of `ijcsa`.
-    #[arg(long, value_enum, default_value_t = JacobianArg::EveryStep)]
+    #[arg(long, value_enum, default_value_t = JacobianArg::Reuse)]
     pub(crate) jacobian: JacobianArg,
     /// Past steps (time windows) whose residual history `iqn-ils` reuses (0: this step's only).
     #[arg(long, default_value_t = IqnOptions::default().reuse)]
@@ -194,8 +195,10 @@ impl SchemeOptions {
         let mut options = Options {
             scheme: Scheme::Jacobi,
             extrapolation: match self.extrapolation {
-                ExtrapolationArg::Constant => Extrapolation::Constant,
-                ExtrapolationArg::Linear => Extrapolation::Linear,
+                Some(ExtrapolationArg::Constant) => Extrapolation::Constant,
+                Some(ExtrapolationArg::Linear) => Extrapolation::Linear,
+                None if scheme == SchemeName::Ijcsa => Extrapolation::Linear,
+                None => Extrapolation::Constant,
             },
             relaxation: self.relaxation,
             jacobian: match self.jacobian {
