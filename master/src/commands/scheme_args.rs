@@ -75,7 +75,8 @@ pub(crate) enum JacobianArg {
     /// Recomputed every step.
     EveryStep,
     /// Kept across steps and secant-updated (Broyden) from each step's iterates; a unit whose
-    /// block goes stale is recomputed every step, all of them when Newton contracts slowly.
+    /// block goes stale is recomputed at each of the next 100 steps, every unit's when Newton
+    /// contracts slowly.
     /// With `--extrapolation linear` as many iterations as `every-step` on LT50m at a fraction
     /// of the cost (the cable FMU's derivative once per run).
     Reuse,
