@@ -145,6 +145,11 @@ fn draw_error<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) ->
     e.into()
 }
 
+/// A legend's key for a line: a short stroke in the line's style.
+pub fn line_key(style: ShapeStyle) -> impl Fn((i32, i32)) -> PathElement<(i32, i32)> {
+    move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style)
+}
+
 /// The legend of a chart as every figure here draws it: upper right, on a translucent white box
 /// with a grey frame, labels at `font_size`.
 pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
@@ -264,7 +269,7 @@ pub fn stacked(title: &str, panels: &[Panel<'_>], panel_height: u32) -> Result<S
                     }
                     let drawn = chart.draw_series(LineSeries::new(seg, style)).map_err(draw_error)?;
                     if !labelled {
-                        drawn.label(line.name).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
+                        drawn.label(line.name).legend(line_key(style));
                         labelled = true;
                     }
                 }

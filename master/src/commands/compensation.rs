@@ -366,7 +366,7 @@ fn sweep_figure(
             chart
                 .draw_series(LineSeries::new(stable.clone(), color.stroke_width(2)))?
                 .label(format!("{rate} Hz"))
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(2)));
+                .legend(master::plot::line_key(color.stroke_width(2)));
             chart.draw_series(stable.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
             chart.draw_series(
                 points.iter().filter(|p| !p.2).map(|p| Cross::new((p.0, top), 6, color.stroke_width(2))),

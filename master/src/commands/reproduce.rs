@@ -576,7 +576,7 @@ fn figure_time(title: &str, runs: &[&Response], bands: &[(usize, Vec<(&str, f64)
                     .draw_series(LineSeries::new(thinned(&r.trace.t, &y, (0.0, t1), columns), color.stroke_width(1)))
                     .map_err(draw)?
                     .label(r.case.name)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+                    .legend(master::plot::line_key(color.stroke_width(2)));
             }
             master::plot::legend(&mut chart, 11)?;
         }
@@ -628,7 +628,7 @@ fn figure_spectrum(responses: &[Response], natural: &[(&str, Vec<f64>)]) -> anyh
                 for f in fs {
                     let drawn = chart.draw_series(LineSeries::new([(f, floor), (f, top)], style)).map_err(draw)?;
                     if first {
-                        drawn.label(name).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
+                        drawn.label(name).legend(master::plot::line_key(style));
                         first = false;
                     }
                 }
@@ -640,7 +640,7 @@ fn figure_spectrum(responses: &[Response], natural: &[(&str, Vec<f64>)]) -> anyh
                     .draw_series(LineSeries::new(pts, color.stroke_width(1)))
                     .map_err(draw)?
                     .label(r.case.name)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+                    .legend(master::plot::line_key(color.stroke_width(2)));
             }
             master::plot::legend(&mut chart, 11)?;
         }

@@ -211,7 +211,7 @@ fn draw(rows: &[Row], schemes: &[&str]) -> Result<String, PlotError> {
                 |f: fn(&Row) -> f64| rows.iter().filter(|r| r.0 == *s).map(|r| (r.1 as f64, f(r))).collect::<Vec<_>>();
             c.draw_series(LineSeries::new(pts(|r| r.4), color.stroke_width(2)))?
                 .label(*s)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+                .legend(master::plot::line_key(color.stroke_width(2)));
             c.draw_series(DashedLineSeries::new(pts(|r| r.2), 6, 4, color.stroke_width(2)))?;
             c.draw_series(pts(|r| r.4).into_iter().map(|p| Circle::new(p, 3, color.filled())))?;
         }
