@@ -49,6 +49,8 @@ pub struct Scratch {
     /// Step size of the kept factorization (`None`: none, or not an iteration matrix).
     pub(crate) factor_step: Option<f64>,
     strokes: [Stroke; LEGS],
+    /// The time `strokes` are for.
+    strokes_time: f64,
     /// Change of the platform's first moment since the start, cabin frame (zero unless the
     /// weight shift is left out).
     weight_shift: Vec3,
@@ -72,12 +74,18 @@ impl Scratch {
             kkt: Kkt::new(model.system.cables(), model.system.free_nodes(), &rows),
             factor_step: None,
             strokes,
+            strokes_time: time,
             weight_shift,
             load: model.system.scene_load(time),
             accepted: rows.clone(),
             rows,
             accepted_time: f64::NAN,
         })
+    }
+
+    /// The strokes last set, if they are for time `t` (a step computed them at its end).
+    pub(crate) fn strokes_at_time(&self, t: f64) -> Option<[Stroke; LEGS]> {
+        (self.strokes_time == t).then_some(self.strokes)
     }
 
     /// The joints at an accepted configuration at time `t` with these strokes (for samples).
@@ -89,6 +97,7 @@ impl Scratch {
     /// Sets the prescribed strokes for time `t`, the platform centre commanded to `point`.
     pub(crate) fn set_time(&mut self, model: &Model, point: &PathPoint, t: f64) -> Result<(), StewartError> {
         self.strokes = model.stewart.strokes_at(point, t)?;
+        self.strokes_time = t;
         self.weight_shift = weight_shift(model, point, t)?;
         self.load = model.system.scene_load(t);
         Ok(())

@@ -172,8 +172,9 @@ impl Monolithic {
     pub fn sample(&mut self) -> Sample {
         let (model, st, sc) = (&self.model, &self.state, &mut self.scratch);
         let point = command_point(model, self.command.as_ref(), st.time);
-        // the strokes of an accepted time exist (its step computed them)
-        let strokes = model.stewart.strokes_at(&point, st.time).ok();
+        // the strokes of an accepted time exist: its step computed them (kept, unless a
+        // snapshot was restored since)
+        let strokes = sc.strokes_at_time(st.time).or_else(|| model.stewart.strokes_at(&point, st.time).ok());
         if let Some(strokes) = &strokes
             && sc.accepted_time != st.time
         {
