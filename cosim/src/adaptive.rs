@@ -20,8 +20,9 @@ pub trait Retake {
     fn watched(&mut self, out: &mut [f64]) -> Result<(), Self::Error>;
     /// The group (numbered from 0) and the positive scale of every watched quantity.
     fn groups(&self) -> (&[usize], &[f64]);
-    /// How far the watched values are converged, relative to their scales.
-    fn noise(&self) -> f64;
+    /// How far each watched value is converged (absolute, in its own unit; zero if exactly),
+    /// into `out`.
+    fn noise(&self, out: &mut [f64]);
     /// The error of a run that cannot go on: no step of at least `h_min` converged at `t`
     /// (`error`: the last error norm, infinite where the step did not converge).
     fn too_small(&self, t: f64, error: f64, h_min: f64) -> Self::Error;
@@ -69,7 +70,8 @@ pub fn step<T: Retake>(
         let error = match report {
             Some(_) => {
                 stepper.watched(estimate.candidate_mut())?;
-                if estimate.can_judge() { estimate.norm(t + h, h, t_stop, tol, stepper.noise()) } else { 0.0 }
+                stepper.noise(estimate.candidate_noise_mut());
+                if estimate.can_judge() { estimate.norm(t + h, h, t_stop, tol) } else { 0.0 }
             }
             None => f64::INFINITY,
         };

@@ -39,6 +39,10 @@ pub(crate) const ORDER: u32 = 2;
 pub struct ErrorEstimate {
     t: [f64; 3],
     u: [Vec<f64>; 3],
+    /// How far each kept point's values are converged (absolute, per quantity).
+    noise: [Vec<f64>; 3],
+    /// The same for the step being judged.
+    candidate_noise: Vec<f64>,
     count: usize,
     u0: Vec<f64>,
     started: bool,
@@ -61,6 +65,8 @@ impl ErrorEstimate {
         ErrorEstimate {
             t: [0.0; 3],
             u: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+            noise: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+            candidate_noise: vec![0.0; n],
             count: 0,
             u0: vec![0.0; n],
             started: false,
@@ -98,10 +104,17 @@ impl ErrorEstimate {
         &mut self.candidate
     }
 
+    /// Where how far those values are converged goes (absolute, per quantity; zero if exact).
+    pub(crate) fn candidate_noise_mut(&mut self) -> &mut [f64] {
+        &mut self.candidate_noise
+    }
+
     /// Takes the step being judged, which ended at `t`, into the history.
     pub fn accept(&mut self, t: f64) {
         self.t.rotate_right(1);
         self.u.rotate_right(1);
+        self.noise.rotate_right(1);
+        self.noise[0].copy_from_slice(&self.candidate_noise);
         self.t[0] = t;
         self.u[0].copy_from_slice(&self.candidate);
         self.count = (self.count + 1).min(3);
@@ -134,20 +147,20 @@ impl ErrorEstimate {
     /// in [`ErrorEstimate::candidate_mut`], over a run to `horizon`; of order [`ORDER`] in h.
     /// Needs [`ErrorEstimate::can_judge`]. `|U'''|` is taken as its largest value over this and
     /// the last few accepted steps: for an oscillation it passes through zero twice a period while
-    /// the phase error it stands for keeps growing. The values are only converged to
-    /// `noise · scale_i` (an iteration's tolerance): the part of the predictor–corrector
-    /// difference that this noise can explain (amplified by the extrapolation weights) is not
-    /// counted as error.
-    pub fn norm(&mut self, t1: f64, h: f64, horizon: f64, tol: Tolerances, noise: f64) -> f64 {
+    /// the phase error it stands for keeps growing. The values are only converged so far (an
+    /// iteration's last residual, [`ErrorEstimate::candidate_noise_mut`]; every kept point has
+    /// its own): the part of the predictor–corrector difference that the noise of the four
+    /// points can explain (weighted by the extrapolation weights) is not counted as error.
+    pub fn norm(&mut self, t1: f64, h: f64, horizon: f64, tol: Tolerances) -> f64 {
         // U''' ≈ 6 (U − P(t1)) / ((t1 − t0)(t1 − t1')(t1 − t2)), P the parabola of the history
         let spread = (t1 - self.t[0]) * (t1 - self.t[1]) * (t1 - self.t[2]);
-        let amplification = 1.0 + (0..3).map(|k| self.weight(k, t1).abs()).sum::<f64>();
+        let weight = [self.weight(0, t1).abs(), self.weight(1, t1).abs(), self.weight(2, t1).abs()];
         let n = self.candidate.len();
         // root mean square over the quantities (one quantity at its limit does not force the
         // step down alone)
         let mut sum = 0.0;
         for i in 0..n {
-            let floor = amplification * noise * self.scale[i];
+            let floor = self.candidate_noise[i] + (0..3).map(|k| weight[k] * self.noise[k][i]).sum::<f64>();
             let difference = ((self.candidate[i] - self.predict(i, t1)).abs() - floor).max(0.0);
             let third = 6.0 * difference / spread.abs();
             self.third[i] = third;
@@ -181,7 +194,7 @@ mod tests {
         let tol = Tolerances { rtol: 1e-3, atol: 0.0 };
         let range = 0.3f64.powi(3);
         let expected = h * h * h * 6.0 / ERROR_CONSTANT * 10.0 / h / (tol.rtol * range);
-        let got = e.norm(t1, h, 10.0, tol, 0.0);
+        let got = e.norm(t1, h, 10.0, tol);
         assert!((got - expected).abs() <= 1e-9 * expected, "{got} against {expected}");
         // a quadratic is extrapolated exactly: no error (beyond the memory of the cubic)
         let mut q = ErrorEstimate::new(1);
@@ -191,6 +204,35 @@ mod tests {
             q.accept(t);
         }
         q.candidate_mut()[0] = 2.0 * t1 * t1 - t1;
-        assert!(q.norm(t1, h, 10.0, tol, 0.0) < 1e-9);
+        assert!(q.norm(t1, h, 10.0, tol) < 1e-9);
+    }
+
+    /// The part of the predictor–corrector difference that the points' noise explains is not
+    /// error: each point's noise weighs by its extrapolation weight, the new point's by one.
+    #[test]
+    fn noise_explains_part_of_the_difference() {
+        let (t1, h, d) = (0.42, 0.12, 1e-6);
+        let tol = Tolerances { rtol: 1e-3, atol: 0.0 };
+        let norm = |history_noise: f64, candidate_noise: f64| {
+            let mut q = ErrorEstimate::new(1);
+            q.start(&[0.0], &[0], &[1.0]);
+            for t in [0.1, 0.25, 0.3] {
+                q.candidate_mut()[0] = 2.0 * t * t - t;
+                q.candidate_noise_mut()[0] = history_noise;
+                q.accept(t);
+            }
+            // a parabola is extrapolated exactly: the whole difference is the offset d
+            q.candidate_mut()[0] = 2.0 * t1 * t1 - t1 + d;
+            q.candidate_noise_mut()[0] = candidate_noise;
+            (q.norm(t1, h, 10.0, tol), [0, 1, 2].map(|k| q.weight(k, t1).abs()).iter().sum::<f64>())
+        };
+        let (clean, weights) = norm(0.0, 0.0);
+        assert!(clean > 0.0);
+        assert_eq!(norm(0.0, d).0, 0.0);
+        assert!((norm(0.0, 0.5 * d).0 - 0.5 * clean).abs() <= 1e-9 * clean);
+        // noise of the history, amplified by the weights of the extrapolation
+        assert_eq!(norm(d / weights, 0.0).0, 0.0);
+        let quarter = norm(0.25 * d / weights, 0.0).0;
+        assert!((quarter - 0.75 * clean).abs() <= 1e-9 * clean, "{quarter} against {clean}");
     }
 }

@@ -399,3 +399,148 @@ fn non_iterating_schemes_refuse_an_algebraic_loop() {
     }
     assert!(Coupled::new(TwoMasses::new(), options(Scheme::Jacobi)).is_ok());
 }
+
+/// A clock and an echo: the clock's output is its time, the echo's the input it holds (direct
+/// feedthrough), each feeding the other. The coupled values are linear in time.
+struct ClockAndEcho {
+    layout: Layout,
+    time: [f64; 2],
+    saved: [f64; 2],
+    echo: f64,
+}
+
+impl ClockAndEcho {
+    fn new() -> ClockAndEcho {
+        let layout = Layout {
+            units: vec![
+                UnitLayout { name: "clock".into(), inputs: 0..1, outputs: 0..1 },
+                UnitLayout { name: "echo".into(), inputs: 1..2, outputs: 1..2 },
+            ],
+            source: vec![1, 0],
+            gain: vec![1.0, 1.0],
+            offset: vec![0.0, 0.0],
+            scale: vec![1.0, 1.0],
+            group: vec![0, 1],
+            input_names: vec!["clock.u".into(), "echo.u".into()],
+            output_names: vec!["clock.t".into(), "echo.y".into()],
+            feedthrough: vec![(1, 1)],
+        };
+        ClockAndEcho { layout, time: [0.0; 2], saved: [0.0; 2], echo: 0.0 }
+    }
+}
+
+impl Units for ClockAndEcho {
+    fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    fn capabilities(&self, _k: usize) -> Capabilities {
+        Capabilities { rollback: true, step_derivatives: false, interpolates: false }
+    }
+
+    fn set_inputs(&mut self, k: usize, u: &[f64]) -> Result<(), UnitError> {
+        if k == 1 {
+            self.echo = u[0];
+        }
+        Ok(())
+    }
+
+    fn set_input_slopes(&mut self, _k: usize, _s: &[f64]) -> Result<(), UnitError> {
+        Err(UnitError::Other("no input slopes".into()))
+    }
+
+    fn do_step(&mut self, k: usize, t: f64, h: f64) -> Result<(), UnitError> {
+        self.time[k] = t + h;
+        Ok(())
+    }
+
+    fn get_outputs(&mut self, k: usize, y: &mut [f64]) -> Result<(), UnitError> {
+        y[0] = if k == 0 { self.time[0] } else { self.echo };
+        Ok(())
+    }
+
+    fn save_state(&mut self, k: usize) -> Result<(), UnitError> {
+        self.saved[k] = self.time[k];
+        Ok(())
+    }
+
+    fn restore_state(&mut self, k: usize) -> Result<(), UnitError> {
+        self.time[k] = self.saved[k];
+        Ok(())
+    }
+
+    fn step_derivative(&mut self, _k: usize, _seed: &[f64], _out: &mut [f64]) -> Result<(), UnitError> {
+        Err(UnitError::Other("no derivatives".into()))
+    }
+}
+
+/// Linear extrapolation takes the slope over the last step, whatever its size: on values linear
+/// in time the first guess is exact at every step of a changing size (one evaluation per step,
+/// none left to iterate), as the adaptive step changes it.
+#[test]
+fn linear_extrapolation_follows_a_changing_step() {
+    let o = Options { extrapolation: Extrapolation::Linear, ..options(Scheme::Iterative) };
+    let mut c = Coupled::new(ClockAndEcho::new(), o).unwrap();
+    let steps = [0.1, 0.1, 0.05, 0.2, 0.01, 0.3, 0.3, 0.07];
+    let iterations: Vec<usize> = steps.iter().map(|&h| c.step(h).unwrap().iterations).collect();
+    eprintln!("evaluations per step: {iterations:?}");
+    // the first step has no slope yet; every later one is guessed exactly
+    assert!(iterations[1..].iter().all(|&n| n == 1), "{iterations:?}");
+    assert!((c.outputs()[1] - steps.iter().sum::<f64>()).abs() < 1e-12);
+}
+
+/// IJCSA's reused Jacobian belongs to the step size it was computed for: with the step size
+/// changing (as the adaptive step changes it) every step of the linear system still converges in
+/// one Newton update (two evaluations), and the Jacobian is computed once per new size — not
+/// corrected by secants of another step map and then recomputed step after step as stale.
+#[test]
+fn reused_jacobian_follows_a_changing_step() {
+    // (central differences of the step maps are exact to 1e-10 here: the tolerance allows it)
+    let mut o = Options { tol: 1e-10, ..options(Scheme::Ijcsa) };
+    (o.jacobian, o.extrapolation) = (JacobianUpdate::Reuse, Extrapolation::Linear);
+    let mut c = Coupled::new(TwoMasses::new(), o).unwrap();
+    let pattern = [0.01, 0.01, 0.02, 0.02, 0.005, 0.013, 0.013, 0.013, 0.04, 0.01];
+    let steps: Vec<f64> = (0..5).flat_map(|_| pattern).collect();
+    let iterations: Vec<usize> = steps.iter().map(|&h| c.step(h).unwrap().iterations).collect();
+    let sizes = 1 + steps.windows(2).filter(|w| w[0] != w[1]).count();
+    eprintln!("evaluations per step: {iterations:?}; {} unit steps, {sizes} step sizes", c.units().steps);
+    assert!(iterations.iter().all(|&n| n == 2), "{iterations:?}");
+    // each evaluation steps both units; each Jacobian by central differences steps each unit
+    // twice for its one input and once more with the nominal input
+    assert_eq!(c.units().steps, 2 * 2 * steps.len() + 2 * 3 * sizes);
+}
+
+/// The adaptive step judges its error by the coupled inputs it is told to watch: names and
+/// prefixes that end before a `.` or `[`; a name that is neither is refused with the inputs
+/// there are. Watching x₁ alone, the run still meets its tolerance on x₁.
+#[test]
+fn the_adaptive_step_watches_what_it_is_told() {
+    let mut c = Coupled::new(TwoMasses::new(), options(Scheme::IqnIls)).unwrap();
+    for bad in ["b.x", "c", "b.x1[1]"] {
+        let e = c.watch(&[bad.to_string()]).unwrap_err().to_string();
+        assert!(e.contains(&format!("`{bad}`")) && e.contains("`a.force`, `b.x1`"), "{e}");
+    }
+    c.watch(&["b".to_string()]).unwrap();
+    let (t_end, rtol) = (5.0, 1e-3);
+    let mut ctl = Controller::new(Limits { h_min: 1e-7, h_max: 0.1, h_init: 1e-4 }).unwrap();
+    let (mut worst, mut range, mut steps) = (0.0f64, 0.0f64, 0);
+    while c.time() < t_end {
+        c.step_adaptive(&mut ctl, Tolerances { rtol, atol: 1e-3 * rtol }, t_end).unwrap();
+        steps += 1;
+        worst = worst.max((c.outputs()[0] - exact(c.time())[0]).abs());
+        range = range.max((exact(c.time())[0] - X1).abs());
+    }
+    eprintln!("watching b.x1: {steps} steps, error {:.2e} of the range", worst / range);
+    assert!(worst <= rtol * range);
+    // all of them, as by default
+    let mut all = Coupled::new(TwoMasses::new(), options(Scheme::IqnIls)).unwrap();
+    all.watch(&[]).unwrap();
+    let mut ctl_all = Controller::new(Limits { h_min: 1e-7, h_max: 0.1, h_init: 1e-4 }).unwrap();
+    let mut steps_all = 0;
+    while all.time() < t_end {
+        all.step_adaptive(&mut ctl_all, Tolerances { rtol, atol: 1e-3 * rtol }, t_end).unwrap();
+        steps_all += 1;
+    }
+    eprintln!("watching both: {steps_all} steps");
+    assert_ne!(steps_all, steps, "what is watched changes the steps");
+}

@@ -31,7 +31,7 @@ use cosim::error_estimate::ErrorEstimate;
 use feedcore::genalpha::StepError as IntegratorError;
 
 /// How the system is solved.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Method {
     /// The cable–cabin model alone (platform locked or absent) under the scene's disturbance;
     /// in-process, no FMU.
@@ -449,8 +449,9 @@ impl<'a> Run<'a> {
         t_end: f64,
         limits: &Limits,
     ) -> Result<Run<'a>, RunError> {
-        let refused = |reason: String| RunError::Refused { method: method.name(), reason };
-        let schedule = match method {
+        let name = method.name();
+        let refused = |reason: String| RunError::Refused { method: name, reason };
+        let schedule = match &method {
             Method::CosimAdaptive(o, a) => {
                 if !o.scheme.is_implicit() {
                     return Err(refused(format!(
@@ -467,7 +468,7 @@ impl<'a> Run<'a> {
             }
             _ => Schedule::Fixed(Plan::new(dt, t_end, limits).map_err(|e| refused(e.to_string()))?),
         };
-        let footprint = if method == Method::CableOnly { Footprint::CableModel } else { Footprint::Coupled };
+        let footprint = if matches!(method, Method::CableOnly) { Footprint::CableModel } else { Footprint::Coupled };
         check_memory(scene, footprint, cable_fmu::model::CableCabin::modes_built(scene, 0), limits)
             .map_err(|e: PlanError| refused(format!("{}: {e}", scene_file.display())))?;
         let coupled = scene.analyses.stewart == StewartMode::Coupled;
@@ -558,7 +559,7 @@ impl<'a> Run<'a> {
 
     /// Runs it; `quiet`: no progress bar.
     pub fn execute(&self, quiet: bool) -> Result<Trace, RunError> {
-        let (scene, method) = (self.scene, self.method);
+        let (scene, method) = (self.scene, self.method.clone());
         let name = method.name();
         let (dt, sample_interval_s) = match self.schedule {
             Schedule::Fixed(plan) => (plan.dt, self.every as f64 * plan.dt),
@@ -625,10 +626,7 @@ impl<'a> Run<'a> {
                 let mut m = AdaptiveMonolithic::new(Monolithic::new(scene).map_err(|e| setup(&e))?);
                 let mut adaptive = match method {
                     Method::MonolithicAdaptive(a) => {
-                        let ctl = a
-                            .controller()
-                            .map_err(|reason| RunError::Refused { method: name, reason })?
-                            .holding(cosim::step_control::REFACTORIZING_HOLD);
+                        let ctl = a.controller().map_err(|reason| RunError::Refused { method: name, reason })?;
                         Some((ctl, a.tolerances, ErrorEstimate::new(WATCHED)))
                     }
                     _ => None,
@@ -677,13 +675,19 @@ impl<'a> Run<'a> {
                     sys.connections.retain(|c| !c.to.starts_with("stewart."));
                     options.scheme = Scheme::Sequential;
                 }
-                let adaptive = match method {
+                let adaptive = match &method {
                     Method::CosimAdaptive(_, a) => Some(a),
                     _ => None,
                 };
                 let spec = scene_spec(&sc, self.scene_file).map_err(|e| setup(&e))?;
                 let system = FmuSystem::load(&spec, &needs(&options, adaptive.is_some())).map_err(|e| setup(&e))?;
                 let mut c = Coupled::new(system, options).map_err(|e| setup(&e))?;
+                if let Some(a) = &adaptive {
+                    let pose = || CABIN_POSE.map(String::from).to_vec();
+                    let watch = if a.watch.is_empty() { pose() } else { a.watch.clone() };
+                    c.watch(&watch).map_err(|e| RunError::Refused { method: name, reason: format!("--watch: {e}") })?;
+                }
+                let tolerances = adaptive.map(|a| a.tolerances);
                 let mut controller = adaptive
                     .map(|a| a.controller())
                     .transpose()
@@ -695,11 +699,9 @@ impl<'a> Run<'a> {
                 }
                 let first = probe.read(&mut c).map_err(|e| stopped(0.0, e.to_string()))?;
                 self.drive(&mut rec, quiet, first, |r| {
-                    let (h, report, rejected) = match (r, controller.as_mut(), adaptive) {
-                        (Request::Adaptive { t_stop }, Some(ctl), Some(a)) => {
-                            let s = c
-                                .step_adaptive(ctl, a.tolerances, t_stop)
-                                .map_err(|e| RunError::stopped_by(name, &e))?;
+                    let (h, report, rejected) = match (r, controller.as_mut(), tolerances) {
+                        (Request::Adaptive { t_stop }, Some(ctl), Some(tol)) => {
+                            let s = c.step_adaptive(ctl, tol, t_stop).map_err(|e| RunError::stopped_by(name, &e))?;
                             (s.h, s.report, s.rejected)
                         }
                         _ => {
@@ -727,6 +729,10 @@ impl<'a> Run<'a> {
 /// step, whose third differences the estimate reads as error (measured at C: with them the
 /// steps stay at 1e-5…1e-4 s and the run reached the step cap at 10 s).
 const WATCHED: usize = 7;
+
+/// What a co-simulation of a scene watches by default: the cabin's pose as the Stewart FMU
+/// receives it, as the monolithic model watches its own (so both are judged alike).
+const CABIN_POSE: [&str; 2] = ["stewart.cabin.r", "stewart.cabin.q"];
 
 /// The monolithic model as a stepper that can undo a step (for the adaptive step): a snapshot
 /// before every step. The state is restored exactly; the kept factorization only steers Newton,
@@ -790,8 +796,8 @@ impl cosim::adaptive::Retake for AdaptiveMonolithic {
     }
 
     /// Newton converges the configuration far below what the estimate can see.
-    fn noise(&self) -> f64 {
-        0.0
+    fn noise(&self, out: &mut [f64]) {
+        out.fill(0.0);
     }
 
     fn too_small(&self, t: f64, error: f64, h_min: f64) -> MonolithicError {

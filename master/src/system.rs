@@ -6,7 +6,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use cosim::step_control::{Controller, Limits, Tolerances};
+use cosim::step_control::{Controller, Limits, REFACTORIZING_HOLD, Tolerances};
 use cosim::system::spec::{Component, Connection, Endpoint, Matching, Parameter, Value};
 use cosim::{Coupled, FmuSystem, Needs, Options, SetupError, SystemSpec};
 use feedcore::scene::Scene;
@@ -75,19 +75,24 @@ pub fn needs(options: &Options, adaptive: bool) -> Needs {
 }
 
 /// Step-size settings of an adaptive run.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Adaptive {
     pub tolerances: Tolerances,
     pub h_min: f64,
     pub h_max: f64,
+    /// The coupled inputs the error estimate watches (names or prefixes, [`Coupled::watch`]);
+    /// empty: the runner's default.
+    pub watch: Vec<String>,
 }
 
 impl Adaptive {
     /// The controller. The first steps cannot be judged (no history), so they are small: ten
-    /// times the smallest step.
+    /// times the smallest step. It keeps a step size unless it may grow by
+    /// [`REFACTORIZING_HOLD`]: a new size is a new step map — the monolithic model and the cable
+    /// FMU refactorize their iteration matrices, IJCSA recomputes its interface Jacobian.
     pub fn controller(&self) -> Result<Controller, String> {
         let h_init = (10.0 * self.h_min).min(self.h_max);
-        Controller::new(Limits { h_min: self.h_min, h_max: self.h_max, h_init })
+        Ok(Controller::new(Limits { h_min: self.h_min, h_max: self.h_max, h_init })?.holding(REFACTORIZING_HOLD))
     }
 }
 
@@ -163,7 +168,7 @@ impl<'a> SystemRun<'a> {
     ) -> Result<SystemRun<'a>, RunError> {
         let method = options.scheme.name();
         let refused = |reason: String| RunError::Refused { method, reason };
-        let schedule = match adaptive {
+        let schedule = match &adaptive {
             Some(a) => {
                 if !options.scheme.is_implicit() {
                     return Err(refused(format!(
@@ -190,6 +195,10 @@ impl<'a> SystemRun<'a> {
         let system =
             FmuSystem::load(self.spec, &needs(&self.options, self.adaptive.is_some())).map_err(|e| setup(&e))?;
         let mut c = Coupled::new(system, self.options).map_err(|e| setup(&e))?;
+        if let Some(a) = &self.adaptive {
+            // every coupled input unless named: nothing is known of the FMUs' quantities
+            c.watch(&a.watch).map_err(|e| RunError::Refused { method, reason: format!("--watch: {e}") })?;
+        }
         let mut outputs = Vec::new();
         let mut columns = vec!["time".to_string()];
         for (k, (name, inst)) in c.units_mut().instances().enumerate() {
@@ -280,9 +289,13 @@ impl<'a> SystemRun<'a> {
             Ok(())
         };
         sample(&mut c, 0.0, &mut sinks)?;
-        let mut controller =
-            self.adaptive.map(|a| a.controller()).transpose().map_err(|reason| RunError::Refused { method, reason })?;
-        let tolerances = self.adaptive.map(|a| a.tolerances);
+        let mut controller = self
+            .adaptive
+            .as_ref()
+            .map(|a| a.controller())
+            .transpose()
+            .map_err(|reason| RunError::Refused { method, reason })?;
+        let tolerances = self.adaptive.as_ref().map(|a| a.tolerances);
         // the step and the sampling after it both reach the system
         let cell = std::cell::RefCell::new(c);
         let totals = drive(

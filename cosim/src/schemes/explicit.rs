@@ -7,8 +7,8 @@ use crate::system::Units;
 impl<S: Units> Coupled<S> {
     pub(super) fn step_jacobi(&mut self, t: f64, h: f64) -> Result<StepReport, StepError> {
         // With a slope the units extrapolate from the last communication point themselves.
-        let slope = self.predict(h);
-        self.keep_history();
+        let slope = self.predict();
+        self.keep_history(h);
         for k in 0..self.units.layout().units.len() {
             self.advance(k, slope, t, h)?;
         }
@@ -16,8 +16,8 @@ impl<S: Units> Coupled<S> {
     }
 
     pub(super) fn step_gauss_seidel(&mut self, t: f64, h: f64) -> Result<StepReport, StepError> {
-        let slope = self.predict(h);
-        self.keep_history();
+        let slope = self.predict();
+        self.keep_history(h);
         for step in 0..self.order.len() {
             let k = self.order[step];
             self.advance(k, slope, t, h)?;

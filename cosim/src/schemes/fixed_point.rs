@@ -7,7 +7,7 @@ use crate::system::Units;
 impl<S: Units> Coupled<S> {
     pub(super) fn step_iterative(&mut self, t: f64, h: f64) -> Result<StepReport, StepError> {
         self.predict_end(h);
-        self.keep_history();
+        self.keep_history(h);
         self.save_states(t)?;
         let mut omega = match self.options.relaxation {
             Relaxation::Fixed(w) => w,

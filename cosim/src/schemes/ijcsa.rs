@@ -33,7 +33,7 @@ pub(super) fn eliminated_first(l: &Layout) -> Range<usize> {
 impl<S: Units> Coupled<S> {
     pub(super) fn step_ijcsa(&mut self, t: f64, h: f64) -> Result<StepReport, StepError> {
         self.predict_end(h);
-        self.keep_history();
+        self.keep_history(h);
         self.save_states(t)?;
         let mut fresh_jacobian = false;
         let mut last_res = f64::INFINITY;
@@ -48,7 +48,9 @@ impl<S: Units> Coupled<S> {
             // Jacobian of the step just taken (derivatives at the current inputs)
             let res = self.residual(&self.work.guess).0;
             let slow = res > 0.1 * last_res;
-            if !self.has_jacobian
+            // a reused Jacobian belongs to the step size it was made for: another size (an
+            // adaptive step's) is another step map, recomputed once rather than found stale
+            if self.jacobian_step != Some(h)
                 || self.options.jacobian == JacobianUpdate::EveryStep && it == 1
                 || (slow && !fresh_jacobian)
             {
@@ -137,7 +139,7 @@ impl<S: Units> Coupled<S> {
         for k in 0..self.units.layout().units.len() {
             self.unit_jacobian(t, h, k)?;
         }
-        self.has_jacobian = true;
+        self.jacobian_step = Some(h);
         Ok(())
     }
 

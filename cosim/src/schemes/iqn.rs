@@ -8,7 +8,7 @@ use crate::system::Units;
 impl<S: Units> Coupled<S> {
     pub(super) fn step_iqn(&mut self, t: f64, h: f64) -> Result<StepReport, StepError> {
         self.predict_end(h);
-        self.keep_history();
+        self.keep_history(h);
         self.save_states(t)?;
         self.iqn.start_window();
         for it in 1..=self.options.max_iter {

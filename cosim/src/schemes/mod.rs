@@ -132,10 +132,12 @@ pub struct Coupled<S: Units> {
     /// Coupled outputs at the last two communication points (for extrapolation).
     y: Vec<f64>,
     y_prev: Vec<f64>,
-    has_prev: bool,
+    /// The time from `y_prev` to `y` (the last step's size), once there is a last step.
+    prev_step: Option<f64>,
     /// Interface Jacobian ∂Y/∂U (block diagonal over the units), row-major ny × nu.
     dydu: Vec<f64>,
-    has_jacobian: bool,
+    /// The macro step whose step maps `dydu` differentiates, once there is one.
+    jacobian_step: Option<f64>,
     /// Per unit, the steps its block is still recomputed at every first iteration after it was
     /// found stale (`reuse`).
     volatile: Vec<u32>,
@@ -190,15 +192,15 @@ impl<S: Units> Coupled<S> {
         let mut c = Coupled {
             iqn: Accelerator::new(nu, options.iqn),
             iqn_before: Accelerator::new(nu, options.iqn),
-            adaptive: adaptive::History::new(nu, ny),
+            adaptive: adaptive::History::new(units.layout()),
             units,
             options,
             time: 0.0,
             y,
             y_prev: vec![0.0; ny],
-            has_prev: false,
+            prev_step: None,
             dydu: vec![0.0; ny * nu],
-            has_jacobian: false,
+            jacobian_step: None,
             volatile,
             interface,
             order: Vec::new(),
@@ -237,14 +239,14 @@ impl<S: Units> Coupled<S> {
         // what `undo_step` restores besides the units
         self.adaptive.y.copy_from_slice(&self.y);
         self.adaptive.y_prev.copy_from_slice(&self.y_prev);
-        self.adaptive.has_prev = self.has_prev;
+        self.adaptive.prev_step = self.prev_step;
         if self.options.scheme == Scheme::IqnIls {
             self.iqn.copy_into(&mut self.iqn_before);
         }
         if self.reuses_jacobian() {
             let a = &mut self.adaptive;
             a.dydu.clone_from(&self.dydu);
-            a.has_jacobian = self.has_jacobian;
+            a.jacobian_step = self.jacobian_step;
             a.volatile.clone_from(&self.volatile);
         }
         self.units.exchange_discrete().map_err(|e| self.unit_err(t, 0, e))?;
@@ -314,24 +316,25 @@ impl<S: Units> Coupled<S> {
     /// The first guess of the end-of-step inputs into `work.guess` (extrapolated linearly if
     /// asked), and for non-iterating schemes the slope into `work.slope`. Returns whether a
     /// slope is set.
-    fn predict(&mut self, h: f64) -> bool {
-        let Coupled { work, units, y, y_prev, has_prev, options, .. } = self;
+    fn predict(&mut self) -> bool {
+        let Coupled { work, units, y, y_prev, prev_step, options, .. } = self;
         let l = units.layout();
         for (i, g) in work.guess.iter_mut().enumerate() {
             *g = l.coupled(i, y);
         }
-        if !(*has_prev && options.extrapolation == Extrapolation::Linear) {
+        // the slope over the last step, whose size an adaptive step may have changed since
+        let Some(h_prev) = prev_step.filter(|_| options.extrapolation == Extrapolation::Linear) else {
             return false;
-        }
+        };
         for (i, sl) in work.slope.iter_mut().enumerate() {
-            *sl = (work.guess[i] - l.coupled(i, y_prev)) / h;
+            *sl = (work.guess[i] - l.coupled(i, y_prev)) / h_prev;
         }
         true
     }
 
     /// The guess extrapolated to the end of the step (iterating schemes set end values).
     fn predict_end(&mut self, h: f64) {
-        if self.predict(h) {
+        if self.predict() {
             for (g, s) in self.work.guess.iter_mut().zip(&self.work.slope) {
                 *g += s * h;
             }
@@ -366,10 +369,10 @@ impl<S: Units> Coupled<S> {
         )
     }
 
-    /// The outputs before the step become the history for extrapolation.
-    fn keep_history(&mut self) {
+    /// The outputs before the step of size `h` become the history for extrapolation.
+    fn keep_history(&mut self, h: f64) {
         self.y_prev.copy_from_slice(&self.y);
-        self.has_prev = true;
+        self.prev_step = Some(h);
     }
 
     /// Sets unit `k`'s inputs from `work.guess` (with `slope`: a unit that interpolates inputs

@@ -28,7 +28,7 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
         ),
     };
     let loaded = cosim::ssp::read::load(file)?;
-    let dt = match (adaptive, args.dt) {
+    let dt = match (&adaptive, args.dt) {
         (None, Some(dt)) => dt,
         (None, None) => bail!("--dt: give the macro step of the system (s)"),
         (Some(_), Some(_)) => bail!(
@@ -45,19 +45,20 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
     let Some(t_end) = args.t_end.or(loaded.stop_time) else {
         bail!("--t-end: give the end time (the system description has no DefaultExperiment stopTime)");
     };
-    let run = SystemRun::prepare(&loaded.spec, options, adaptive, dt, t_end, &caps().run).with_context(|| {
-        let from = if args.t_end.is_some() { "--t-end" } else { "the DefaultExperiment" };
-        match adaptive {
-            Some(a) => format!(
-                "{}: adaptive steps within [{}, {}] s, end time {} s from {from}",
-                file.display(),
-                num(a.h_min),
-                num(a.h_max),
-                num(t_end)
-            ),
-            None => format!("{}: h = {} s, end time {} s from {from}", file.display(), num(dt), num(t_end)),
-        }
-    })?;
+    let run =
+        SystemRun::prepare(&loaded.spec, options, adaptive.clone(), dt, t_end, &caps().run).with_context(|| {
+            let from = if args.t_end.is_some() { "--t-end" } else { "the DefaultExperiment" };
+            match &adaptive {
+                Some(a) => format!(
+                    "{}: adaptive steps within [{}, {}] s, end time {} s from {from}",
+                    file.display(),
+                    num(a.h_min),
+                    num(a.h_max),
+                    num(t_end)
+                ),
+                None => format!("{}: h = {} s, end time {} s from {from}", file.display(), num(dt), num(t_end)),
+            }
+        })?;
     let inputs = std::iter::once(file.to_owned()).chain(loaded.spec.components.iter().map(|c| c.source.clone()));
     let mut outputs = Outputs::new(inputs);
     let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
@@ -75,7 +76,7 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
     if let Some((t, why)) = &outcome.stopped_early {
         eprintln!("note: the run ended early at t = {t} s: {why}");
     }
-    let steps = match adaptive {
+    let steps = match &adaptive {
         Some(a) => format!("the adaptive step (rtol {:e})", a.tolerances.rtol),
         None => format!("h = {dt} s"),
     };

@@ -112,7 +112,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
                 .context("writing the scene variants")?;
             let dt = variant.solver.dt_s;
             for t_end in [dt, args.t_end] {
-                Run::prepare(&variant, &path, method, dt, t_end, &limits).with_context(|| {
+                Run::prepare(&variant, &path, method.clone(), dt, t_end, &limits).with_context(|| {
                     format!("{} with {n} elements per cable, {} s", scheme.as_str(), master::limits::num(t_end))
                 })?;
             }

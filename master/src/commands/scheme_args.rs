@@ -180,6 +180,14 @@ pub(crate) struct SchemeOptions {
     /// Largest step of the adaptive step (s).
     #[arg(long, default_value = "0.1", value_parser = positive, allow_negative_numbers = true)]
     pub(crate) h_max: f64,
+    /// The coupled inputs a co-simulation's adaptive step judges its error by (comma-separated;
+    /// `component.variable`, or a prefix ending before a `.` or `[`: `stewart.cabin.r` for
+    /// `stewart.cabin.r[1]` … `[3]`). Default: a scene's cabin pose (`stewart.cabin.r`,
+    /// `stewart.cabin.q`, what the monolithic model watches), a --system's every coupled input.
+    /// Name smooth quantities (positions, velocities): an FMU's accelerations and forces may
+    /// carry its integrator's step-to-step ripple, which the estimate reads as error.
+    #[arg(long, value_delimiter = ',', value_name = "INPUTS", requires = "adaptive")]
+    pub(crate) watch: Vec<String>,
 }
 
 impl SchemeOptions {
@@ -248,6 +256,7 @@ impl SchemeOptions {
             tolerances: Tolerances { rtol: self.rtol, atol: self.atol },
             h_min: self.h_min,
             h_max: self.h_max,
+            watch: self.watch.clone(),
         })
     }
 }

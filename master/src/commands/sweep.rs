@@ -99,7 +99,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let placement = Placement { surface, tilt_share: args.tilt_share };
     let method = args.run.map(|s| args.options.method(s)).transpose()?;
     let limits = caps().run;
-    let request = Request { modes: args.modes as usize, run: method.map(|m| (m, args.t_end)), limits };
+    let request = Request { modes: args.modes as usize, run: method.clone().map(|m| (m, args.t_end)), limits };
     let jobs = args.jobs.map(usize::from);
     let points: Vec<usize> = (0..grid.len()).filter(|i| shard.contains(*i)).collect();
     // every run's steps and what its method needs, at every step swept (the points differ
@@ -107,7 +107,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     if let (Some(method), Some(name)) = (method, args.run) {
         let dts = grid.axes.iter().find(|a| a.axis == Axis::Dt).map_or(vec![scene.solver.dt_s], |a| a.values.clone());
         for dt in dts {
-            Run::prepare(&scene, scene_file, method, dt, args.t_end, &limits)
+            Run::prepare(&scene, scene_file, method.clone(), dt, args.t_end, &limits)
                 .with_context(|| format!("--run {} at h = {dt} s, --t-end {} s", name.as_str(), args.t_end))?;
         }
     }

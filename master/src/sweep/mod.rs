@@ -305,7 +305,7 @@ pub fn with_platform_mass_factor(scene: &Scene, f: f64) -> Scene {
 pub const DEEP_SAG: f64 = 1.5;
 
 /// What to compute at every point.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Request {
     /// Natural frequencies reported (0: no eigen solve).
     pub modes: usize,
@@ -417,7 +417,7 @@ pub fn evaluate(
             Err(e) => return finish(out, format!("modes: {e}")),
         }
     }
-    if let Some((method, t_end)) = request.run {
+    if let Some((method, t_end)) = request.run.clone() {
         let tag = format!("sweep-{}-{index}", scene.name);
         let run = write_variant(&scene, base_file, &tag).map_err(|e| e.to_string()).and_then(|(variant, file)| {
             Run::prepare(&variant, &file, method, dt, t_end, &request.limits)

@@ -186,3 +186,43 @@ fn the_monolithic_model_steps_adaptively_within_its_tolerance() {
         assert_eq!(c["schemes"][0]["peak_disp_mm"], v["peak_disp_mm"], "the same run");
     }
 }
+
+/// The co-simulation's adaptive step watches the cabin pose by default, as the monolithic model
+/// watches its own: judged alike, the two take about the same steps (5 s at C, rtol 1e-3), and
+/// so do IJCSA and IQN-ILS. `--watch` names other coupled inputs; a name that is none is refused
+/// with the inputs there are, and `--watch` without `--adaptive` is refused.
+#[test]
+fn cosimulation_and_monolithic_model_watch_the_same_pose() {
+    let (_, file) = common::scene("lt50m_C.toml", "adaptive-watch", |_| {});
+    let f = file.to_str().unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["run", "--scene", f, "--adaptive", "--rtol", "1e-3", "--t-end", "5", "--json"];
+        args.extend_from_slice(extra);
+        let out = master(&args);
+        assert!(out.status.success(), "{extra:?}: {}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["steps"].as_u64().unwrap() as f64
+    };
+    let monolithic = run(&["--scheme", "monolithic"]);
+    for scheme in ["ijcsa", "iqn-ils"] {
+        let steps = run(&["--scheme", scheme]);
+        eprintln!("{scheme}: {steps} steps, monolithic {monolithic}");
+        assert!((steps / monolithic - 1.0).abs() < 0.05, "{scheme}: {steps} steps against {monolithic}");
+    }
+    // the velocities watched too: more to judge, more steps
+    let with_velocities = run(&["--scheme", "ijcsa", "--watch", "stewart.cabin.r,stewart.cabin.q,stewart.cabin.v"]);
+    eprintln!("ijcsa watching the velocities too: {with_velocities} steps");
+    assert!(with_velocities > 1.2 * monolithic);
+
+    let out =
+        master(&["run", "--scene", f, "--scheme", "ijcsa", "--adaptive", "--watch", "stewart.cabin.x", "--t-end", "1"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("--watch") && err.contains("`stewart.cabin.x`") && err.contains("`stewart.cabin.r[1]`"),
+        "{err}"
+    );
+    let out = master(&["run", "--scene", f, "--scheme", "ijcsa", "--watch", "stewart.cabin.r", "--t-end", "1"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--adaptive"));
+}
