@@ -161,14 +161,14 @@ pub(crate) struct SchemeOptions {
           allow_negative_numbers = true)]
     pub(crate) iqn_relaxation: f64,
     /// Adaptive step (monolithic; iterative, ijcsa, iqn-ils): a local error estimate (predictor
-    /// against corrector) of the coupled quantities, or of the monolithic model's cabin pose,
-    /// rejected steps rolled back. The steps are
+    /// against corrector) of the cabin pose (a co-simulation's: of the coupled inputs --watch
+    /// names), rejected steps rolled back. The steps are
     /// chosen within [--h-min, --h-max] (the first ones at 10 × --h-min) and the last lands on
     /// the end time; --dt does not apply.
     #[arg(long)]
     pub(crate) adaptive: bool,
     /// Relative tolerance of the adaptive step, in (0, 1): error per step ≤ rtol × how far each
-    /// coupled quantity has moved from its initial value.
+    /// watched quantity has moved from its initial value.
     #[arg(long, default_value = "1e-3", value_parser = tolerance, allow_negative_numbers = true)]
     pub(crate) rtol: f64,
     /// Absolute tolerance of the adaptive step, as a fraction of each coupled quantity's scale.
