@@ -113,6 +113,11 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             "--adaptive: the grid of --dts runs at fixed steps; give the adaptive runs' tolerances with --adaptive-rtols"
         );
     }
+    if !args.options.watch.is_empty() && args.adaptive_rtols.is_empty() {
+        bail!("--watch names what the adaptive runs watch: give their tolerances with --adaptive-rtols");
+    }
+    // the grid and the reference at fixed steps
+    let fixed = args.options.fixed_step();
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     // one sampling for all runs: the coarsest step, so every trace has the same times
     let coarse = dts.iter().cloned().fold(0.0, f64::max);
@@ -133,7 +138,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     for &name in &args.schemes {
         for &dt in dts {
             let context = || format!("{} at h = {dt} s", name.as_str());
-            let method = args.options.method(name).with_context(context)?;
+            let method = fixed.method(name).with_context(context)?;
             runs.push((name, dt, Run::prepare(&variant, &file, method, dt, t_end, &limits).with_context(context)?));
         }
     }
@@ -150,7 +155,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let reference = Run::prepare(
         &reference_scene,
         &reference_file,
-        args.options.method(SchemeName::Monolithic)?,
+        fixed.method(SchemeName::Monolithic)?,
         reference_dt,
         t_end,
         &limits,

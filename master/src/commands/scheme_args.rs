@@ -186,7 +186,7 @@ pub(crate) struct SchemeOptions {
     /// `stewart.cabin.q`, what the monolithic model watches), a --system's every coupled input.
     /// Name smooth quantities (positions, velocities): an FMU's accelerations and forces may
     /// carry its integrator's step-to-step ripple, which the estimate reads as error.
-    #[arg(long, value_delimiter = ',', value_name = "INPUTS", requires = "adaptive")]
+    #[arg(long, value_delimiter = ',', value_name = "INPUTS")]
     pub(crate) watch: Vec<String>,
 }
 
@@ -200,6 +200,9 @@ impl SchemeOptions {
                  `{}` has no adaptive step",
                 scheme.as_str()
             );
+        }
+        if !self.adaptive && !self.watch.is_empty() {
+            bail!("--watch names what the adaptive step watches: it needs --adaptive");
         }
         let mut options = Options {
             scheme: Scheme::Jacobi,
@@ -240,7 +243,7 @@ impl SchemeOptions {
 
     /// The same options at a fixed step (e.g. for a reference run).
     pub(crate) fn fixed_step(&self) -> SchemeOptions {
-        SchemeOptions { adaptive: false, ..self.clone() }
+        SchemeOptions { adaptive: false, watch: Vec::new(), ..self.clone() }
     }
 
     /// The adaptive step's settings (each value range checked by its parser).
