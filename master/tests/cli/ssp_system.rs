@@ -359,8 +359,10 @@ fn run_system_checks_before_running_and_leaves_no_stale_output() {
 /// The pair with the adaptive step: it lands on the end time of the DefaultExperiment, its
 /// response approaches a fine fixed step as the tolerance tightens, and the plot shows every
 /// Real output, a panel per component. (Not within rtol × range: this pair's coupling converges
-/// at first order in the step — the fixed steps show it — and the step's error estimate assumes
-/// second order; b.x ends 9.8e-3, 2.7e-3, 7.3e-4 of its range off at rtol 1e-2, 1e-3, 1e-4.)
+/// at first order in the step — the fixed steps show it — through the velocities, which no
+/// connection carries and so the estimate does not watch; the ends are 7.4e-3, 2.4e-3, 6.2e-4 of
+/// the ranges off at rtol 1e-2, 1e-3, 1e-4: docs/coupling.md, "Limit: a state that is not
+/// watched".)
 #[test]
 fn run_system_with_the_adaptive_step_and_a_plot() {
     let dir = test_dir("adaptive");
