@@ -3,7 +3,7 @@
 //! smaller one until a step is accepted. The co-simulation's macro step ([`crate::Coupled`])
 //! and the monolithic model (in the master) both step through it, so they are judged alike.
 
-use crate::error_estimate::{self, ErrorEstimate};
+use crate::error_estimate::{self, ErrorEstimate, Kind};
 use crate::step_control::{Controller, Decision, Tolerances};
 
 /// A time stepper whose steps can be undone.
@@ -16,6 +16,10 @@ pub trait Retake {
     fn try_step(&mut self, h: f64) -> Result<Option<Self::Report>, Self::Error>;
     /// Returns to the state before the last step, which started at `t`.
     fn undo(&mut self, t: f64) -> Result<(), Self::Error>;
+    /// Keeps the present state in a second slot, which steps and undos leave alone.
+    fn checkpoint(&mut self) -> Result<(), Self::Error>;
+    /// Returns to the state of the last [`Retake::checkpoint`], over any steps since.
+    fn back_to_checkpoint(&mut self) -> Result<(), Self::Error>;
     /// The watched quantities now, into `out`.
     fn watched(&mut self, out: &mut [f64]) -> Result<(), Self::Error>;
     /// The group (numbered from 0) and the positive scale of every watched quantity.
@@ -41,8 +45,9 @@ pub struct Accepted<R> {
 }
 
 /// One accepted step of `stepper`, from `t` and ending at most at `t_stop` (landing on it
-/// without leaving a sliver). The history starts after the first step: the first three steps
-/// cannot be judged and are taken at the controller's first step size (keep it small).
+/// without leaving a sliver). The predictor's history starts after the first step: the first
+/// three steps cannot be judged and are taken at the controller's first step size (keep it
+/// small). With doubling every step is judged, and an accepted step of `h` is two half steps.
 pub fn step<T: Retake>(
     stepper: &mut T,
     estimate: &mut ErrorEstimate,
@@ -59,6 +64,7 @@ pub fn step<T: Retake>(
     }
     let mut rejected = 0;
     let mut h = ctl.next_step();
+    let doubling = estimate.kind() == Kind::Doubling;
     loop {
         if !estimate.can_judge() {
             h = h.min(ctl.limits().h_init);
@@ -66,7 +72,7 @@ pub fn step<T: Retake>(
         if t + 1.5 * h >= t_stop {
             h = if t + h >= t_stop { t_stop - t } else { 0.5 * (t_stop - t) };
         }
-        let report = stepper.try_step(h)?;
+        let report = if doubling { try_doubled(stepper, estimate, h)? } else { stepper.try_step(h)? };
         let error = match report {
             Some(_) => {
                 stepper.watched(estimate.candidate_mut())?;
@@ -85,14 +91,41 @@ pub fn step<T: Retake>(
                 return Ok(Accepted { h, report, rejected, error });
             }
             (Decision::Reject { h_retry }, _) => {
-                stepper.undo(t)?;
+                back(stepper, doubling, t)?;
                 rejected += 1;
                 h = h_retry;
             }
             _ => {
-                stepper.undo(t)?;
+                back(stepper, doubling, t)?;
                 return Err(stepper.too_small(t, error, ctl.limits().h_min));
             }
         }
     }
+}
+
+/// Step doubling: the whole step of `h` from a checkpoint (its values into the estimate), back,
+/// then two half steps; the report of the second, `None` if any did not converge.
+fn try_doubled<T: Retake>(
+    stepper: &mut T,
+    estimate: &mut ErrorEstimate,
+    h: f64,
+) -> Result<Option<T::Report>, T::Error> {
+    stepper.checkpoint()?;
+    if stepper.try_step(h)?.is_none() {
+        return Ok(None);
+    }
+    let (whole, noise) = estimate.whole_mut();
+    stepper.watched(whole)?;
+    stepper.noise(noise);
+    stepper.back_to_checkpoint()?;
+    if stepper.try_step(0.5 * h)?.is_none() {
+        return Ok(None);
+    }
+    stepper.try_step(0.5 * h)
+}
+
+/// Back to the start `t` of the step being tried: one step back, or with doubling to the
+/// checkpoint (over the half steps).
+fn back<T: Retake>(stepper: &mut T, doubling: bool, t: f64) -> Result<(), T::Error> {
+    if doubling { stepper.back_to_checkpoint() } else { stepper.undo(t) }
 }

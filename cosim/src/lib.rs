@@ -26,4 +26,4 @@ pub use iqn::IqnOptions;
 pub use schemes::{AdaptiveStep, Coupled, Extrapolation, JacobianUpdate, Options, Relaxation, Scheme, StepReport};
 pub use system::fmu::{FmuSystem, Needs};
 pub use system::spec::SystemSpec;
-pub use system::{Capabilities, Layout, UnitError, UnitLayout, Units};
+pub use system::{Capabilities, Layout, Slot, UnitError, UnitLayout, Units};

@@ -6,10 +6,11 @@
 //! co-simulation is the trapezoidal rule of the whole system; its exact solution is a sum of
 //! the two normal modes.
 
+use cosim::error_estimate::Kind;
 use cosim::step_control::{Controller, Limits, Tolerances};
 use cosim::{
-    Capabilities, Coupled, Extrapolation, IqnOptions, JacobianUpdate, Layout, Options, Scheme, StepError, UnitError,
-    UnitLayout, Units,
+    Capabilities, Coupled, Extrapolation, IqnOptions, JacobianUpdate, Layout, Options, Scheme, Slot, StepError,
+    UnitError, UnitLayout, Units,
 };
 
 const M: f64 = 1.0;
@@ -29,7 +30,8 @@ struct Mass {
 struct TwoMasses {
     layout: Layout,
     now: [Mass; 2],
-    saved: [Mass; 2],
+    /// Per rollback slot, the saved state of each unit.
+    saved: [[Mass; 2]; 2],
     /// Unit A ends the run at this time (fmi2Discard), if set.
     end_at: Option<f64>,
     steps: usize,
@@ -55,7 +57,7 @@ impl TwoMasses {
         };
         let a = Mass { x: X1, v: 0.0, u0: -KC * X1, u1: -KC * X1 };
         let b = Mass { x: 0.0, v: 0.0, u0: X1, u1: X1 };
-        TwoMasses { layout, now: [a, b], saved: [a, b], end_at: None, steps: 0 }
+        TwoMasses { layout, now: [a, b], saved: [[a, b]; 2], end_at: None, steps: 0 }
     }
 
     /// Force on mass k from its own springs and its input.
@@ -115,13 +117,13 @@ impl Units for TwoMasses {
         Ok(())
     }
 
-    fn save_state(&mut self, k: usize) -> Result<(), UnitError> {
-        self.saved[k] = self.now[k];
+    fn save_state(&mut self, k: usize, slot: Slot) -> Result<(), UnitError> {
+        self.saved[slot as usize][k] = self.now[k];
         Ok(())
     }
 
-    fn restore_state(&mut self, k: usize) -> Result<(), UnitError> {
-        self.now[k] = self.saved[k];
+    fn restore_state(&mut self, k: usize, slot: Slot) -> Result<(), UnitError> {
+        self.now[k] = self.saved[slot as usize][k];
         Ok(())
     }
 
@@ -349,10 +351,10 @@ impl Units for LinearMaps {
         }
         Ok(())
     }
-    fn save_state(&mut self, _k: usize) -> Result<(), UnitError> {
+    fn save_state(&mut self, _k: usize, _slot: Slot) -> Result<(), UnitError> {
         Ok(())
     }
-    fn restore_state(&mut self, _k: usize) -> Result<(), UnitError> {
+    fn restore_state(&mut self, _k: usize, _slot: Slot) -> Result<(), UnitError> {
         Ok(())
     }
     fn step_derivative(&mut self, _k: usize, _seed: &[f64], _out: &mut [f64]) -> Result<(), UnitError> {
@@ -405,7 +407,7 @@ fn non_iterating_schemes_refuse_an_algebraic_loop() {
 struct ClockAndEcho {
     layout: Layout,
     time: [f64; 2],
-    saved: [f64; 2],
+    saved: [[f64; 2]; 2],
     echo: f64,
 }
 
@@ -425,7 +427,7 @@ impl ClockAndEcho {
             output_names: vec!["clock.t".into(), "echo.y".into()],
             feedthrough: vec![(1, 1)],
         };
-        ClockAndEcho { layout, time: [0.0; 2], saved: [0.0; 2], echo: 0.0 }
+        ClockAndEcho { layout, time: [0.0; 2], saved: [[0.0; 2]; 2], echo: 0.0 }
     }
 }
 
@@ -459,13 +461,13 @@ impl Units for ClockAndEcho {
         Ok(())
     }
 
-    fn save_state(&mut self, k: usize) -> Result<(), UnitError> {
-        self.saved[k] = self.time[k];
+    fn save_state(&mut self, k: usize, slot: Slot) -> Result<(), UnitError> {
+        self.saved[slot as usize][k] = self.time[k];
         Ok(())
     }
 
-    fn restore_state(&mut self, k: usize) -> Result<(), UnitError> {
-        self.time[k] = self.saved[k];
+    fn restore_state(&mut self, k: usize, slot: Slot) -> Result<(), UnitError> {
+        self.time[k] = self.saved[slot as usize][k];
         Ok(())
     }
 
@@ -510,37 +512,92 @@ fn reused_jacobian_follows_a_changing_step() {
     assert_eq!(c.units().steps, 2 * 2 * steps.len() + 2 * 3 * sizes);
 }
 
-/// The adaptive step judges its error by the coupled inputs it is told to watch: names and
-/// prefixes that end before a `.` or `[`; a name that is neither is refused with the inputs
-/// there are. Watching x₁ alone, the run still meets its tolerance on x₁.
+/// The adaptive step judges its error by what it is told to watch: coupled inputs by name or
+/// by a prefix that ends before a `.` or `[`, else outputs; a name that is none is refused with
+/// the inputs and outputs there are. Watching x₁ alone the run still meets its tolerance on x₁;
+/// watching mass 1's velocity (an output no connection carries), on the velocity.
 #[test]
 fn the_adaptive_step_watches_what_it_is_told() {
     let mut c = Coupled::new(TwoMasses::new(), options(Scheme::IqnIls)).unwrap();
-    for bad in ["b.x", "c", "b.x1[1]"] {
+    for bad in ["b.f", "c", "b.x1[1]"] {
         let e = c.watch(&[bad.to_string()]).unwrap_err().to_string();
-        assert!(e.contains(&format!("`{bad}`")) && e.contains("`a.force`, `b.x1`"), "{e}");
+        assert!(e.contains(&format!("`{bad}`")), "{e}");
+        assert!(e.contains("`a.force`, `b.x1`") && e.contains("`a.x`, `a.v`, `b.force`, `b.x`"), "{e}");
     }
-    c.watch(&["b".to_string()]).unwrap();
     let (t_end, rtol) = (5.0, 1e-3);
-    let mut ctl = Controller::new(Limits { h_min: 1e-7, h_max: 0.1, h_init: 1e-4 }).unwrap();
-    let (mut worst, mut range, mut steps) = (0.0f64, 0.0f64, 0);
-    while c.time() < t_end {
-        c.step_adaptive(&mut ctl, Tolerances { rtol, atol: 1e-3 * rtol }, t_end).unwrap();
-        steps += 1;
-        worst = worst.max((c.outputs()[0] - exact(c.time())[0]).abs());
-        range = range.max((exact(c.time())[0] - X1).abs());
+    let tol = Tolerances { rtol, atol: 1e-3 * rtol };
+    // (output, its exact value): x₁ through the input it feeds, and v₁
+    let velocity = |t: f64| {
+        let (w1, w2) = ((K / M).sqrt(), ((K + 2.0 * KC) / M).sqrt());
+        -0.5 * X1 * (w1 * (w1 * t).sin() + w2 * (w2 * t).sin())
+    };
+    let displacement = |t: f64| exact(t)[0] - X1;
+    let cases = [("b", 0, &displacement as &dyn Fn(f64) -> f64), ("a.v", 1, &velocity)];
+    let mut counts = Vec::new();
+    for (name, column, value) in cases {
+        let mut c = Coupled::new(TwoMasses::new(), options(Scheme::IqnIls)).unwrap();
+        c.watch(&[name.to_string()]).unwrap();
+        let mut ctl = Controller::new(Limits { h_min: 1e-7, h_max: 0.1, h_init: 1e-4 }).unwrap();
+        let (mut worst, mut range, mut steps) = (0.0f64, 0.0f64, 0);
+        let offset = if column == 0 { X1 } else { 0.0 };
+        while c.time() < t_end {
+            c.step_adaptive(&mut ctl, tol, t_end).unwrap();
+            steps += 1;
+            worst = worst.max((c.outputs()[column] - offset - value(c.time())).abs());
+            range = range.max(value(c.time()).abs());
+        }
+        eprintln!("watching {name}: {steps} steps, error {:.2e} of the range", worst / range);
+        assert!(worst <= rtol * range, "{name}");
+        counts.push(steps);
     }
-    eprintln!("watching b.x1: {steps} steps, error {:.2e} of the range", worst / range);
-    assert!(worst <= rtol * range);
-    // all of them, as by default
+    // all the coupled inputs, as by default
     let mut all = Coupled::new(TwoMasses::new(), options(Scheme::IqnIls)).unwrap();
     all.watch(&[]).unwrap();
     let mut ctl_all = Controller::new(Limits { h_min: 1e-7, h_max: 0.1, h_init: 1e-4 }).unwrap();
     let mut steps_all = 0;
     while all.time() < t_end {
-        all.step_adaptive(&mut ctl_all, Tolerances { rtol, atol: 1e-3 * rtol }, t_end).unwrap();
+        all.step_adaptive(&mut ctl_all, tol, t_end).unwrap();
         steps_all += 1;
     }
-    eprintln!("watching both: {steps_all} steps");
-    assert_ne!(steps_all, steps, "what is watched changes the steps");
+    eprintln!("watching both inputs: {steps_all} steps");
+    assert!(
+        counts[0] != steps_all && counts[1] != counts[0],
+        "what is watched changes the steps: {counts:?}, {steps_all}"
+    );
+}
+
+/// Step doubling (the whole step against two half steps) on the known solution: within the
+/// tolerance, and every rejected try and every discarded whole step leaves no trace — the run is,
+/// bit for bit, the run that takes each accepted step as its two half steps.
+#[test]
+fn step_doubling_meets_its_tolerance_and_leaves_no_trace() {
+    let (t_end, rtol) = (5.0, 1e-3);
+    let tol = Tolerances { rtol, atol: 1e-3 * rtol };
+    for o in [options(Scheme::IqnIls), Options { jacobian: JacobianUpdate::Reuse, ..options(Scheme::Ijcsa) }] {
+        let mut c = Coupled::new(TwoMasses::new(), o).unwrap();
+        c.estimate_by(Kind::Doubling);
+        let mut ctl = Controller::new(Limits { h_min: 1e-7, h_max: 0.1, h_init: 1e-4 }).unwrap();
+        let (mut steps, mut worst, mut range) = (Vec::new(), 0.0f64, 0.0f64);
+        while c.time() < t_end {
+            steps.push(c.step_adaptive(&mut ctl, tol, t_end).unwrap().h);
+            worst = worst.max((c.outputs()[0] - exact(c.time())[0]).abs());
+            range = range.max((exact(c.time())[0] - X1).abs());
+        }
+        eprintln!(
+            "{}: {} steps ({} rejected), error {:.2e} of the range",
+            o.scheme.name(),
+            steps.len(),
+            ctl.rejected,
+            worst / range
+        );
+        assert!(worst <= rtol * range);
+        assert!(ctl.rejected > 0, "no step was rejected: the test shows nothing");
+        let mut direct = Coupled::new(TwoMasses::new(), o).unwrap();
+        for h in &steps {
+            direct.step(0.5 * h).unwrap();
+            direct.step(0.5 * h).unwrap();
+        }
+        assert_eq!(direct.outputs(), c.outputs(), "{}", o.scheme.name());
+        assert_eq!(direct.units().now, c.units().now, "{}", o.scheme.name());
+    }
 }

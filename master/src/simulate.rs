@@ -627,7 +627,7 @@ impl<'a> Run<'a> {
                 let mut adaptive = match method {
                     Method::MonolithicAdaptive(a) => {
                         let ctl = a.controller().map_err(|reason| RunError::Refused { method: name, reason })?;
-                        Some((ctl, a.tolerances, ErrorEstimate::new(WATCHED)))
+                        Some((ctl, a.tolerances, ErrorEstimate::of_kind(a.estimate, WATCHED)))
                     }
                     _ => None,
                 };
@@ -679,13 +679,16 @@ impl<'a> Run<'a> {
                     Method::CosimAdaptive(_, a) => Some(a),
                     _ => None,
                 };
-                let spec = scene_spec(&sc, self.scene_file).map_err(|e| setup(&e))?;
+                let mut spec = scene_spec(&sc, self.scene_file).map_err(|e| setup(&e))?;
+                // outputs named to be watched are read after every step too
+                spec.observed = adaptive.map(|a| a.watch.clone()).unwrap_or_default();
                 let system = FmuSystem::load(&spec, &needs(&options, adaptive.is_some())).map_err(|e| setup(&e))?;
                 let mut c = Coupled::new(system, options).map_err(|e| setup(&e))?;
                 if let Some(a) = &adaptive {
                     let pose = || CABIN_POSE.map(String::from).to_vec();
                     let watch = if a.watch.is_empty() { pose() } else { a.watch.clone() };
                     c.watch(&watch).map_err(|e| RunError::Refused { method: name, reason: format!("--watch: {e}") })?;
+                    c.estimate_by(a.estimate);
                 }
                 let tolerances = adaptive.map(|a| a.tolerances);
                 let mut controller = adaptive
@@ -740,6 +743,8 @@ const CABIN_POSE: [&str; 2] = ["stewart.cabin.r", "stewart.cabin.q"];
 struct AdaptiveMonolithic {
     model: Monolithic,
     before: crate::monolithic::Snapshot,
+    /// The state at the last checkpoint (step doubling goes back over two steps).
+    checkpoint: crate::monolithic::Snapshot,
     group: Vec<usize>,
     scale: Vec<f64>,
 }
@@ -751,7 +756,8 @@ impl AdaptiveMonolithic {
         let mut start = [0.0; WATCHED];
         watched_of(&model.sample(), &mut start);
         let scale = cosim::Layout::group_scales(&start, &group);
-        AdaptiveMonolithic { model, before, group, scale }
+        let checkpoint = model.snapshot();
+        AdaptiveMonolithic { model, before, checkpoint, group, scale }
     }
 }
 
@@ -783,6 +789,16 @@ impl cosim::adaptive::Retake for AdaptiveMonolithic {
 
     fn undo(&mut self, _t: f64) -> Result<(), MonolithicError> {
         self.model.restore(&self.before);
+        Ok(())
+    }
+
+    fn checkpoint(&mut self) -> Result<(), MonolithicError> {
+        self.model.save(&mut self.checkpoint);
+        Ok(())
+    }
+
+    fn back_to_checkpoint(&mut self) -> Result<(), MonolithicError> {
+        self.model.restore(&self.checkpoint);
         Ok(())
     }
 

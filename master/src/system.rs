@@ -6,6 +6,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use cosim::error_estimate::Kind;
 use cosim::step_control::{Controller, Limits, REFACTORIZING_HOLD, Tolerances};
 use cosim::system::spec::{Component, Connection, Endpoint, Matching, Parameter, Value};
 use cosim::{Coupled, FmuSystem, Needs, Options, SetupError, SystemSpec};
@@ -61,6 +62,7 @@ pub fn scene_spec(scene: &Scene, scene_file: &Path) -> Result<SystemSpec, SetupE
             })
             .collect(),
         connectors: Vec::new(),
+        observed: Vec::new(),
     })
 }
 
@@ -83,6 +85,8 @@ pub struct Adaptive {
     /// The coupled inputs the error estimate watches (names or prefixes, [`Coupled::watch`]);
     /// empty: the runner's default.
     pub watch: Vec<String>,
+    /// How the local error is estimated.
+    pub estimate: Kind,
 }
 
 impl Adaptive {
@@ -192,12 +196,17 @@ impl<'a> SystemRun<'a> {
         let setup = |e: &(dyn std::error::Error + 'static)| RunError::setup(method, e);
         let output = |source: std::io::Error| RunError::Output { method, source };
         let start = Instant::now();
+        // outputs named to be watched are read after every step too
+        let observed = self.adaptive.as_ref().filter(|a| !a.watch.is_empty());
+        let spec = observed.map(|a| SystemSpec { observed: a.watch.clone(), ..self.spec.clone() });
         let system =
-            FmuSystem::load(self.spec, &needs(&self.options, self.adaptive.is_some())).map_err(|e| setup(&e))?;
+            FmuSystem::load(spec.as_ref().unwrap_or(self.spec), &needs(&self.options, self.adaptive.is_some()))
+                .map_err(|e| setup(&e))?;
         let mut c = Coupled::new(system, self.options).map_err(|e| setup(&e))?;
         if let Some(a) = &self.adaptive {
             // every coupled input unless named: nothing is known of the FMUs' quantities
             c.watch(&a.watch).map_err(|e| RunError::Refused { method, reason: format!("--watch: {e}") })?;
+            c.estimate_by(a.estimate);
         }
         let mut outputs = Vec::new();
         let mut columns = vec!["time".to_string()];

@@ -7,46 +7,43 @@ use super::{Coupled, StepReport};
 use crate::adaptive::{self, Accepted, Retake};
 use crate::error::SetupError;
 use crate::error::StepError;
-use crate::error_estimate::ErrorEstimate;
+use crate::error_estimate::{ErrorEstimate, Kind};
+use crate::iqn::{Accelerator, IqnOptions};
 use crate::step_control::{Controller, Tolerances};
-use crate::system::{Layout, Units};
+use crate::system::{Layout, Slot, Units};
 
 /// One accepted adaptive step.
 pub type AdaptiveStep = Accepted<StepReport>;
 
-/// What undoing a step restores besides the units' states, and the estimate of the adaptive step.
-pub(super) struct History {
-    pub(super) estimate: ErrorEstimate,
-    /// The coupled inputs the estimate watches (indices into `U`), and their groups
-    /// (renumbered from 0) and scales.
-    pub(super) watched: Vec<usize>,
-    pub(super) group: Vec<usize>,
-    pub(super) scale: Vec<f64>,
-    /// The coupled values and time before the last step (for rollback).
-    pub(super) y: Vec<f64>,
-    pub(super) y_prev: Vec<f64>,
-    pub(super) prev_step: Option<f64>,
-    pub(super) t_before: f64,
-    /// IJCSA's reused interface Jacobian before the last step (its blocks, the step it belongs
-    /// to, which units are recomputed), kept only with `--jacobian reuse`.
-    pub(super) dydu: Vec<f64>,
-    pub(super) jacobian_step: Option<f64>,
-    pub(super) volatile: Vec<u32>,
+/// A quantity the adaptive step watches: a coupled input (index into `U`) or an output (into `Y`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub(super) enum Watched {
+    Input(usize),
+    Output(usize),
 }
 
-impl History {
-    /// Watching every coupled input of `layout`.
-    pub(super) fn new(layout: &Layout) -> History {
-        let (n, ny) = (layout.inputs(), layout.outputs());
-        History {
-            estimate: ErrorEstimate::new(n),
-            watched: (0..n).collect(),
-            group: layout.group.clone(),
-            scale: layout.scale.clone(),
+/// What a rollback restores besides the units' states: the time, the coupled values and the
+/// extrapolation history, IQN-ILS's history and IJCSA's reused Jacobian (its blocks, the step it
+/// belongs to, which units are recomputed; kept only with `--jacobian reuse`).
+pub(super) struct Restorable {
+    time: f64,
+    y: Vec<f64>,
+    y_prev: Vec<f64>,
+    prev_step: Option<f64>,
+    iqn: Accelerator,
+    dydu: Vec<f64>,
+    jacobian_step: Option<f64>,
+    volatile: Vec<u32>,
+}
+
+impl Restorable {
+    fn new(nu: usize, ny: usize, iqn: IqnOptions) -> Restorable {
+        Restorable {
+            time: 0.0,
             y: vec![0.0; ny],
             y_prev: vec![0.0; ny],
             prev_step: None,
-            t_before: 0.0,
+            iqn: Accelerator::new(nu, iqn),
             dydu: Vec::new(),
             jacobian_step: None,
             volatile: Vec::new(),
@@ -54,44 +51,112 @@ impl History {
     }
 }
 
+/// The adaptive step's estimate, what it watches, and what its rollbacks restore.
+pub(super) struct History {
+    pub(super) estimate: ErrorEstimate,
+    /// What the estimate watches, and their groups (numbered from 0) and scales.
+    pub(super) watched: Vec<Watched>,
+    pub(super) group: Vec<usize>,
+    pub(super) scale: Vec<f64>,
+    /// Before the last step (for [`Slot::Step`]) and at the checkpoint ([`Slot::Checkpoint`]).
+    before_step: Restorable,
+    checkpoint: Restorable,
+}
+
+impl History {
+    /// Watching every coupled input of `layout`.
+    pub(super) fn new(layout: &Layout, iqn: IqnOptions) -> History {
+        let (n, ny) = (layout.inputs(), layout.outputs());
+        History {
+            estimate: ErrorEstimate::new(n),
+            watched: (0..n).map(Watched::Input).collect(),
+            group: layout.group.clone(),
+            scale: layout.scale.clone(),
+            before_step: Restorable::new(n, ny, iqn),
+            checkpoint: Restorable::new(n, ny, iqn),
+        }
+    }
+}
+
 impl<S: Units> Coupled<S> {
-    /// The adaptive step judges its error by the coupled inputs named in `names` only (each an
-    /// input's `unit.variable`, or a prefix of such names ending before a `.` or `[`, as
-    /// `stewart.cabin.v` for `stewart.cabin.v[1]` … `[3]`); every coupled input if empty. Call
-    /// before the first step.
+    /// The adaptive step judges its error by the quantities named in `names` only (each a
+    /// `unit.variable`, or a prefix of such names ending before a `.` or `[`, as
+    /// `stewart.cabin.v` for `stewart.cabin.v[1]` … `[3]`): the coupled inputs it names, or if it
+    /// names none, the outputs in `Y` (those connections carry, and those the system reads
+    /// besides, e.g. [`crate::SystemSpec::observed`]); every coupled input if `names` is empty.
+    /// Call before the first step.
     pub fn watch(&mut self, names: &[String]) -> Result<(), SetupError> {
         let l = self.units.layout();
+        let named = |candidate: &str, name: &str| {
+            candidate
+                .strip_prefix(name)
+                .is_some_and(|rest| rest.is_empty() || rest.starts_with('.') || rest.starts_with('['))
+        };
         let mut watched = Vec::new();
         for name in names {
-            let mut found = false;
-            for (i, input) in l.input_names.iter().enumerate() {
-                let matches = input
-                    .strip_prefix(name.as_str())
-                    .is_some_and(|rest| rest.is_empty() || rest.starts_with('.') || rest.starts_with('['));
-                found |= matches;
-                if matches && !watched.contains(&i) {
-                    watched.push(i);
-                }
+            let inputs = (0..l.inputs()).filter(|&i| named(&l.input_names[i], name)).map(Watched::Input);
+            let mut found: Vec<Watched> = inputs.collect();
+            if found.is_empty() {
+                found = (0..l.outputs()).filter(|&j| named(&l.output_names[j], name)).map(Watched::Output).collect();
             }
-            if !found {
+            if found.is_empty() {
+                let list = |names: &[String]| names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
                 return Err(SetupError::Invalid(format!(
-                    "watched quantity `{name}` is neither a coupled input nor a prefix of one ending \
-                     before a `.` or `[`; the coupled inputs are {}",
-                    l.input_names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+                    "watched quantity `{name}` is neither a coupled input or output nor a prefix of one ending \
+                     before a `.` or `[`; the coupled inputs are {}; the outputs read are {}",
+                    list(&l.input_names),
+                    list(&l.output_names)
                 )));
+            }
+            for w in found {
+                if !watched.contains(&w) {
+                    watched.push(w);
+                }
             }
         }
         if names.is_empty() {
-            watched = (0..l.inputs()).collect();
+            watched = (0..l.inputs()).map(Watched::Input).collect();
         }
         watched.sort_unstable();
-        let keys: Vec<usize> = watched.iter().map(|&i| l.group[i]).collect();
+        // inputs in their unit groups; an output's components (`x[1]`, `x[2]`, …) form a group
+        #[derive(PartialEq)]
+        enum Key<'a> {
+            Input(usize),
+            Output(&'a str),
+        }
+        let key = |w: &Watched| match *w {
+            Watched::Input(i) => Key::Input(l.group[i]),
+            Watched::Output(j) => Key::Output(l.output_names[j].split('[').next().unwrap_or_default()),
+        };
+        let keys: Vec<Key> = watched.iter().map(key).collect();
+        let values: Vec<f64> = watched
+            .iter()
+            .map(|w| match *w {
+                Watched::Input(i) => l.scale[i],
+                Watched::Output(j) => self.y[j],
+            })
+            .collect();
+        let output_scales = Layout::group_scales(&values, &keys);
         let a = &mut self.adaptive;
         a.group = Layout::groups(&keys);
-        a.scale = watched.iter().map(|&i| l.scale[i]).collect();
-        a.estimate = ErrorEstimate::new(watched.len());
+        a.scale = watched
+            .iter()
+            .zip(output_scales)
+            .map(|(w, s)| match *w {
+                Watched::Input(i) => l.scale[i],
+                Watched::Output(_) => s,
+            })
+            .collect();
+        a.estimate = ErrorEstimate::of_kind(a.estimate.kind(), watched.len());
         a.watched = watched;
         Ok(())
+    }
+
+    /// How the adaptive step estimates its error (the predictor by default). Call before the
+    /// first step.
+    pub fn estimate_by(&mut self, kind: Kind) {
+        let a = &mut self.adaptive;
+        a.estimate = ErrorEstimate::of_kind(kind, a.watched.len());
     }
 
     /// One accepted step of the adaptive macro step, ending at most at `t_stop`: tries the
@@ -120,21 +185,70 @@ impl<S: Units> Coupled<S> {
         result
     }
 
-    /// Undoes a step: every unit to its saved state, the coupled values and time as before.
-    pub(super) fn roll_back(&mut self, t: f64) -> Result<(), StepError> {
-        self.restore_states(t)?;
-        self.y.copy_from_slice(&self.adaptive.y);
-        self.y_prev.copy_from_slice(&self.adaptive.y_prev);
-        self.prev_step = self.adaptive.prev_step;
-        self.time = t;
-        if self.options.scheme == super::Scheme::IqnIls {
-            self.iqn_before.copy_into(&mut self.iqn);
+    /// Keeps what a rollback to `slot` restores besides the units' states (the schemes save
+    /// those for [`Slot::Step`] at the start of every step; [`Coupled::checkpoint`] for
+    /// [`Slot::Checkpoint`]).
+    pub(super) fn keep(&mut self, slot: Slot) {
+        let iqn = self.options.scheme == super::Scheme::IqnIls;
+        let jacobian = self.reuses_jacobian();
+        let Coupled { adaptive, time, y, y_prev, prev_step, iqn: accelerator, dydu, jacobian_step, volatile, .. } =
+            self;
+        let r = match slot {
+            Slot::Step => &mut adaptive.before_step,
+            Slot::Checkpoint => &mut adaptive.checkpoint,
+        };
+        r.time = *time;
+        r.y.copy_from_slice(y);
+        r.y_prev.copy_from_slice(y_prev);
+        r.prev_step = *prev_step;
+        if iqn {
+            accelerator.copy_into(&mut r.iqn);
         }
-        if self.reuses_jacobian() {
-            self.dydu.copy_from_slice(&self.adaptive.dydu);
-            self.jacobian_step = self.adaptive.jacobian_step;
-            self.volatile.copy_from_slice(&self.adaptive.volatile);
+        if jacobian {
+            r.dydu.clone_from(dydu);
+            r.jacobian_step = *jacobian_step;
+            r.volatile.clone_from(volatile);
         }
+    }
+
+    /// Goes back to `slot`: every unit to the state saved there, bit for bit, and what
+    /// [`Coupled::keep`] kept.
+    pub(super) fn roll_back(&mut self, slot: Slot) -> Result<(), StepError> {
+        let r = match slot {
+            Slot::Step => &self.adaptive.before_step,
+            Slot::Checkpoint => &self.adaptive.checkpoint,
+        };
+        let t = r.time;
+        self.restore_states(t, slot)?;
+        let Coupled { adaptive, time, y, y_prev, prev_step, iqn, dydu, jacobian_step, volatile, options, .. } = self;
+        let r = match slot {
+            Slot::Step => &adaptive.before_step,
+            Slot::Checkpoint => &adaptive.checkpoint,
+        };
+        *time = r.time;
+        y.copy_from_slice(&r.y);
+        y_prev.copy_from_slice(&r.y_prev);
+        *prev_step = r.prev_step;
+        if options.scheme == super::Scheme::IqnIls {
+            r.iqn.copy_into(iqn);
+        }
+        if options.scheme == super::Scheme::Ijcsa && options.jacobian == super::JacobianUpdate::Reuse {
+            dydu.copy_from_slice(&r.dydu);
+            *jacobian_step = r.jacobian_step;
+            volatile.copy_from_slice(&r.volatile);
+        }
+        Ok(())
+    }
+
+    /// Saves every unit's state and the coupled values into the checkpoint slot: the adaptive
+    /// step's step doubling comes back there over more than one step.
+    pub(super) fn checkpoint(&mut self) -> Result<(), StepError> {
+        for k in 0..self.units.layout().units.len() {
+            if let Err(e) = self.units.save_state(k, Slot::Checkpoint) {
+                return Err(self.unit_err(self.time, k, e));
+            }
+        }
+        self.keep(Slot::Checkpoint);
         Ok(())
     }
 }
@@ -154,14 +268,25 @@ impl<S: Units> Retake for Coupled<S> {
         }
     }
 
-    fn undo(&mut self, t: f64) -> Result<(), StepError> {
-        self.roll_back(t)
+    fn undo(&mut self, _t: f64) -> Result<(), StepError> {
+        self.roll_back(Slot::Step)
+    }
+
+    fn checkpoint(&mut self) -> Result<(), StepError> {
+        Coupled::checkpoint(self)
+    }
+
+    fn back_to_checkpoint(&mut self) -> Result<(), StepError> {
+        self.roll_back(Slot::Checkpoint)
     }
 
     fn watched(&mut self, out: &mut [f64]) -> Result<(), StepError> {
         let l = self.units.layout();
-        for (u, &i) in out.iter_mut().zip(&self.adaptive.watched) {
-            *u = l.coupled(i, &self.y);
+        for (u, w) in out.iter_mut().zip(&self.adaptive.watched) {
+            *u = match *w {
+                Watched::Input(i) => l.coupled(i, &self.y),
+                Watched::Output(j) => self.y[j],
+            };
         }
         Ok(())
     }
@@ -172,11 +297,20 @@ impl<S: Units> Retake for Coupled<S> {
 
     /// Each watched value's own interface residual `|C·Y_i − U_i|` at the end of the step: how
     /// much the last iteration still moved it (mostly far below the tolerance: IJCSA's Newton
-    /// ends at 1e-12 … 1e-9 of the scales on LT50m, with a tolerance of 1e-8).
+    /// ends at 1e-12 … 1e-9 of the scales on LT50m, with a tolerance of 1e-8). An output's: that
+    /// of the inputs it feeds (over the connection's gain); none for an output no connection
+    /// carries (it is read after the converged step, and known only as well as the inputs).
     fn noise(&self, out: &mut [f64]) {
         let l = self.units.layout();
-        for (n, &i) in out.iter_mut().zip(&self.adaptive.watched) {
-            *n = (l.coupled(i, &self.y) - self.work.guess[i]).abs();
+        let residual = |i: usize| (l.coupled(i, &self.y) - self.work.guess[i]).abs();
+        for (n, w) in out.iter_mut().zip(&self.adaptive.watched) {
+            *n = match *w {
+                Watched::Input(i) => residual(i),
+                Watched::Output(j) => (0..l.inputs())
+                    .filter(|&i| l.source[i] == j && l.gain[i] != 0.0)
+                    .map(|i| residual(i) / l.gain[i].abs())
+                    .fold(0.0, f64::max),
+            };
         }
     }
 

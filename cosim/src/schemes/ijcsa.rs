@@ -6,7 +6,7 @@ use super::{Coupled, JacobianUpdate, StepReport};
 use std::ops::Range;
 
 use crate::error::StepError;
-use crate::system::{Layout, Units};
+use crate::system::{Layout, Slot, Units};
 
 /// A reused (secant-updated) block of ∂Y/∂U whose prediction of a step's correction misses by
 /// more than this fraction of it (and by more than the tolerance) is recomputed at the first
@@ -171,7 +171,7 @@ impl<S: Units> Coupled<S> {
                 for sign in [1.0, -1.0] {
                     work.end[..ni].copy_from_slice(&work.guess[ir.clone()]);
                     work.end[c] += sign * delta;
-                    units.restore_state(k)?;
+                    units.restore_state(k, Slot::Step)?;
                     units.set_inputs(k, &work.end[..ni])?;
                     units.do_step(k, t, h)?;
                     units.get_outputs(k, col)?;
@@ -180,7 +180,7 @@ impl<S: Units> Coupled<S> {
                     }
                 }
             }
-            units.restore_state(k)?;
+            units.restore_state(k, Slot::Step)?;
             units.set_inputs(k, &work.guess[ir.clone()])?;
             units.do_step(k, t, h)
         })();

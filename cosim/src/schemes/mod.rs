@@ -25,7 +25,7 @@ pub use adaptive::AdaptiveStep;
 use crate::dense::IdentityMinus;
 use crate::error::StepError;
 use crate::iqn::{Accelerator, IqnOptions};
-use crate::system::{UnitError, Units};
+use crate::system::{Slot, UnitError, Units};
 
 /// A coupling scheme.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -146,8 +146,6 @@ pub struct Coupled<S: Units> {
     /// The order in which Gauss–Seidel-type schemes step the units.
     order: Vec<usize>,
     iqn: Accelerator,
-    /// The quasi-Newton history before the last step (for rollback).
-    iqn_before: Accelerator,
     adaptive: adaptive::History,
     work: Work,
 }
@@ -190,9 +188,8 @@ impl<S: Units> Coupled<S> {
         let interface = IdentityMinus::new(nu, ijcsa::eliminated_first(units_layout));
         let volatile = vec![0; units_layout.units.len()];
         let mut c = Coupled {
+            adaptive: adaptive::History::new(units.layout(), options.iqn),
             iqn: Accelerator::new(nu, options.iqn),
-            iqn_before: Accelerator::new(nu, options.iqn),
-            adaptive: adaptive::History::new(units.layout()),
             units,
             options,
             time: 0.0,
@@ -237,18 +234,7 @@ impl<S: Units> Coupled<S> {
         let t = self.time;
         let t1 = t + h;
         // what `undo_step` restores besides the units
-        self.adaptive.y.copy_from_slice(&self.y);
-        self.adaptive.y_prev.copy_from_slice(&self.y_prev);
-        self.adaptive.prev_step = self.prev_step;
-        if self.options.scheme == Scheme::IqnIls {
-            self.iqn.copy_into(&mut self.iqn_before);
-        }
-        if self.reuses_jacobian() {
-            let a = &mut self.adaptive;
-            a.dydu.clone_from(&self.dydu);
-            a.jacobian_step = self.jacobian_step;
-            a.volatile.clone_from(&self.volatile);
-        }
+        self.keep(Slot::Step);
         self.units.exchange_discrete().map_err(|e| self.unit_err(t, 0, e))?;
         let report = match self.options.scheme {
             Scheme::Jacobi => self.step_jacobi(t, h).map_err(|e| self.unstable(e))?,
@@ -267,7 +253,6 @@ impl<S: Units> Coupled<S> {
             let e = self.failed(t1, format!("{} diverged", self.options.scheme.name()));
             return Err(self.unstable(e));
         }
-        self.adaptive.t_before = t;
         self.time = t1;
         Ok(report)
     }
@@ -284,8 +269,7 @@ impl<S: Units> Coupled<S> {
         if !self.options.scheme.is_implicit() {
             return Err(self.failed(self.time, "only the implicit schemes save the states to undo a step"));
         }
-        let t0 = self.adaptive.t_before;
-        self.roll_back(t0)
+        self.roll_back(Slot::Step)
     }
 
     fn failed(&self, time: f64, reason: impl Into<String>) -> StepError {
@@ -412,16 +396,16 @@ impl<S: Units> Coupled<S> {
 
     fn save_states(&mut self, t: f64) -> Result<(), StepError> {
         for k in 0..self.units.layout().units.len() {
-            if let Err(e) = self.units.save_state(k) {
+            if let Err(e) = self.units.save_state(k, Slot::Step) {
                 return Err(self.unit_err(t, k, e));
             }
         }
         Ok(())
     }
 
-    fn restore_states(&mut self, t: f64) -> Result<(), StepError> {
+    fn restore_states(&mut self, t: f64, slot: Slot) -> Result<(), StepError> {
         for k in 0..self.units.layout().units.len() {
-            if let Err(e) = self.units.restore_state(k) {
+            if let Err(e) = self.units.restore_state(k, slot) {
                 return Err(self.unit_err(t, k, e));
             }
         }
@@ -434,7 +418,7 @@ impl<S: Units> Coupled<S> {
     /// C·Y − U in `work.r`.
     fn evaluate(&mut self, it: usize, t: f64, h: f64) -> Result<Option<StepReport>, StepError> {
         if it > 1 {
-            self.restore_states(t)?;
+            self.restore_states(t, Slot::Step)?;
         }
         for k in 0..self.units.layout().units.len() {
             self.advance(k, false, t, h)?;

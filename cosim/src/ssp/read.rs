@@ -98,6 +98,7 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
         connections: Vec::new(),
         parameters: Vec::new(),
         connectors: Vec::new(),
+        observed: Vec::new(),
     };
     // declared connector kinds, to orient connections output → input
     let mut kinds: Vec<(Endpoint, String)> = Vec::new();

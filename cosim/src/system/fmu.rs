@@ -10,7 +10,7 @@ use fmi2::import::{Capability, Fmu, FmuState, Instance, ScalarVariable};
 use fmi2::{Causality, VarType};
 
 use super::spec::{Connection, Endpoint, Linear, Matching, Parameter, SystemSpec, Value};
-use super::{Capabilities, Layout, UnitError, UnitLayout, Units};
+use super::{Capabilities, Layout, Slot, UnitError, UnitLayout, Units};
 use crate::error::SetupError;
 use crate::iqn::{Accelerator, IqnOptions};
 
@@ -30,7 +30,8 @@ struct FmuUnit {
     inputs: Vec<u32>,
     outputs: Vec<u32>,
     caps: Capabilities,
-    state: Option<FmuState>,
+    /// The FMU states of the rollback slots ([`Slot`]), allocated when first saved.
+    states: [Option<FmuState>; 2],
     /// Derivative orders (all 1) for fmi2SetRealInputDerivatives.
     ones: Vec<i32>,
     /// The inputs with a nonzero seed and their seeds (a step-map derivative asks the FMU
@@ -115,7 +116,7 @@ impl FmuSystem {
                 inst,
                 inputs: Vec::new(),
                 outputs: Vec::new(),
-                state: None,
+                states: [None, None],
                 ones: Vec::new(),
                 seeded: (Vec::new(), Vec::new()),
             });
@@ -159,6 +160,13 @@ impl FmuSystem {
                 if !unit.outputs.contains(&l.from.1.value_reference) {
                     unit.outputs.push(l.from.1.value_reference);
                     layout.output_names.push(format!("{}.{}", unit.name, l.from.1.name));
+                }
+            }
+            // outputs read besides (watched by the adaptive step): in `Y`, feeding no input
+            for v in observed_outputs(&spec.observed, &unit.name, fmus[k].description()) {
+                if !unit.outputs.contains(&v.value_reference) {
+                    unit.outputs.push(v.value_reference);
+                    layout.output_names.push(format!("{}.{}", unit.name, v.name));
                 }
             }
             unit.ones = vec![1; unit.inputs.len()];
@@ -387,6 +395,25 @@ impl FmuSystem {
 }
 
 /// Loads every component's FMU, checking what `needs` asks of it.
+/// The Real outputs of component `component` that `observed` names (`component.variable`, or a
+/// prefix of it ending before a `.` or `[`).
+fn observed_outputs<'a>(
+    observed: &'a [String],
+    component: &'a str,
+    description: &'a fmi2::ModelDescription,
+) -> impl Iterator<Item = &'a ScalarVariable> + 'a {
+    description.variables.iter().filter(move |v| {
+        v.var_type == VarType::Real
+            && v.causality == Causality::Output
+            && observed.iter().any(|name| {
+                name.strip_prefix(component)
+                    .and_then(|rest| rest.strip_prefix('.'))
+                    .and_then(|rest| v.name.strip_prefix(rest))
+                    .is_some_and(|tail| tail.is_empty() || tail.starts_with('.') || tail.starts_with('['))
+            })
+    })
+}
+
 fn load_fmus(spec: &SystemSpec, needs: &Needs) -> Result<Vec<Fmu>, SetupError> {
     let origin = &spec.origin;
     let mut fmus = Vec::with_capacity(spec.components.len());
@@ -686,18 +713,21 @@ impl Units for FmuSystem {
         Ok(unit.inst.get_real(&unit.outputs, y)?)
     }
 
-    fn save_state(&mut self, k: usize) -> Result<(), UnitError> {
+    fn save_state(&mut self, k: usize, slot: Slot) -> Result<(), UnitError> {
         let unit = &mut self.units[k];
-        match &unit.state {
+        let state = &mut unit.states[slot as usize];
+        match state {
             Some(s) => unit.inst.update_state(s)?,
-            None => unit.state = Some(unit.inst.get_state()?),
+            None => *state = Some(unit.inst.get_state()?),
         }
         Ok(())
     }
 
-    fn restore_state(&mut self, k: usize) -> Result<(), UnitError> {
+    fn restore_state(&mut self, k: usize, slot: Slot) -> Result<(), UnitError> {
         let unit = &mut self.units[k];
-        let s = unit.state.as_ref().ok_or_else(|| UnitError::Other("no state saved to restore".into()))?;
+        let s = unit.states[slot as usize]
+            .as_ref()
+            .ok_or_else(|| UnitError::Other(format!("no state saved in the {slot:?} slot to restore")))?;
         Ok(unit.inst.set_state(s)?)
     }
 

@@ -7,6 +7,8 @@
 //! offset_i` (a plain connection has gain 1 and offset 0; SSP linear transformations and unit
 //! conversions set them). Non-Real connections (Integer, Boolean, String) are not unknowns: they
 //! are sampled at communication points and held over the step ([`Units::exchange_discrete`]).
+//! `Y` may also hold outputs that feed no input, read after every step for the adaptive step to
+//! watch ([`crate::SystemSpec::observed`]).
 
 pub mod fmu;
 pub mod spec;
@@ -156,6 +158,15 @@ impl Layout {
     }
 }
 
+/// A unit's two rollback slots: every step of an iterating scheme saves its start in `Step`; the
+/// adaptive step's step doubling keeps the start of its steps in `Checkpoint`, to go back over
+/// more than one step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slot {
+    Step,
+    Checkpoint,
+}
+
 /// What a unit can do beyond stepping.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Capabilities {
@@ -192,12 +203,12 @@ pub trait Units {
     /// Sets the slopes of its inputs over the next step (only if it `interpolates`).
     fn set_input_slopes(&mut self, k: usize, slopes: &[f64]) -> Result<(), UnitError>;
     fn do_step(&mut self, k: usize, t: f64, h: f64) -> Result<(), UnitError>;
-    /// Reads its connected Real outputs.
+    /// Reads its Real outputs in `Y` (the connected ones, and those read besides).
     fn get_outputs(&mut self, k: usize, y: &mut [f64]) -> Result<(), UnitError>;
-    /// Saves its state into its one rollback slot (overwriting the last).
-    fn save_state(&mut self, k: usize) -> Result<(), UnitError>;
-    /// Restores the state of the rollback slot, bit for bit.
-    fn restore_state(&mut self, k: usize) -> Result<(), UnitError>;
+    /// Saves its state into a rollback slot (overwriting what it held).
+    fn save_state(&mut self, k: usize, slot: Slot) -> Result<(), UnitError>;
+    /// Restores the state saved in a rollback slot, bit for bit.
+    fn restore_state(&mut self, k: usize, slot: Slot) -> Result<(), UnitError>;
     /// `out = ∂Y_k/∂U_k · seed` of the step just taken (needs `step_derivatives`).
     fn step_derivative(&mut self, k: usize, seed: &[f64], out: &mut [f64]) -> Result<(), UnitError>;
     /// Passes the values of non-Real connections from outputs to inputs (at a communication point).

@@ -91,4 +91,8 @@ pub struct SystemSpec {
     pub parameters: Vec<Parameter>,
     /// Declared variables to check (may be empty).
     pub connectors: Vec<Connector>,
+    /// Real outputs read after every step besides the connected ones (`component.variable`, or
+    /// a prefix ending before a `.` or `[`), e.g. a state the adaptive step is to watch; a name
+    /// that is no output of its component is left to [`crate::Coupled::watch`] to judge.
+    pub observed: Vec<String>,
 }

@@ -3,6 +3,7 @@
 
 use anyhow::bail;
 use clap::ValueEnum;
+use master::cosim::error_estimate::Kind;
 use master::cosim::step_control::Tolerances;
 use master::cosim::{Extrapolation, IqnOptions, JacobianUpdate, Options, Relaxation, Scheme};
 use master::simulate::Method;
@@ -188,6 +189,20 @@ pub(crate) struct SchemeOptions {
     /// carry its integrator's step-to-step ripple, which the estimate reads as error.
     #[arg(long, value_delimiter = ',', value_name = "INPUTS")]
     pub(crate) watch: Vec<String>,
+    /// How the adaptive step estimates its local error.
+    #[arg(long, value_enum, default_value_t = EstimateArg::Predictor)]
+    pub(crate) estimate: EstimateArg,
+}
+
+/// `--estimate`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum EstimateArg {
+    /// The step against the parabola of the last three steps: no extra step; assumes a
+    /// second-order coupled step (the FMUs of this workspace, the monolithic model)
+    Predictor,
+    /// The step taken again as two half steps: 1.5 steps more per step; assumes nothing of the
+    /// FMUs (e.g. FMUs holding their inputs over the step, a first-order coupling)
+    Doubling,
 }
 
 impl SchemeOptions {
@@ -260,6 +275,10 @@ impl SchemeOptions {
             h_min: self.h_min,
             h_max: self.h_max,
             watch: self.watch.clone(),
+            estimate: match self.estimate {
+                EstimateArg::Predictor => Kind::Predictor,
+                EstimateArg::Doubling => Kind::Doubling,
+            },
         })
     }
 }

@@ -226,3 +226,37 @@ fn cosimulation_and_monolithic_model_watch_the_same_pose() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--adaptive"));
 }
+
+/// `--estimate doubling` (every step against its two half steps) for the monolithic model and a
+/// co-simulation: 5 s at C within rtol of the peak of the monolithic model at a fine fixed step.
+#[test]
+fn step_doubling_meets_its_tolerance_at_c() {
+    let (_, file) = common::scene("lt50m_C.toml", "adaptive-doubling", |_| {});
+    let out = master(&[
+        "compare",
+        "--scene",
+        file.to_str().unwrap(),
+        "--schemes",
+        "monolithic,ijcsa",
+        "--adaptive",
+        "--estimate",
+        "doubling",
+        "--rtol",
+        "1e-3",
+        "--dt",
+        "0.0025",
+        "--t-end",
+        "5",
+        "--json",
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let c: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let peak = c["monolithic"]["peak_disp_mm"].as_f64().unwrap();
+    for s in c["schemes"].as_array().unwrap() {
+        let error = s["max_error_mm"].as_f64().unwrap();
+        eprintln!("{}: {error:.2e} mm at a peak of {peak:.2} mm", s["scheme"]);
+        assert!(peak > 1.0 && error <= 1e-3 * peak, "{s}");
+    }
+    assert_eq!(c["schemes"].as_array().unwrap().len(), 2);
+}
