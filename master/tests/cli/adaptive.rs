@@ -13,6 +13,17 @@ fn csv(path: &std::path::Path) -> (Vec<String>, Vec<Vec<f64>>) {
     (header, rows)
 }
 
+/// `compare`'s JSON: `schemes` with the adaptive step at rtol 1e-3 over 5 s of `scene` against the
+/// monolithic model at h = 0.0025.
+fn compare_adaptive_at_rtol_1e_3(scene: &str, schemes: &str, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec!["compare", "--scene", scene, "--schemes", schemes, "--adaptive", "--rtol", "1e-3"];
+    args.extend_from_slice(&["--dt", "0.0025", "--t-end", "5", "--json", "--quiet"]);
+    args.extend_from_slice(extra);
+    let out = master(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 /// IQN-ILS with the adaptive step over 5 s at C: a CSV row per accepted step with the step that
 /// ended there, the steps adding up to the end time, which the last row reaches exactly; the
 /// JSON figures are those of the rows; and the response agrees with the monolithic model within
@@ -62,24 +73,7 @@ fn an_adaptive_run_lands_on_the_end_time_and_meets_its_tolerance() {
     }
 
     // against the monolithic model at a fine fixed step
-    let out = master(&[
-        "compare",
-        "--scene",
-        f,
-        "--schemes",
-        "iqn-ils",
-        "--adaptive",
-        "--rtol",
-        "1e-3",
-        "--dt",
-        "0.0025",
-        "--t-end",
-        "5",
-        "--json",
-        "--quiet",
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let c: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let c = compare_adaptive_at_rtol_1e_3(f, "iqn-ils", &[]);
     let peak = c["monolithic"]["peak_disp_mm"].as_f64().unwrap();
     let error = c["schemes"][0]["max_error_mm"].as_f64().unwrap();
     eprintln!(
@@ -232,26 +226,7 @@ fn cosimulation_and_monolithic_model_watch_the_same_pose() {
 #[test]
 fn step_doubling_meets_its_tolerance_at_c() {
     let (_, file) = common::scene("lt50m_C.toml", "adaptive-doubling", |_| {});
-    let out = master(&[
-        "compare",
-        "--scene",
-        file.to_str().unwrap(),
-        "--schemes",
-        "monolithic,ijcsa",
-        "--adaptive",
-        "--estimate",
-        "doubling",
-        "--rtol",
-        "1e-3",
-        "--dt",
-        "0.0025",
-        "--t-end",
-        "5",
-        "--json",
-        "--quiet",
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let c: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let c = compare_adaptive_at_rtol_1e_3(file.to_str().unwrap(), "monolithic,ijcsa", &["--estimate", "doubling"]);
     let peak = c["monolithic"]["peak_disp_mm"].as_f64().unwrap();
     for s in c["schemes"].as_array().unwrap() {
         let error = s["max_error_mm"].as_f64().unwrap();
