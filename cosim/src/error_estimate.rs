@@ -46,8 +46,8 @@ pub enum Kind {
     Predictor,
     /// The step taken again as two half steps: their difference from the one step is the local
     /// error of the whole step if the stepper is of first order, and three times it if of second
-    /// order (a step and a half more per step; assumes nothing of the stepper's order, so it
-    /// never under-reads — for coupled FMUs whose order is unknown, e.g. holding their inputs
+    /// order (three steps, one whole and two halves, per accepted step; assumes nothing of the
+    /// stepper's order, so it never under-reads — for coupled FMUs whose order is unknown, e.g. holding their inputs
     /// over the step).
     Doubling,
 }

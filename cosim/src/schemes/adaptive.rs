@@ -189,10 +189,8 @@ impl<S: Units> Coupled<S> {
     /// those for [`Slot::Step`] at the start of every step; [`Coupled::checkpoint`] for
     /// [`Slot::Checkpoint`]).
     pub(super) fn keep(&mut self, slot: Slot) {
-        let iqn = self.options.scheme == super::Scheme::IqnIls;
-        let jacobian = self.reuses_jacobian();
-        let Coupled { adaptive, time, y, y_prev, prev_step, iqn: accelerator, dydu, jacobian_step, volatile, .. } =
-            self;
+        let (quasi_newton, jacobian) = (self.options.scheme == super::Scheme::IqnIls, self.reuses_jacobian());
+        let Coupled { adaptive, time, y, y_prev, prev_step, iqn, dydu, jacobian_step, volatile, .. } = self;
         let r = match slot {
             Slot::Step => &mut adaptive.before_step,
             Slot::Checkpoint => &mut adaptive.checkpoint,
@@ -201,8 +199,8 @@ impl<S: Units> Coupled<S> {
         r.y.copy_from_slice(y);
         r.y_prev.copy_from_slice(y_prev);
         r.prev_step = *prev_step;
-        if iqn {
-            accelerator.copy_into(&mut r.iqn);
+        if quasi_newton {
+            iqn.copy_into(&mut r.iqn);
         }
         if jacobian {
             r.dydu.clone_from(dydu);
@@ -220,7 +218,8 @@ impl<S: Units> Coupled<S> {
         };
         let t = r.time;
         self.restore_states(t, slot)?;
-        let Coupled { adaptive, time, y, y_prev, prev_step, iqn, dydu, jacobian_step, volatile, options, .. } = self;
+        let (quasi_newton, jacobian) = (self.options.scheme == super::Scheme::IqnIls, self.reuses_jacobian());
+        let Coupled { adaptive, time, y, y_prev, prev_step, iqn, dydu, jacobian_step, volatile, .. } = self;
         let r = match slot {
             Slot::Step => &adaptive.before_step,
             Slot::Checkpoint => &adaptive.checkpoint,
@@ -229,10 +228,10 @@ impl<S: Units> Coupled<S> {
         y.copy_from_slice(&r.y);
         y_prev.copy_from_slice(&r.y_prev);
         *prev_step = r.prev_step;
-        if options.scheme == super::Scheme::IqnIls {
+        if quasi_newton {
             r.iqn.copy_into(iqn);
         }
-        if options.scheme == super::Scheme::Ijcsa && options.jacobian == super::JacobianUpdate::Reuse {
+        if jacobian {
             dydu.copy_from_slice(&r.dydu);
             *jacobian_step = r.jacobian_step;
             volatile.copy_from_slice(&r.volatile);
