@@ -2,7 +2,8 @@
 //! of a few repetitions, and the error of the cabin-centre displacement against a fine-step
 //! monolithic reference; a table, `bench.csv` and a log–log work–precision plot. With
 //! `--adaptive-rtols`, the schemes that iterate also with the adaptive step at each tolerance,
-//! each against the cheapest fixed step of the same scheme that is as accurate
+//! each against the cheapest fixed step of the same scheme that is as accurate, and against the
+//! fixed step that would be exactly as accurate, interpolated between the grid's steps
 //! (`bench_adaptive.csv`).
 
 use std::io::{IsTerminal, Write};
@@ -324,8 +325,25 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     Ok(())
 }
 
+/// The fixed step `(h, wall time)` that would reach `error` exactly, from `grid` (`(h, error,
+/// wall time)` of one scheme): interpolated log–log between the two neighbouring steps whose
+/// errors bracket it (error and cost are near powers of h); `None` outside the grid.
+fn as_accurate(grid: &[(f64, f64, f64)], error: f64) -> Option<(f64, f64)> {
+    let mut sorted = grid.to_vec();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    sorted.windows(2).find_map(|w| {
+        let ((h0, e0, c0), (h1, e1, c1)) = (w[0], w[1]);
+        if !(e0 > 0.0 && e0 <= error && error <= e1 && e0 < e1) {
+            return None;
+        }
+        let s = (error / e0).ln() / (e1 / e0).ln();
+        Some((h0 * (h1 / h0).powf(s), c0 * (c1 / c0).powf(s)))
+    })
+}
+
 /// The adaptive runs as a table and as CSV: each with the cheapest fixed step of its scheme in
-/// the grid that is as accurate, and their cost ratio.
+/// the grid that is as accurate, the fixed step interpolated to be exactly as accurate, and the
+/// cost ratios.
 fn adaptive_results(
     adaptive: &[(SchemeName, f64, Result<AdaptiveMeasured, String>)],
     cells: &[Cell],
@@ -343,10 +361,13 @@ fn adaptive_results(
         "cheapest fixed h reaching it",
         "its wall s",
         "cost ratio",
+        "h as accurate (interpolated)",
+        "cost ratio to it",
     ]);
     let mut csv = String::from(
         "scheme,rtol,wall_time_s,max_error_mm,max_error_percent_of_peak,steps,rejected_steps,h_min_used,h_max_used,\
-         fixed_dt_s,fixed_wall_time_s,cost_ratio,failure\n",
+         fixed_dt_s,fixed_wall_time_s,cost_ratio,interpolated_dt_s,interpolated_wall_time_s,interpolated_cost_ratio,\
+         failure\n",
     );
     let percent = |m: f64| if peak > 0.0 { 100.0 * m / peak } else { f64::NAN };
     for (name, rtol, result) in adaptive {
@@ -358,8 +379,15 @@ fn adaptive_results(
                     .filter(|c| c.scheme == *name)
                     .filter_map(|c| c.result.as_ref().ok().filter(|x| x.max <= m.max).map(|x| (c.dt, x.wall)))
                     .min_by(|a, b| a.1.total_cmp(&b.1));
+                let grid: Vec<(f64, f64, f64)> = cells
+                    .iter()
+                    .filter(|c| c.scheme == *name)
+                    .filter_map(|c| c.result.as_ref().ok().map(|x| (c.dt, x.max, x.wall)))
+                    .collect();
+                let exact = as_accurate(&grid, m.max);
                 let p = percent(m.max);
                 let given = |f: &dyn Fn((f64, f64)) -> String| fixed.map_or(String::new(), f);
+                let interpolated = |f: &dyn Fn((f64, f64)) -> String| exact.map_or(String::new(), f);
                 table.row([
                     scheme.to_string(),
                     format!("{rtol:e}"),
@@ -372,9 +400,11 @@ fn adaptive_results(
                     fixed.map_or("none in --dts".into(), |f| format!("h = {}", f.0)),
                     fixed.map_or("—".into(), |f| format!("{:.3}", f.1)),
                     fixed.map_or("—".into(), |f| format!("{:.2}", m.wall / f.1)),
+                    exact.map_or("outside --dts".into(), |f| format!("h = {:.4}", f.0)),
+                    exact.map_or("—".into(), |f| format!("{:.2}", m.wall / f.1)),
                 ]);
                 csv.push_str(&format!(
-                    "{scheme},{rtol:e},{},{:e},{},{},{},{},{},{},{},{},\n",
+                    "{scheme},{rtol:e},{},{:e},{},{},{},{},{},{},{},{},{},{},{},\n",
                     m.wall,
                     m.max,
                     if p.is_finite() { p.to_string() } else { String::new() },
@@ -385,15 +415,18 @@ fn adaptive_results(
                     given(&|f| f.0.to_string()),
                     given(&|f| f.1.to_string()),
                     given(&|f| (m.wall / f.1).to_string()),
+                    interpolated(&|f| f.0.to_string()),
+                    interpolated(&|f| f.1.to_string()),
+                    interpolated(&|f| (m.wall / f.1).to_string()),
                 ));
             }
             Err(e) => {
                 let short = e.split(';').next().unwrap_or_default().to_string();
                 let mut row = vec![scheme.to_string(), format!("{rtol:e}"), "failed".into()];
-                row.extend(std::iter::repeat_n(String::new(), 7));
+                row.extend(std::iter::repeat_n(String::new(), 9));
                 row.push(short);
                 table.row(row);
-                csv.push_str(&format!("{scheme},{rtol:e},,,,,,,,,,,\"{}\"\n", e.replace('"', "'")));
+                csv.push_str(&format!("{scheme},{rtol:e},,,,,,,,,,,,,,\"{}\"\n", e.replace('"', "'")));
             }
         }
     }

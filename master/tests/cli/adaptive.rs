@@ -85,7 +85,8 @@ fn an_adaptive_run_lands_on_the_end_time_and_meets_its_tolerance() {
 
 /// `bench --adaptive-rtols`: a row per scheme that iterates and tolerance; the fixed step it
 /// names is the cheapest of the same scheme in bench.csv that is as accurate, and the cost
-/// ratio is the ratio of their wall times.
+/// ratio is the ratio of their wall times; the interpolated step is as accurate as the
+/// adaptive run where the grid brackets its error.
 #[test]
 fn bench_compares_the_adaptive_step_with_the_fixed_ones() {
     let (_, file) = common::scene("lt50m_C.toml", "adaptive-bench", |_| {});
@@ -103,7 +104,7 @@ fn bench_compares_the_adaptive_step_with_the_fixed_ones() {
         "--repeats",
         "1",
         "--adaptive-rtols",
-        "1e-2",
+        "1e-3",
         "--out",
         dir.to_str().unwrap(),
         "--quiet",
@@ -115,7 +116,7 @@ fn bench_compares_the_adaptive_step_with_the_fixed_ones() {
     assert!(lines[0].starts_with("scheme,rtol,wall_time_s,max_error_mm"), "{}", lines[0]);
     assert_eq!(lines.len(), 2, "ijcsa only (jacobi does not iterate): {adaptive}");
     let row = lines[1];
-    assert_eq!((field(row, 0).as_str(), field(row, 1).as_str()), ("ijcsa", "1e-2"));
+    assert_eq!((field(row, 0).as_str(), field(row, 1).as_str()), ("ijcsa", "1e-3"));
     let (wall, error): (f64, f64) = (field(row, 2).parse().unwrap(), field(row, 3).parse().unwrap());
     assert!(field(row, 5).parse::<u64>().unwrap() > 0);
     let fixed = std::fs::read_to_string(dir.join("bench.csv")).unwrap();
@@ -135,6 +136,20 @@ fn bench_compares_the_adaptive_step_with_the_fixed_ones() {
         }
         None => assert_eq!(field(row, 9), "", "no fixed step is as accurate: {row}"),
     }
+    // the fixed step exactly as accurate: error and wall time interpolated as powers of h
+    // between the two grid steps whose errors bracket the adaptive run's
+    let mut sorted = ijcsa.clone();
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let w = sorted.windows(2).find(|w| w[0].2 <= error && error <= w[1].2).expect("at rtol 1e-3 the grid brackets it");
+    let ((h0, c0, e0), (h1, c1, e1)) = (w[0], w[1]);
+    let p = (e1 / e0).ln() / (h1 / h0).ln();
+    let h = h0 * (error / e0).powf(1.0 / p);
+    let cost = c0 * (c1 / c0).powf((h / h0).ln() / (h1 / h0).ln());
+    let (got_h, got_cost): (f64, f64) = (field(row, 12).parse().unwrap(), field(row, 13).parse().unwrap());
+    eprintln!("as accurate: h = {got_h} ({h0} … {h1}), {got_cost} s");
+    assert!((got_h - h).abs() <= 1e-9 * h && h0 <= got_h && got_h <= h1, "{got_h} against {h}");
+    assert!((got_cost - cost).abs() <= 1e-9 * cost, "{got_cost} against {cost}");
+    assert_eq!(field(row, 14).parse::<f64>().unwrap(), wall / got_cost);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
