@@ -23,7 +23,9 @@ pub mod system;
 
 pub use error::{SetupError, StepError};
 pub use iqn::IqnOptions;
-pub use schemes::{AdaptiveStep, Coupled, Extrapolation, JacobianUpdate, Options, Relaxation, Scheme, StepReport};
+pub use schemes::{
+    AdaptiveStep, Coupled, Extrapolation, JacobianUpdate, Options, Relaxation, START_SUBSTEPS, Scheme, StepReport,
+};
 pub use system::fmu::{FmuSystem, Needs};
 pub use system::spec::SystemSpec;
 pub use system::{Capabilities, Layout, Slot, UnitError, UnitLayout, Units};

@@ -601,3 +601,32 @@ fn step_doubling_meets_its_tolerance_and_leaves_no_trace() {
         assert_eq!(direct.units().now, c.units().now, "{}", o.scheme.name());
     }
 }
+
+/// The first macro step from the start, for the schemes that solve the interface by
+/// (quasi-)Newton: the substeps h/1024, h/1024, h/512, …, h/2, landing on h exactly — the same,
+/// bit for bit, as taking those steps one by one; the fixed point steps once.
+#[test]
+fn the_first_step_from_the_start_is_taken_in_substeps() {
+    let h = 0.01;
+    let mut pieces = vec![h / 1024.0];
+    while pieces.iter().sum::<f64>() < 0.5 * h {
+        pieces.push(pieces.iter().sum());
+    }
+    pieces.push(0.5 * h);
+    assert_eq!(pieces.len() as u32, cosim::START_SUBSTEPS + 1);
+    for scheme in [Scheme::Ijcsa, Scheme::IqnIls] {
+        let mut c = Coupled::new(TwoMasses::new(), options(scheme)).unwrap();
+        let report = c.step_from_start(h).unwrap();
+        assert_eq!(c.time(), h, "{}", scheme.name());
+        let mut one_by_one = Coupled::new(TwoMasses::new(), options(scheme)).unwrap();
+        let iterations: usize = pieces.iter().map(|&p| one_by_one.step(p).unwrap().iterations).sum();
+        assert_eq!(c.outputs(), one_by_one.outputs(), "{}", scheme.name());
+        assert_eq!(report.iterations, iterations, "{}: the iterations of all substeps", scheme.name());
+        assert_eq!(c.units().steps, one_by_one.units().steps);
+    }
+    let mut c = Coupled::new(TwoMasses::new(), options(Scheme::Iterative)).unwrap();
+    let mut once = Coupled::new(TwoMasses::new(), options(Scheme::Iterative)).unwrap();
+    c.step_from_start(h).unwrap();
+    once.step(h).unwrap();
+    assert_eq!(c.outputs(), once.outputs());
+}

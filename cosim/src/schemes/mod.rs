@@ -124,6 +124,10 @@ pub struct StepReport {
     pub residual: f64,
 }
 
+/// Doublings of the first macro step's substeps ([`Coupled::step_from_start`]): the first is
+/// `h / 1024`.
+pub const START_SUBSTEPS: u32 = 10;
+
 /// Units coupled by a scheme, stepping in time.
 pub struct Coupled<S: Units> {
     units: S,
@@ -255,6 +259,38 @@ impl<S: Units> Coupled<S> {
         }
         self.time = t1;
         Ok(report)
+    }
+
+    /// The first macro step of a run, from a start the units were initialized for at rest: for
+    /// the schemes that solve the interface by (quasi-)Newton (`ijcsa`, `iqn-ils`), substeps
+    /// growing from `h / 2^START_SUBSTEPS` (two of that size, then each twice the last, the last
+    /// `h / 2`); the others step once (the fixed point's loop gain grows as the step shrinks —
+    /// the added mass — and it would not converge). A start that is not
+    /// smooth (a motion that begins at full speed) leaves each unit a first acceleration that
+    /// cannot include the others' inertia — FMI 2.0 initializes one instant, before the start —
+    /// and that inconsistency costs an error in proportion to the first step, of first order in
+    /// h. Measured at LT50m C over 2 s with the momentum-consistent start (IJCSA against the
+    /// monolithic model's h = 0.0003125): 4.8e-2, 2.3e-2, 1.2e-2 mm at h = 0.01, 0.005, 0.0025 in
+    /// one step; 8.2e-3, 2.1e-3, 5.1e-4 mm in substeps, the monolithic model's own second-order
+    /// error (8.2e-3, 2.1e-3, 5.1e-4 mm).
+    pub fn step_from_start(&mut self, h: f64) -> Result<StepReport, StepError> {
+        if !matches!(self.options.scheme, Scheme::Ijcsa | Scheme::IqnIls) {
+            return self.step(h);
+        }
+        let end = self.time + h;
+        let mut piece = h / f64::from(1u32 << START_SUBSTEPS);
+        let mut iterations = 0;
+        let mut report = StepReport::default();
+        for j in 0..=START_SUBSTEPS {
+            // the pieces add up to h / 2 exactly (each partial sum is h over a power of two)
+            let step = if j == START_SUBSTEPS { end - self.time } else { piece };
+            report = self.step(step)?;
+            iterations += report.iterations;
+            if j > 0 {
+                piece *= 2.0;
+            }
+        }
+        Ok(StepReport { iterations, ..report })
     }
 
     /// Whether IJCSA keeps its interface Jacobian from step to step (`--jacobian reuse`).

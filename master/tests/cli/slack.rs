@@ -7,13 +7,12 @@
 //! monolithic model through the cable crate's assembly, IJCSA inside the cable FMU), with the
 //! slack safeguards of the shared Newton controller.
 //!
-//! Tolerance: IJCSA's coupling error is first order in h (on the smooth scenes too: its gap to the
-//! monolithic model shrinks 4× when h is quartered), and this heavy platform couples strongly, so
-//! the gap is larger here than the monolithic model's own (second-order) time-step error. What
-//! "agree through it" means, then: (1) the gap is a consistent coupling error — quartering h
-//! shrinks it at least 3.5× (both converge to one solution); (2) the slack episodes do not widen
-//! it — the gap while cable 5 is slack is no larger than the largest gap while it is taut; (3) it
-//! stays below 1e-3 of the peak displacement.
+//! Tolerance: the gap to the monolithic model was once a first-order start-up defect of the
+//! co-simulation (each FMU's first acceleration without the other's inertia, 8.2e-2 mm at h =
+//! 0.01 and 2.1e-2 mm at h/4); with the first macro step taken in substeps it is a floor that does
+//! not depend on h (about 3e-4 mm, 2e-6 of the peak). What "agree through it" means: (1) the gap
+//! stays below 1e-5 of the peak displacement at h and at h/4; (2) the slack episodes do not widen
+//! it — the gap while cable 5 is slack is no larger than the largest gap while it is taut.
 
 use cable_fmu::element::Bar;
 use feedcore::scene::Scene;
@@ -92,7 +91,6 @@ fn a_cable_goes_slack_and_taut_again_and_ijcsa_follows_the_monolithic_model() {
         ijcsa.mean_iterations()
     );
     let (gap, gap_fine) = (slack.max(taut), slack_fine.max(taut_fine));
-    assert!(gap_fine <= gap / 3.5, "the gap must shrink with h: {gap:e} mm at h, {gap_fine:e} mm at h/4");
+    assert!(gap <= 1e-5 * peak && gap_fine <= 1e-5 * peak, "{gap:e} mm at h, {gap_fine:e} mm at h/4, peak {peak} mm");
     assert!(slack <= taut, "the slack episodes widen the gap: {slack:e} mm against {taut:e} mm while taut");
-    assert!(gap <= 1e-3 * peak, "gap {gap:e} mm against the peak {peak} mm");
 }
