@@ -114,8 +114,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             "--adaptive: the grid of --dts runs at fixed steps; give the adaptive runs' tolerances with --adaptive-rtols"
         );
     }
-    if !args.options.watch.is_empty() && args.adaptive_rtols.is_empty() {
-        bail!("--watch names what the adaptive runs watch: give their tolerances with --adaptive-rtols");
+    if (!args.options.watch.is_empty() || args.options.estimate.is_some()) && args.adaptive_rtols.is_empty() {
+        bail!("--watch and --estimate are for the adaptive runs: give their tolerances with --adaptive-rtols");
     }
     // the grid and the reference at fixed steps
     let fixed = args.options.fixed_step();

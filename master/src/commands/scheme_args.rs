@@ -189,9 +189,9 @@ pub(crate) struct SchemeOptions {
     /// carry its integrator's step-to-step ripple, which the estimate reads as error.
     #[arg(long, value_delimiter = ',', value_name = "INPUTS")]
     pub(crate) watch: Vec<String>,
-    /// How the adaptive step estimates its local error.
-    #[arg(long, value_enum, default_value_t = EstimateArg::Predictor)]
-    pub(crate) estimate: EstimateArg,
+    /// How the adaptive step estimates its local error [default: predictor].
+    #[arg(long, value_enum)]
+    pub(crate) estimate: Option<EstimateArg>,
 }
 
 /// `--estimate`.
@@ -218,6 +218,9 @@ impl SchemeOptions {
         }
         if !self.adaptive && !self.watch.is_empty() {
             bail!("--watch names what the adaptive step watches: it needs --adaptive");
+        }
+        if !self.adaptive && self.estimate.is_some() {
+            bail!("--estimate chooses how the adaptive step estimates its error: it needs --adaptive");
         }
         let mut options = Options {
             scheme: Scheme::Jacobi,
@@ -258,7 +261,7 @@ impl SchemeOptions {
 
     /// The same options at a fixed step (e.g. for a reference run).
     pub(crate) fn fixed_step(&self) -> SchemeOptions {
-        SchemeOptions { adaptive: false, watch: Vec::new(), ..self.clone() }
+        SchemeOptions { adaptive: false, watch: Vec::new(), estimate: None, ..self.clone() }
     }
 
     /// The adaptive step's settings (each value range checked by its parser).
@@ -276,8 +279,8 @@ impl SchemeOptions {
             h_max: self.h_max,
             watch: self.watch.clone(),
             estimate: match self.estimate {
-                EstimateArg::Predictor => Kind::Predictor,
-                EstimateArg::Doubling => Kind::Doubling,
+                None | Some(EstimateArg::Predictor) => Kind::Predictor,
+                Some(EstimateArg::Doubling) => Kind::Doubling,
             },
         })
     }

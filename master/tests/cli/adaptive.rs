@@ -231,9 +231,11 @@ fn cosimulation_and_monolithic_model_watch_the_same_pose() {
         err.contains("--watch") && err.contains("`stewart.cabin.x`") && err.contains("`stewart.cabin.r[1]`"),
         "{err}"
     );
-    let out = master(&["run", "--scene", f, "--scheme", "ijcsa", "--watch", "stewart.cabin.r", "--t-end", "1"]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--adaptive"));
+    for option in [["--watch", "stewart.cabin.r"], ["--estimate", "doubling"]] {
+        let out = master(&["run", "--scene", f, "--scheme", "ijcsa", option[0], option[1], "--t-end", "1"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(option[0]) && err.contains("--adaptive"), "{err}");
+    }
 }
 
 /// `--estimate doubling` (every step against its two half steps) for the monolithic model and a
