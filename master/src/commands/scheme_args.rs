@@ -200,7 +200,7 @@ pub(crate) enum EstimateArg {
     /// The step against the parabola of the last three steps: no extra step; assumes a
     /// second-order coupled step (the FMUs of this workspace, the monolithic model)
     Predictor,
-    /// The step taken again as two half steps: 1.5 steps more per step; assumes nothing of the
+    /// The step taken again as two half steps: three steps per accepted one; assumes nothing of the
     /// FMUs (e.g. FMUs holding their inputs over the step, a first-order coupling)
     Doubling,
 }
