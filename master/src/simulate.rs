@@ -739,7 +739,7 @@ const WATCHED: usize = 7;
 
 /// What a co-simulation of a scene watches by default: the cabin's pose as the Stewart FMU
 /// receives it, as the monolithic model watches its own (so both are judged alike).
-const CABIN_POSE: [&str; 2] = ["stewart.cabin.r", "stewart.cabin.q"];
+pub const CABIN_POSE: [&str; 2] = ["stewart.cabin.r", "stewart.cabin.q"];
 
 /// The monolithic model as a stepper that can undo a step (for the adaptive step): a snapshot
 /// before every step. The state is restored exactly; the kept factorization only steers Newton,

@@ -63,6 +63,7 @@ pub fn scene_spec(scene: &Scene, scene_file: &Path) -> Result<SystemSpec, SetupE
             .collect(),
         connectors: Vec::new(),
         observed: Vec::new(),
+        watch: Vec::new(),
     })
 }
 
@@ -196,16 +197,19 @@ impl<'a> SystemRun<'a> {
         let setup = |e: &(dyn std::error::Error + 'static)| RunError::setup(method, e);
         let output = |source: std::io::Error| RunError::Output { method, source };
         let start = Instant::now();
-        // outputs named to be watched are read after every step too
-        let observed = self.adaptive.as_ref().filter(|a| !a.watch.is_empty());
-        let spec = observed.map(|a| SystemSpec { observed: a.watch.clone(), ..self.spec.clone() });
+        // what is watched: --watch, else what the description suggests, else every coupled
+        // input (nothing else is known of the FMUs' quantities); outputs named are read after
+        // every step too
+        let watch = self.adaptive.as_ref().map(|a| if a.watch.is_empty() { &self.spec.watch } else { &a.watch });
+        let spec = watch.filter(|w| !w.is_empty()).map(|w| SystemSpec { observed: w.clone(), ..self.spec.clone() });
         let system =
             FmuSystem::load(spec.as_ref().unwrap_or(self.spec), &needs(&self.options, self.adaptive.is_some()))
                 .map_err(|e| setup(&e))?;
         let mut c = Coupled::new(system, self.options).map_err(|e| setup(&e))?;
-        if let Some(a) = &self.adaptive {
-            // every coupled input unless named: nothing is known of the FMUs' quantities
-            c.watch(&a.watch).map_err(|e| RunError::Refused { method, reason: format!("--watch: {e}") })?;
+        if let (Some(a), Some(watch)) = (&self.adaptive, watch) {
+            let from =
+                if a.watch.is_empty() { format!("{} (its annotation)", self.spec.origin) } else { "--watch".into() };
+            c.watch(watch).map_err(|e| RunError::Refused { method, reason: format!("{from}: {e}") })?;
             c.estimate_by(a.estimate);
         }
         let mut outputs = Vec::new();

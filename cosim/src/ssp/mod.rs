@@ -4,6 +4,13 @@
 pub mod read;
 pub mod write;
 
+/// The type of this master's SSP annotation (opt-in; SSP 1.0 lets a tool ignore annotations it
+/// does not know): `<ssc:Annotation type="org.feedsim.adaptive">` in the `<ssd:System>`'s
+/// `<ssd:Annotations>`, holding one `<Adaptive>` element with `<Watch name="component.variable"/>`
+/// elements — the quantities an adaptive step should judge its error by (names or prefixes, as
+/// `--watch` takes them).
+pub const ADAPTIVE_ANNOTATION: &str = "org.feedsim.adaptive";
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 

@@ -6,7 +6,8 @@
 //! optional `LinearTransformation` on Real ones; parameter bindings inline
 //! (`ParameterValues`) or in `.ssv` files, with an optional prefix; `DefaultExperiment`.
 //! Refused with a message: nested systems, connections to the system's own connectors,
-//! parameter mappings, enumeration and boolean/integer mapping transformations.
+//! parameter mappings, enumeration and boolean/integer mapping transformations. Annotations are
+//! ignored but this master's own ([`super::ADAPTIVE_ANNOTATION`]).
 
 use std::path::{Path, PathBuf};
 
@@ -99,6 +100,7 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
         parameters: Vec::new(),
         connectors: Vec::new(),
         observed: Vec::new(),
+        watch: Vec::new(),
     };
     // declared connector kinds, to orient connections output → input
     let mut kinds: Vec<(Endpoint, String)> = Vec::new();
@@ -189,6 +191,17 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
                 }
             }
             spec.connections.push(Connection { from, to, matching: Matching::Exact, transform });
+        }
+    }
+    // this master's own annotation (others are left alone, as SSP allows)
+    let ours = child(system, "Annotations")
+        .into_iter()
+        .flat_map(|a| children(a, "Annotation"))
+        .filter(|a| a.attribute("type") == Some(super::ADAPTIVE_ANNOTATION));
+    for adaptive in ours.flat_map(|a| children(a, "Adaptive")) {
+        for w in children(adaptive, "Watch") {
+            let name = w.attribute("name").ok_or_else(|| fail(w, "<Watch> without `name`".into()))?;
+            spec.watch.push(name.to_owned());
         }
     }
     let experiment = child(root, "DefaultExperiment");
@@ -294,4 +307,36 @@ fn read_parameter_set(
         out.push(Parameter { target, value });
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ssp::write::{SspSystem, ssd_text};
+
+    /// What an adaptive step should watch goes through `SystemStructure.ssd` as this master's
+    /// annotation; annotations of other types are left alone, and a description without ours
+    /// suggests nothing.
+    #[test]
+    fn the_adaptive_annotation_is_written_and_read_back() {
+        let dir = TempDir::new("annotation").unwrap();
+        let ssd = dir.path().join("SystemStructure.ssd");
+        let mut system = SspSystem {
+            name: "pair".into(),
+            components: Vec::new(),
+            connections: Vec::new(),
+            start_time: 0.0,
+            stop_time: 1.0,
+            watch: vec!["a.x".into(), "b.v[1]".into()],
+        };
+        let text = ssd_text(&system);
+        let other = r#"<ssc:Annotation type="com.example.other"><Watch name="not.ours"/></ssc:Annotation>"#;
+        std::fs::write(&ssd, text.replace("    <ssc:Annotations>\n", &format!("    <ssc:Annotations>\n{other}\n")))
+            .unwrap();
+        assert_eq!(load(&ssd).unwrap().spec.watch, system.watch);
+        system.watch.clear();
+        std::fs::write(&ssd, ssd_text(&system)).unwrap();
+        assert!(!ssd_text(&system).contains("Annotation"));
+        assert!(load(&ssd).unwrap().spec.watch.is_empty());
+    }
 }

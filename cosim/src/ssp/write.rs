@@ -1,5 +1,6 @@
 //! Writing an SSP 1.0 archive: `SystemStructure.ssd` (components with their connectors and
-//! inline parameter values, connections, default experiment) and the FMUs under `resources/`.
+//! inline parameter values, connections, default experiment, and what an adaptive step should
+//! watch as this master's annotation) and the FMUs under `resources/`.
 //! The XML is small and flat, so it is written directly (with fmi2's attribute escaping)
 //! rather than through an XML library.
 
@@ -42,6 +43,9 @@ pub struct SspSystem {
     pub connections: Vec<ResolvedConnection>,
     pub start_time: f64,
     pub stop_time: f64,
+    /// What an adaptive step should watch (written as [`super::ADAPTIVE_ANNOTATION`] when not
+    /// empty).
+    pub watch: Vec<String>,
 }
 
 fn type_element(t: VarType) -> &'static str {
@@ -138,6 +142,18 @@ pub fn ssd_text(s: &SspSystem) -> String {
             }
         }
         let _ = writeln!(x, "    </ssd:Connections>");
+    }
+    if !s.watch.is_empty() {
+        // the schema: <ssd:Annotations> last in the system, an <ssc:Annotation> holds one element
+        let _ = writeln!(x, "    <ssd:Annotations>");
+        let _ = writeln!(x, r#"      <ssc:Annotation type="{}">"#, super::ADAPTIVE_ANNOTATION);
+        let _ = writeln!(x, "        <Adaptive>");
+        for w in &s.watch {
+            let _ = writeln!(x, r#"          <Watch name="{}"/>"#, escape(w));
+        }
+        let _ = writeln!(x, "        </Adaptive>");
+        let _ = writeln!(x, "      </ssc:Annotation>");
+        let _ = writeln!(x, "    </ssd:Annotations>");
     }
     let _ = writeln!(x, "  </ssd:System>");
     let _ = writeln!(x, r#"  <ssd:DefaultExperiment startTime="{:?}" stopTime="{:?}"/>"#, s.start_time, s.stop_time);

@@ -95,4 +95,7 @@ pub struct SystemSpec {
     /// a prefix ending before a `.` or `[`), e.g. a state the adaptive step is to watch; a name
     /// that is no output of its component is left to [`crate::Coupled::watch`] to judge.
     pub observed: Vec<String>,
+    /// What an adaptive step should watch unless told otherwise, as the description suggests
+    /// (names or prefixes; from the SSP annotation [`crate::ssp::ADAPTIVE_ANNOTATION`]).
+    pub watch: Vec<String>,
 }

@@ -81,6 +81,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         connections: resolved.connections,
         start_time: 0.0,
         stop_time: scene.solver.t_end_s,
+        // an adaptive run of the archive watches what one of the scene does
+        watch: master::simulate::CABIN_POSE.map(String::from).to_vec(),
     };
     let archive = write_archive(Cursor::new(Vec::new()), &system).context("packing the archive")?.into_inner();
     outputs.open()?;

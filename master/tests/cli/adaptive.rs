@@ -252,3 +252,35 @@ fn step_doubling_meets_its_tolerance_at_c() {
     }
     assert_eq!(c["schemes"].as_array().unwrap().len(), 2);
 }
+
+/// `export-ssp` writes what an adaptive run watches (the cabin pose) as this master's SSP
+/// annotation, and `run --system` of the archive takes it up: the same steps as the scene's
+/// adaptive run (without it, every coupled input would be watched — the accelerations and the
+/// wrench ripple, and the steps fall to h-min). `--watch` still decides over the annotation.
+#[test]
+fn an_exported_system_watches_what_the_scene_does() {
+    let (_, file) = common::scene("lt50m_C.toml", "adaptive-ssp", |_| {});
+    let f = file.to_str().unwrap();
+    let ssp = common::fmu_dir().join("adaptive-watch-C.ssp");
+    let out = master(&["export-ssp", "--scene", f, "--out", ssp.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json = |args: &[&str]| {
+        let out = master(args);
+        assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let adaptive = ["--scheme", "ijcsa", "--adaptive", "--t-end", "2", "--json"];
+    let scene = json(&[&["run", "--scene", f][..], &adaptive].concat());
+    let system = json(&[&["run", "--system", ssp.to_str().unwrap()][..], &adaptive].concat());
+    for key in ["steps", "rejected_steps", "h_min_used", "h_max_used"] {
+        assert_eq!(scene[key], system[key], "{key}");
+    }
+    let watch = ["--watch", "stewart.cabin.r,stewart.cabin.q,stewart.cabin.v"];
+    let told = json(&[&["run", "--system", ssp.to_str().unwrap()][..], &adaptive, &watch].concat());
+    eprintln!(
+        "steps: scene {}, system {}, told to watch the velocities too {}",
+        scene["steps"], system["steps"], told["steps"]
+    );
+    assert!(told["steps"].as_u64() > system["steps"].as_u64());
+    std::fs::remove_file(&ssp).unwrap();
+}
