@@ -286,7 +286,24 @@ pub fn stacked(title: &str, panels: &[Panel<'_>], panel_height: u32) -> Result<S
 /// One scheme of a work–precision plot: (wall time s, error) points in the order of the steps.
 pub struct Precision<'a> {
     pub name: &'a str,
+    /// The fixed steps' runs, joined by a line.
     pub points: Vec<(f64, f64)>,
+    /// The adaptive step's runs (each tolerance), drawn apart as rings in the scheme's colour.
+    pub adaptive: Vec<(f64, f64)>,
+}
+
+/// Radius of the ring an adaptive run is drawn as (the fixed steps' markers are 4–5).
+const ADAPTIVE_RING: i32 = 8;
+
+/// What a legend entry of the work–precision plot shows beside its name.
+#[derive(Clone, Copy)]
+enum Mark {
+    /// A scheme's line and its marker (by its index).
+    Scheme(usize),
+    /// The adaptive step's ring.
+    Ring,
+    /// The reference's dashed line.
+    Dashed,
 }
 
 /// Wall time against error on log–log axes; `reference`: a dashed horizontal line at this error
@@ -300,15 +317,17 @@ pub fn work_precision(
     reference: Option<(f64, &str)>,
 ) -> Result<String, PlotError> {
     for s in schemes {
-        if let Some(p) = s.points.iter().find(|p| !(p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite())) {
+        let all = || s.points.iter().chain(&s.adaptive);
+        if let Some(p) = all().find(|p| !(p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite())) {
             return Err(PlotError::Data(format!(
                 "scheme `{}`: the point ({}, {}) cannot be shown on logarithmic axes (values must be positive)",
                 s.name, p.0, p.1
             )));
         }
     }
-    let xs = || schemes.iter().flat_map(|s| s.points.iter().map(|p| p.0));
-    let ys = || schemes.iter().flat_map(|s| s.points.iter().map(|p| p.1)).chain(reference.map(|r| r.0));
+    let xs = || schemes.iter().flat_map(|s| s.points.iter().chain(&s.adaptive).map(|p| p.0));
+    let ys =
+        || schemes.iter().flat_map(|s| s.points.iter().chain(&s.adaptive).map(|p| p.1)).chain(reference.map(|r| r.0));
     let (x0, x1) = decade_range(xs());
     let (y0, y1) = decade_range(ys());
     let mut svg = String::new();
@@ -350,6 +369,10 @@ pub fn work_precision(
                 _ => chart.draw_series(points.map(|p| Circle::new(p, 4, color.stroke_width(2)))),
             }
             .map_err(draw_error)?;
+            // the adaptive runs: rings larger than any fixed-step marker
+            chart
+                .draw_series(s.adaptive.iter().map(|&p| Circle::new(p, ADAPTIVE_RING, color.stroke_width(2))))
+                .map_err(draw_error)?;
         }
         let grey = RGBColor(90, 90, 90);
         if let Some((y, _)) = reference {
@@ -359,16 +382,19 @@ pub fn work_precision(
         }
         // the legend, top right inside the plot: a line and the scheme's marker per entry
         let (xr, yr) = chart.plotting_area().get_pixel_range();
-        let mut entries: Vec<(String, RGBColor, Option<usize>)> = schemes
+        let mut entries: Vec<(String, RGBColor, Mark)> = schemes
             .iter()
             .enumerate()
             .map(|(i, s)| {
                 let name = if s.points.is_empty() { format!("{} (no result)", s.name) } else { s.name.to_string() };
-                (name, PALETTE[i % PALETTE.len()], Some(i))
+                (name, PALETTE[i % PALETTE.len()], Mark::Scheme(i))
             })
             .collect();
+        if schemes.iter().any(|s| !s.adaptive.is_empty()) {
+            entries.push(("adaptive step (its scheme's colour)".into(), grey, Mark::Ring));
+        }
         if let Some((_, label)) = reference {
-            entries.push((label.to_string(), grey, None));
+            entries.push((label.to_string(), grey, Mark::Dashed));
         }
         let width = 60 + 8 * entries.iter().map(|e| e.0.chars().count()).max().unwrap_or(0) as i32;
         let (left, top) = (xr.end - width - 10, yr.start + 10);
@@ -379,20 +405,24 @@ pub fn work_precision(
             let y = top + 15 + 20 * k as i32;
             let (a, b) = ((left + 8, y), (left + 36, y));
             match mark {
-                Some(_) => root.draw(&PathElement::new(vec![a, b], color.stroke_width(2))),
-                None => root
+                Mark::Scheme(_) => root.draw(&PathElement::new(vec![a, b], color.stroke_width(2))),
+                Mark::Dashed => root
                     .draw(&PathElement::new(vec![a, (left + 16, y)], color.stroke_width(1)))
                     .and_then(|_| root.draw(&PathElement::new(vec![(left + 22, y), b], color.stroke_width(1)))),
+                Mark::Ring => Ok(()),
             }
             .map_err(draw_error)?;
             let c = (left + 22, y);
-            match mark.map(|i| i % 5) {
-                Some(0) => root.draw(&Circle::new(c, 4, color.filled())),
-                Some(1) => root.draw(&TriangleMarker::new(c, 5, color.filled())),
-                Some(2) => root.draw(&Cross::new(c, 4, color.stroke_width(2))),
-                Some(3) => root.draw(&Rectangle::new([(c.0 - 4, c.1 - 4), (c.0 + 4, c.1 + 4)], color.filled())),
-                Some(_) => root.draw(&Circle::new(c, 4, color.stroke_width(2))),
-                None => Ok(()),
+            match mark {
+                Mark::Scheme(i) => match i % 5 {
+                    0 => root.draw(&Circle::new(c, 4, color.filled())),
+                    1 => root.draw(&TriangleMarker::new(c, 5, color.filled())),
+                    2 => root.draw(&Cross::new(c, 4, color.stroke_width(2))),
+                    3 => root.draw(&Rectangle::new([(c.0 - 4, c.1 - 4), (c.0 + 4, c.1 + 4)], color.filled())),
+                    _ => root.draw(&Circle::new(c, 4, color.stroke_width(2))),
+                },
+                Mark::Ring => root.draw(&Circle::new(c, ADAPTIVE_RING, color.stroke_width(2))),
+                Mark::Dashed => Ok(()),
             }
             .map_err(draw_error)?;
             let font = TextStyle::from((FONT, 13).into_font()).pos(plotters::style::text_anchor::Pos::new(

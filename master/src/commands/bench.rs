@@ -268,6 +268,11 @@ pub(crate) fn run(args: &Args) -> CmdResult {
                 .filter(|c| c.scheme == name)
                 .filter_map(|c| c.result.as_ref().ok().filter(|m| m.max > 0.0).map(|m| (m.wall, m.max)))
                 .collect(),
+            adaptive: adaptive_cells
+                .iter()
+                .filter(|a| a.0 == name)
+                .filter_map(|a| a.2.as_ref().ok().filter(|m| m.max > 0.0).map(|m| (m.wall, m.max)))
+                .collect(),
         })
         .collect();
     let svg = work_precision(

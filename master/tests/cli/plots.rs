@@ -81,9 +81,13 @@ fn a_time_history_shows_every_run_on_three_labelled_panels_and_stays_small() {
 #[test]
 fn a_work_precision_plot_has_log_axes_a_marked_line_per_scheme_and_the_reference() {
     let schemes = [
-        Precision { name: "monolithic", points: vec![(0.5, 4e-3), (0.9, 1e-3), (1.7, 2.5e-4)] },
-        Precision { name: "ijcsa", points: vec![(0.6, 4e-3), (1.1, 1e-3), (2.0, 2.6e-4)] },
-        Precision { name: "jacobi", points: vec![] },
+        Precision { name: "monolithic", points: vec![(0.5, 4e-3), (0.9, 1e-3), (1.7, 2.5e-4)], adaptive: vec![] },
+        Precision {
+            name: "ijcsa",
+            points: vec![(0.6, 4e-3), (1.1, 1e-3), (2.0, 2.6e-4)],
+            adaptive: vec![(0.7, 5e-4), (0.4, 3e-3)],
+        },
+        Precision { name: "jacobi", points: vec![], adaptive: vec![] },
     ];
     let svg =
         work_precision("work–precision", "wall time (s)", "max error (mm)", &schemes, Some((0.15, "1 % of the peak")))
@@ -97,6 +101,7 @@ fn a_work_precision_plot_has_log_axes_a_marked_line_per_scheme_and_the_reference
         "monolithic",
         "ijcsa",
         "jacobi (no result)",
+        "adaptive step (its scheme's colour)",
         "1 % of the peak",
     ] {
         assert!(text.iter().any(|t| t == label), "`{label}` missing: {text:?}");
@@ -110,10 +115,22 @@ fn a_work_precision_plot_has_log_axes_a_marked_line_per_scheme_and_the_reference
         assert!(polylines(&doc, &hex(PALETTE[i])).iter().any(|l| l.len() == 3), "scheme {i}");
     }
     assert!(doc.descendants().any(|n| n.has_tag_name("polygon")), "triangle markers");
+    // the adaptive runs: rings in their scheme's colour, apart from its line (and one in the legend)
+    let rings = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("circle") && n.attribute("r") == Some("8") && n.attribute("fill") == Some("none"))
+        .map(|n| n.attribute("stroke").unwrap_or_default().to_ascii_lowercase())
+        .collect::<Vec<_>>();
+    assert_eq!(rings.iter().filter(|c| **c == hex(PALETTE[1]).to_ascii_lowercase()).count(), 2, "{rings:?}");
+    assert_eq!(rings.len(), 3, "two runs and the legend's ring: {rings:?}");
     // a non-positive value cannot go on a log axis: an error, not a silent drop
-    let bad = [Precision { name: "x", points: vec![(1.0, 0.0)] }];
-    let e = work_precision("t", "x", "y", &bad, None).unwrap_err().to_string();
-    assert!(e.contains("`x`") && e.contains("positive"), "{e}");
+    for bad in [
+        Precision { name: "x", points: vec![(1.0, 0.0)], adaptive: vec![] },
+        Precision { name: "x", points: vec![(1.0, 1.0)], adaptive: vec![(-1.0, 1.0)] },
+    ] {
+        let e = work_precision("t", "x", "y", &[bad], None).unwrap_err().to_string();
+        assert!(e.contains("`x`") && e.contains("positive"), "{e}");
+    }
 }
 
 #[test]
