@@ -213,7 +213,12 @@ impl<'a> SystemRun<'a> {
             c.estimate_by(a.estimate);
         }
         let mut outputs = Vec::new();
+        // an adaptive run's rows are its accepted steps, each with its size
+        let adaptive = self.adaptive.is_some();
         let mut columns = vec!["time".to_string()];
+        if adaptive {
+            columns.push("h_s".to_string());
+        }
         for (k, (name, inst)) in c.units_mut().instances().enumerate() {
             let mut o = ComponentOutputs {
                 component: k,
@@ -249,13 +254,16 @@ impl<'a> SystemRun<'a> {
         }
         let reads = sinks.csv.is_some() || sinks.real.is_some();
         let mut buf = (Vec::new(), Vec::new(), Vec::new());
-        // one row of samples at time t
-        let mut sample = |c: &mut Coupled<FmuSystem>, t: f64, sinks: &mut Sinks<'_>| -> Result<(), RunError> {
+        // one row of samples at time t, after a step of h (0 at the start)
+        let mut sample = |c: &mut Coupled<FmuSystem>, t: f64, h: f64, sinks: &mut Sinks<'_>| -> Result<(), RunError> {
             if !reads {
                 return Ok(());
             }
             if let Some(f) = sinks.csv.as_mut() {
                 write!(f, "{t}").map_err(output)?;
+                if adaptive {
+                    write!(f, ",{h}").map_err(output)?;
+                }
             }
             if let Some(h) = sinks.real.as_mut() {
                 h.t.push(t);
@@ -301,7 +309,7 @@ impl<'a> SystemRun<'a> {
             }
             Ok(())
         };
-        sample(&mut c, 0.0, &mut sinks)?;
+        sample(&mut c, 0.0, 0.0, &mut sinks)?;
         let mut controller = self
             .adaptive
             .as_ref()
@@ -340,7 +348,7 @@ impl<'a> SystemRun<'a> {
                     },
                 }
             },
-            |_, t, _| sample(&mut cell.borrow_mut(), t, &mut sinks),
+            |_, t, s| sample(&mut cell.borrow_mut(), t, s.h, &mut sinks),
         )?;
         let mut c = cell.into_inner();
         if let Some(f) = sinks.csv.as_mut() {

@@ -37,7 +37,8 @@ pub(crate) struct Args {
     /// Write the time histories as CSV: t, dx_mm, dy_mm, dz_mm (cabin-centre displacement from the
     /// static equilibrium), rx_mrad, ry_mrad, rz_mrad (rotation), fx_n … mz_nm (Stewart wrench) —
     /// the groups the scene's outputs.quantities ask for, at its outputs.sample_interval_s (with
-    /// --adaptive: every accepted step, its size in an h_s column after t).
+    /// --adaptive: every accepted step, its size in an h_s column after t). With --system: time
+    /// (and with --adaptive h_s), then every output of every component.
     #[arg(long)]
     pub(crate) out: Option<PathBuf>,
     /// Print a JSON summary instead of text.

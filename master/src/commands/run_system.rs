@@ -1,7 +1,8 @@
 //! `master run --system FILE`: any system of FMI 2.0 Co-Simulation FMUs described in SSP 1.0
 //! (an `.ssp` archive, or an `.ssd` with its FMUs beside it), run by a coupling scheme. The CSV
-//! holds `time` and every output of every component as `<component>.<variable>`; the plot
-//! shows every Real output, a panel per component.
+//! holds `time` (with --adaptive then `h_s`, the size of the accepted step that ended there) and
+//! every output of every component as `<component>.<variable>`; the plot shows every Real
+//! output, a panel per component.
 
 use std::io::{IsTerminal, Write};
 use std::path::Path;

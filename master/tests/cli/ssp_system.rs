@@ -386,8 +386,9 @@ fn run_system_with_the_adaptive_step_and_a_plot() {
         (v, rows)
     };
     let (_, fine) = run(&dir.join("fixed.csv"), &["--dt", "0.000125"]);
-    // columns: time, a.x, a.v, a.a, a.steps, b.x, …: the positions at the end against the fine run
-    // (itself 9e-5 of b.x's range from the limit of the fixed steps)
+    // columns: time, a.x, a.v, a.a, a.steps, b.x, … (an adaptive run's with h_s after time): the
+    // positions at the end against the fine run (itself 9e-5 of b.x's range from the limit of
+    // the fixed steps)
     let end = fine.last().unwrap();
     let range = |col: usize| fine.iter().map(|r| (r[col] - fine[0][col]).abs()).fold(0.0, f64::max);
     let run_adaptive = |name: &str, rtol: &str, extra: &[&str]| {
@@ -399,8 +400,12 @@ fn run_system_with_the_adaptive_step_and_a_plot() {
         assert!(v["dt"].is_null());
         assert_eq!(rows.len() as u64, v["steps"].as_u64().unwrap() + 1);
         assert_eq!(rows.last().unwrap()[0], 2.0, "the last step lands on the end time");
+        for w in rows.windows(2) {
+            assert!((w[1][0] - w[0][0] - w[1][1]).abs() <= 1e-12, "h_s is the step that ended at t: {w:?}");
+        }
+        assert_eq!(rows[0][1], 0.0);
         let error =
-            [1, 5].iter().map(|&col| (rows.last().unwrap()[col] - end[col]).abs() / range(col)).fold(0.0, f64::max);
+            [1, 5].iter().map(|&col| (rows.last().unwrap()[col + 1] - end[col]).abs() / range(col)).fold(0.0, f64::max);
         eprintln!("{name}, rtol {rtol}: {} steps, end positions off by {error:.2e} of their ranges", rows.len() - 1);
         let text = std::fs::read_to_string(&svg).unwrap();
         let doc = roxmltree::Document::parse(&text).unwrap();
