@@ -16,7 +16,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use feedcore::Vec3;
-use feedcore::scene::{LEGS, Quantity, Scene, SensorKind, Start, StewartMode};
+use feedcore::scene::{LEGS, Quantity, Scene, SensorKind, StewartMode};
 use stewart_fmu::{Compensation, Stewart};
 
 use cosim::{Coupled, FmuSystem, Options, Scheme, StepError};
@@ -711,8 +711,8 @@ impl<'a> Run<'a> {
                             let (h, _) = fixed(r)?;
                             // a motion that starts at full speed is a kink the FMUs were not
                             // initialized for: the first step in substeps
-                            let kink = scene.motion.start != Start::Ramp;
-                            let report = if c.time() == 0.0 && kink { c.step_from_start(h) } else { c.step(h) };
+                            let kink = spec.kink_at_start && c.time() == 0.0;
+                            let report = if kink { c.step_from_start(h) } else { c.step(h) };
                             (h, report.map_err(|e| RunError::stopped_by(name, &e))?, 0)
                         }
                     };

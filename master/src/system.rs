@@ -10,7 +10,7 @@ use cosim::error_estimate::Kind;
 use cosim::step_control::{Controller, Limits, REFACTORIZING_HOLD, Tolerances};
 use cosim::system::spec::{Component, Connection, Endpoint, Matching, Parameter, Value};
 use cosim::{Coupled, FmuSystem, Needs, Options, SetupError, SystemSpec};
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, Start};
 use fmi2::{Causality, VarType};
 
 use crate::limits::{Limits as StepLimits, Plan, Schedule};
@@ -64,6 +64,7 @@ pub fn scene_spec(scene: &Scene, scene_file: &Path) -> Result<SystemSpec, SetupE
         connectors: Vec::new(),
         observed: Vec::new(),
         watch: Vec::new(),
+        kink_at_start: scene.motion.start != Start::Ramp,
     })
 }
 
@@ -329,7 +330,12 @@ impl<'a> SystemRun<'a> {
                     (Request::Adaptive { t_stop }, Some(ctl), Some(tol)) => {
                         c.step_adaptive(ctl, tol, t_stop).map(|s| (s.h, s.report, s.rejected))
                     }
-                    (Request::Fixed { h, .. }, _, _) => c.step(h).map(|report| (h, report, 0)),
+                    (Request::Fixed { h, .. }, _, _) => {
+                        // a kink at the start (as the description says): the first step in substeps
+                        let kink = self.spec.kink_at_start && c.time() == 0.0;
+                        let report = if kink { c.step_from_start(h) } else { c.step(h) };
+                        report.map(|report| (h, report, 0))
+                    }
                     (Request::Adaptive { .. }, _, _) => {
                         return Err(RunError::Refused { method, reason: "no adaptive step was prepared".into() });
                     }

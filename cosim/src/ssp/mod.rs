@@ -11,6 +11,11 @@ pub mod write;
 /// `--watch` takes them).
 pub const ADAPTIVE_ANNOTATION: &str = "org.feedsim.adaptive";
 
+/// The type of this master's SSP annotation that says the system's motion starts with a kink
+/// (e.g. at full speed), which the FMUs' initialization cannot see: `<Start kink="true"/>`; a
+/// master may then take the first macro step in substeps ([`crate::Coupled::step_from_start`]).
+pub const START_ANNOTATION: &str = "org.feedsim.start";
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 

@@ -101,6 +101,7 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
         connectors: Vec::new(),
         observed: Vec::new(),
         watch: Vec::new(),
+        kink_at_start: false,
     };
     // declared connector kinds, to orient connections output → input
     let mut kinds: Vec<(Endpoint, String)> = Vec::new();
@@ -193,12 +194,21 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
             spec.connections.push(Connection { from, to, matching: Matching::Exact, transform });
         }
     }
-    // this master's own annotation (others are left alone, as SSP allows)
-    let ours = child(system, "Annotations")
-        .into_iter()
-        .flat_map(|a| children(a, "Annotation"))
-        .filter(|a| a.attribute("type") == Some(super::ADAPTIVE_ANNOTATION));
-    for adaptive in ours.flat_map(|a| children(a, "Adaptive")) {
+    // this master's own annotations (others are left alone, as SSP allows)
+    let ours = |kind: &'static str| {
+        child(system, "Annotations")
+            .into_iter()
+            .flat_map(|a| children(a, "Annotation"))
+            .filter(move |a| a.attribute("type") == Some(kind))
+    };
+    for start in ours(super::START_ANNOTATION).flat_map(|a| children(a, "Start")) {
+        spec.kink_at_start = match start.attribute("kink") {
+            Some("true" | "1") => true,
+            Some("false" | "0") => false,
+            other => return Err(fail(start, format!("<Start kink=…> is `{}`; true or false", other.unwrap_or("")))),
+        };
+    }
+    for adaptive in ours(super::ADAPTIVE_ANNOTATION).flat_map(|a| children(a, "Adaptive")) {
         for w in children(adaptive, "Watch") {
             let name = w.attribute("name").ok_or_else(|| fail(w, "<Watch> without `name`".into()))?;
             spec.watch.push(name.to_owned());
@@ -314,9 +324,9 @@ mod tests {
     use super::*;
     use crate::ssp::write::{SspSystem, ssd_text};
 
-    /// What an adaptive step should watch goes through `SystemStructure.ssd` as this master's
-    /// annotation; annotations of other types are left alone, and a description without ours
-    /// suggests nothing.
+    /// What an adaptive step should watch, and a kink at the start, go through
+    /// `SystemStructure.ssd` as this master's annotations; annotations of other types are left
+    /// alone, and a description without ours suggests nothing.
     #[test]
     fn the_adaptive_annotation_is_written_and_read_back() {
         let dir = TempDir::new("annotation").unwrap();
@@ -328,15 +338,19 @@ mod tests {
             start_time: 0.0,
             stop_time: 1.0,
             watch: vec!["a.x".into(), "b.v[1]".into()],
+            kink_at_start: true,
         };
         let text = ssd_text(&system);
         let other = r#"<ssc:Annotation type="com.example.other"><Watch name="not.ours"/></ssc:Annotation>"#;
         std::fs::write(&ssd, text.replace("    <ssc:Annotations>\n", &format!("    <ssc:Annotations>\n{other}\n")))
             .unwrap();
-        assert_eq!(load(&ssd).unwrap().spec.watch, system.watch);
+        let spec = load(&ssd).unwrap().spec;
+        assert_eq!((&spec.watch, spec.kink_at_start), (&system.watch, true));
         system.watch.clear();
+        system.kink_at_start = false;
         std::fs::write(&ssd, ssd_text(&system)).unwrap();
         assert!(!ssd_text(&system).contains("Annotation"));
-        assert!(load(&ssd).unwrap().spec.watch.is_empty());
+        let spec = load(&ssd).unwrap().spec;
+        assert!(spec.watch.is_empty() && !spec.kink_at_start);
     }
 }

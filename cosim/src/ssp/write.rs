@@ -46,6 +46,8 @@ pub struct SspSystem {
     /// What an adaptive step should watch (written as [`super::ADAPTIVE_ANNOTATION`] when not
     /// empty).
     pub watch: Vec<String>,
+    /// The motion starts with a kink (written as [`super::START_ANNOTATION`] when true).
+    pub kink_at_start: bool,
 }
 
 fn type_element(t: VarType) -> &'static str {
@@ -143,16 +145,23 @@ pub fn ssd_text(s: &SspSystem) -> String {
         }
         let _ = writeln!(x, "    </ssd:Connections>");
     }
-    if !s.watch.is_empty() {
+    if !s.watch.is_empty() || s.kink_at_start {
         // the schema: <ssd:Annotations> last in the system, an <ssc:Annotation> holds one element
         let _ = writeln!(x, "    <ssd:Annotations>");
-        let _ = writeln!(x, r#"      <ssc:Annotation type="{}">"#, super::ADAPTIVE_ANNOTATION);
-        let _ = writeln!(x, "        <Adaptive>");
-        for w in &s.watch {
-            let _ = writeln!(x, r#"          <Watch name="{}"/>"#, escape(w));
+        if s.kink_at_start {
+            let _ = writeln!(x, r#"      <ssc:Annotation type="{}">"#, super::START_ANNOTATION);
+            let _ = writeln!(x, r#"        <Start kink="true"/>"#);
+            let _ = writeln!(x, "      </ssc:Annotation>");
         }
-        let _ = writeln!(x, "        </Adaptive>");
-        let _ = writeln!(x, "      </ssc:Annotation>");
+        if !s.watch.is_empty() {
+            let _ = writeln!(x, r#"      <ssc:Annotation type="{}">"#, super::ADAPTIVE_ANNOTATION);
+            let _ = writeln!(x, "        <Adaptive>");
+            for w in &s.watch {
+                let _ = writeln!(x, r#"          <Watch name="{}"/>"#, escape(w));
+            }
+            let _ = writeln!(x, "        </Adaptive>");
+            let _ = writeln!(x, "      </ssc:Annotation>");
+        }
         let _ = writeln!(x, "    </ssd:Annotations>");
     }
     let _ = writeln!(x, "  </ssd:System>");

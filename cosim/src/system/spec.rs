@@ -98,4 +98,7 @@ pub struct SystemSpec {
     /// What an adaptive step should watch unless told otherwise, as the description suggests
     /// (names or prefixes; from the SSP annotation [`crate::ssp::ADAPTIVE_ANNOTATION`]).
     pub watch: Vec<String>,
+    /// The motion starts with a kink the units were not initialized for (from the SSP annotation
+    /// [`crate::ssp::START_ANNOTATION`]): the first macro step is taken in substeps.
+    pub kink_at_start: bool,
 }

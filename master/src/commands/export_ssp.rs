@@ -81,8 +81,10 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         connections: resolved.connections,
         start_time: 0.0,
         stop_time: scene.solver.t_end_s,
-        // an adaptive run of the archive watches what one of the scene does
+        // an adaptive run of the archive watches what one of the scene does, and a fixed-step
+        // run takes its first step as the scene's does
         watch: master::simulate::CABIN_POSE.map(String::from).to_vec(),
+        kink_at_start: spec.kink_at_start,
     };
     let archive = write_archive(Cursor::new(Vec::new()), &system).context("packing the archive")?.into_inner();
     outputs.open()?;

@@ -253,10 +253,11 @@ fn step_doubling_meets_its_tolerance_at_c() {
     assert_eq!(c["schemes"].as_array().unwrap().len(), 2);
 }
 
-/// `export-ssp` writes what an adaptive run watches (the cabin pose) as this master's SSP
-/// annotation, and `run --system` of the archive takes it up: the same steps as the scene's
-/// adaptive run (without it, every coupled input would be watched — the accelerations and the
-/// wrench ripple, and the steps fall to h-min). `--watch` still decides over the annotation.
+/// `export-ssp` writes what an adaptive run watches (the cabin pose) and the kink at the start
+/// as this master's SSP annotations, and `run --system` of the archive takes them up: the same
+/// steps as the scene's adaptive run (without it, every coupled input would be watched — the
+/// accelerations and the wrench ripple, and the steps fall to h-min), and the same fixed-step
+/// run. `--watch` still decides over the annotation.
 #[test]
 fn an_exported_system_watches_what_the_scene_does() {
     let (_, file) = common::scene("lt50m_C.toml", "adaptive-ssp", |_| {});
@@ -274,6 +275,14 @@ fn an_exported_system_watches_what_the_scene_does() {
     let system = json(&[&["run", "--system", ssp.to_str().unwrap()][..], &adaptive].concat());
     for key in ["steps", "rejected_steps", "h_min_used", "h_max_used"] {
         assert_eq!(scene[key], system[key], "{key}");
+    }
+    // and a fixed-step run takes its first step in substeps as the scene's does (the kink at the
+    // start travels as an annotation too): the same iterations, the same largest residual
+    let fixed = ["--scheme", "ijcsa", "--dt", "0.01", "--t-end", "1", "--json"];
+    let scene_fixed = json(&[&["run", "--scene", f][..], &fixed].concat());
+    let system_fixed = json(&[&["run", "--system", ssp.to_str().unwrap()][..], &fixed].concat());
+    for key in ["mean_iterations", "max_interface_residual"] {
+        assert_eq!(scene_fixed[key], system_fixed[key], "{key}");
     }
     let watch = ["--watch", "stewart.cabin.r,stewart.cabin.q,stewart.cabin.v"];
     let told = json(&[&["run", "--system", ssp.to_str().unwrap()][..], &adaptive, &watch].concat());
