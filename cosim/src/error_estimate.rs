@@ -1,8 +1,9 @@
-//! The local error of a step of a second-order time stepper, estimated from the quantities it
-//! produces alone (predictor against corrector): whatever makes those quantities — a coupled
-//! co-simulation step or the monolithic model — the estimate is the same.
+//! The local error of a step of a time stepper, estimated from the quantities it produces
+//! alone: whatever makes those quantities — a coupled co-simulation step or the monolithic
+//! model — the estimate is the same. Two kinds ([`Kind`]): predictor against corrector for a
+//! second-order stepper (below), and step doubling, which assumes nothing of the order.
 //!
-//! The quantities of the last three accepted time points, extrapolated by their parabola to the
+//! The predictor: the quantities of the last three accepted time points, extrapolated by their parabola to the
 //! end of the step, against the values the step produced. Their difference is the third divided
 //! difference over the four points times `(t − t₀)(t − t₁)(t − t₂)`, so it gives `U'''` at no
 //! extra cost (no step is taken twice), and with it the local error of a second-order
@@ -15,8 +16,10 @@
 //! scale of the quantity's group (e.g. the components of a force) and `range_i` the largest
 //! departure of the group's quantities from their initial values so far — relative to how far
 //! each quantity moves, so that positions metres from the origin are not judged by their
-//! distance to it. The history starts after the first step (the start may be abrupt, a kink no
-//! extrapolation may span), so the first three steps have nothing to be judged by.
+//! distance to it. The predictor's history starts after the first step (the start may be
+//! abrupt, a kink no extrapolation may span), so the first three steps have nothing to be judged
+//! by. The values are converged only so far: the part of a difference their noise (each
+//! point's own) explains is not counted.
 
 use crate::step_control::Tolerances;
 
