@@ -7,7 +7,7 @@
 //! end of the step, against the values the step produced. Their difference is the third divided
 //! difference over the four points times `(t − t₀)(t − t₁)(t − t₂)`, so it gives `U'''` at no
 //! extra cost (no step is taken twice), and with it the local error of a second-order
-//! integrator, about `h³ |U'''| / 12` (the trapezoidal rule's constant; see [`ERROR_CONSTANT`]).
+//! integrator, about `h³ |U'''| / 12` (the trapezoidal rule's constant; see `ERROR_CONSTANT`).
 //!
 //! Tolerance: local errors of an oscillating system add up (a phase error grows with every
 //! step), so the estimate is held per unit of time — error per unit step over the run's
@@ -189,12 +189,12 @@ impl ErrorEstimate {
     }
 
     /// The error norm (≤ 1 meets `tol`) of the step of size `h` that ended at `t1`, its values
-    /// in [`ErrorEstimate::candidate_mut`], over a run to `horizon`; of order
-    /// [`ORDER`] in h. Needs [`ErrorEstimate::can_judge`]. The predictor:
+    /// in `candidate_mut`, over a run to `horizon`; of order
+    /// `ORDER` in h. Needs `can_judge`. The predictor:
     /// `|U'''|` is taken as its largest value over this and
     /// the last few accepted steps: for an oscillation it passes through zero twice a period while
     /// the phase error it stands for keeps growing. The values are only converged so far (an
-    /// iteration's last residual, [`ErrorEstimate::candidate_noise_mut`]; every kept point has
+    /// iteration's last residual, `candidate_noise_mut`; every kept point has
     /// its own): the part of the predictor–corrector difference that the noise of the four
     /// points can explain (weighted by the extrapolation weights) is not counted as error.
     pub fn norm(&mut self, t1: f64, h: f64, horizon: f64, tol: Tolerances) -> f64 {

@@ -1,5 +1,5 @@
 //! SSP 1.0 system structure descriptions: read ([`read`]: `.ssp` archives, `.ssd` files with
-//! `.ssv` parameter files) and written ([`write`]: `.ssp` archives with their FMUs).
+//! `.ssv` parameter files) and written ([`write`](mod@write): `.ssp` archives with their FMUs).
 
 pub mod read;
 pub mod write;
