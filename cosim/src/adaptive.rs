@@ -20,6 +20,8 @@ pub trait Retake {
     fn checkpoint(&mut self) -> Result<(), Self::Error>;
     /// Returns to the state of the last [`Retake::checkpoint`], over any steps since.
     fn back_to_checkpoint(&mut self) -> Result<(), Self::Error>;
+    /// What two steps taken one after the other cost together (a doubled step is three).
+    fn then(first: Self::Report, next: Self::Report) -> Self::Report;
     /// The watched quantities now, into `out`.
     fn watched(&mut self, out: &mut [f64]) -> Result<(), Self::Error>;
     /// The group (numbered from 0) and the positive scale of every watched quantity.
@@ -104,24 +106,20 @@ pub fn step<T: Retake>(
 }
 
 /// Step doubling: the whole step of `h` from a checkpoint (its values into the estimate), back,
-/// then two half steps; the report of the second, `None` if any did not converge.
+/// then two half steps; what the three cost together, `None` if any did not converge.
 fn try_doubled<T: Retake>(
     stepper: &mut T,
     estimate: &mut ErrorEstimate,
     h: f64,
 ) -> Result<Option<T::Report>, T::Error> {
     stepper.checkpoint()?;
-    if stepper.try_step(h)?.is_none() {
-        return Ok(None);
-    }
+    let Some(whole_step) = stepper.try_step(h)? else { return Ok(None) };
     let (whole, noise) = estimate.whole_mut();
     stepper.watched(whole)?;
     stepper.noise(noise);
     stepper.back_to_checkpoint()?;
-    if stepper.try_step(0.5 * h)?.is_none() {
-        return Ok(None);
-    }
-    stepper.try_step(0.5 * h)
+    let Some(first) = stepper.try_step(0.5 * h)? else { return Ok(None) };
+    Ok(stepper.try_step(0.5 * h)?.map(|second| T::then(T::then(whole_step, first), second)))
 }
 
 /// Back to the start `t` of the step being tried: one step back, or with doubling to the

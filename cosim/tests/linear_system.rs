@@ -577,9 +577,13 @@ fn step_doubling_meets_its_tolerance_and_leaves_no_trace() {
         let mut c = Coupled::new(TwoMasses::new(), o).unwrap();
         c.estimate_by(Kind::Doubling);
         let mut ctl = Controller::new(Limits { h_min: 1e-7, h_max: 0.1, h_init: 1e-4 }).unwrap();
-        let (mut steps, mut worst, mut range) = (Vec::new(), 0.0f64, 0.0f64);
+        let (mut steps, mut worst, mut range, mut iterations) = (Vec::new(), 0.0f64, 0.0f64, 0);
         while c.time() < t_end {
-            steps.push(c.step_adaptive(&mut ctl, tol, t_end).unwrap().h);
+            let accepted = c.step_adaptive(&mut ctl, tol, t_end).unwrap();
+            // a doubled step reports what its three steps (whole, two halves) cost
+            assert!(accepted.report.iterations >= 3, "{accepted:?}");
+            iterations += accepted.report.iterations;
+            steps.push(accepted.h);
             worst = worst.max((c.outputs()[0] - exact(c.time())[0]).abs());
             range = range.max((exact(c.time())[0] - X1).abs());
         }
@@ -593,10 +597,12 @@ fn step_doubling_meets_its_tolerance_and_leaves_no_trace() {
         assert!(worst <= rtol * range);
         assert!(ctl.rejected > 0, "no step was rejected: the test shows nothing");
         let mut direct = Coupled::new(TwoMasses::new(), o).unwrap();
+        let mut halves = 0;
         for h in &steps {
-            direct.step(0.5 * h).unwrap();
-            direct.step(0.5 * h).unwrap();
+            halves += direct.step(0.5 * h).unwrap().iterations;
+            halves += direct.step(0.5 * h).unwrap().iterations;
         }
+        assert!(iterations > halves, "the whole steps counted too: {iterations} against {halves}");
         assert_eq!(direct.outputs(), c.outputs(), "{}", o.scheme.name());
         assert_eq!(direct.units().now, c.units().now, "{}", o.scheme.name());
     }

@@ -806,6 +806,10 @@ impl cosim::adaptive::Retake for AdaptiveMonolithic {
         Ok(())
     }
 
+    fn then(first: Self::Report, next: Self::Report) -> Self::Report {
+        first.then(next)
+    }
+
     fn watched(&mut self, out: &mut [f64]) -> Result<(), MonolithicError> {
         watched_of(&self.model.sample(), out);
         Ok(())

@@ -279,6 +279,10 @@ impl<S: Units> Retake for Coupled<S> {
         self.roll_back(Slot::Checkpoint)
     }
 
+    fn then(first: StepReport, next: StepReport) -> StepReport {
+        first.then(next)
+    }
+
     fn watched(&mut self, out: &mut [f64]) -> Result<(), StepError> {
         let l = self.units.layout();
         for (u, w) in out.iter_mut().zip(&self.adaptive.watched) {

@@ -124,6 +124,13 @@ pub struct StepReport {
     pub residual: f64,
 }
 
+impl StepReport {
+    /// What this step and the `next` one, taken after it, cost together; converged as the last.
+    pub fn then(self, next: StepReport) -> StepReport {
+        StepReport { iterations: self.iterations + next.iterations, residual: next.residual }
+    }
+}
+
 /// Doublings of the first macro step's substeps ([`Coupled::step_from_start`]): the first is
 /// `h / 1024`.
 pub const START_SUBSTEPS: u32 = 10;
@@ -279,18 +286,16 @@ impl<S: Units> Coupled<S> {
         }
         let end = self.time + h;
         let mut piece = h / f64::from(1u32 << START_SUBSTEPS);
-        let mut iterations = 0;
         let mut report = StepReport::default();
         for j in 0..=START_SUBSTEPS {
             // the pieces add up to h / 2 exactly (each partial sum is h over a power of two)
             let step = if j == START_SUBSTEPS { end - self.time } else { piece };
-            report = self.step(step)?;
-            iterations += report.iterations;
+            report = report.then(self.step(step)?);
             if j > 0 {
                 piece *= 2.0;
             }
         }
-        Ok(StepReport { iterations, ..report })
+        Ok(report)
     }
 
     /// Whether IJCSA keeps its interface Jacobian from step to step (`--jacobian reuse`).

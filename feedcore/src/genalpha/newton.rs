@@ -90,7 +90,8 @@ pub struct StepReport {
 }
 
 impl StepReport {
-    fn then(self, next: StepReport) -> StepReport {
+    /// What this step and the `next` one, taken after it, cost together.
+    pub fn then(self, next: StepReport) -> StepReport {
         StepReport {
             iterations: self.iterations + next.iterations,
             factorizations: self.factorizations + next.factorizations,
