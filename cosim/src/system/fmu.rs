@@ -394,7 +394,6 @@ impl FmuSystem {
     }
 }
 
-/// Loads every component's FMU, checking what `needs` asks of it.
 /// The Real outputs of component `component` that `observed` names (`component.variable`, or a
 /// prefix of it ending before a `.` or `[`).
 fn observed_outputs<'a>(
@@ -414,6 +413,7 @@ fn observed_outputs<'a>(
     })
 }
 
+/// Loads every component's FMU, checking what `needs` asks of it.
 fn load_fmus(spec: &SystemSpec, needs: &Needs) -> Result<Vec<Fmu>, SetupError> {
     let origin = &spec.origin;
     let mut fmus = Vec::with_capacity(spec.components.len());
