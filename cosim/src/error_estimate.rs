@@ -183,11 +183,6 @@ impl ErrorEstimate {
         l
     }
 
-    /// Extrapolation of quantity i to time `t` by the polynomial through the kept points.
-    fn predict(&self, i: usize, t: f64) -> f64 {
-        (0..self.count).map(|a| self.weight(a, t) * self.u[a][i]).sum()
-    }
-
     /// The error norm (≤ 1 meets `tol`) of the step of size `h` that ended at `t1`, its values
     /// in `candidate_mut`, over a run to `horizon`; of order
     /// `ORDER` in h. Needs `can_judge`. The predictor:
@@ -230,14 +225,16 @@ impl ErrorEstimate {
     fn predictor_norm(&mut self, t1: f64, h: f64, horizon: f64, tol: Tolerances) -> f64 {
         // U''' ≈ 6 (U − P(t1)) / ((t1 − t0)(t1 − t1')(t1 − t2)), P the parabola of the history
         let spread = (t1 - self.t[0]) * (t1 - self.t[1]) * (t1 - self.t[2]);
-        let weight = [self.weight(0, t1).abs(), self.weight(1, t1).abs(), self.weight(2, t1).abs()];
+        // the extrapolation's weights, once for all quantities (three kept points: can_judge)
+        let weight = [self.weight(0, t1), self.weight(1, t1), self.weight(2, t1)];
         let n = self.candidate.len();
         // root mean square over the quantities (one quantity at its limit does not force the
         // step down alone)
         let mut sum = 0.0;
         for i in 0..n {
-            let floor = self.candidate_noise[i] + (0..3).map(|k| weight[k] * self.noise[k][i]).sum::<f64>();
-            let difference = ((self.candidate[i] - self.predict(i, t1)).abs() - floor).max(0.0);
+            let floor = self.candidate_noise[i] + (0..3).map(|k| weight[k].abs() * self.noise[k][i]).sum::<f64>();
+            let prediction = (0..3).map(|k| weight[k] * self.u[k][i]).sum::<f64>();
+            let difference = ((self.candidate[i] - prediction).abs() - floor).max(0.0);
             let third = 6.0 * difference / spread.abs();
             self.third[i] = third;
             let recent = self.recent[i * MEMORY..(i + 1) * MEMORY].iter().fold(third, |m, x| m.max(*x));

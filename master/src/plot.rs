@@ -150,6 +150,31 @@ pub fn line_key(style: ShapeStyle) -> impl Fn((i32, i32)) -> PathElement<(i32, i
     move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style)
 }
 
+/// Line `i` of a figure: a thin stroke in the `i`-th colour of [`PALETTE`], keyed `name` in the
+/// legend with a thicker one (how the reproduction's figures draw their runs).
+pub fn palette_line<'a, DB, X, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    i: usize,
+    points: Vec<(X::ValueType, Y::ValueType)>,
+    name: &str,
+) -> Result<(), PlotError>
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    X: Ranged,
+    Y: Ranged,
+    X::ValueType: Clone + 'static,
+    Y::ValueType: Clone + 'static,
+{
+    let color = PALETTE[i % PALETTE.len()];
+    chart
+        .draw_series(LineSeries::new(points, color.stroke_width(1)))
+        .map_err(draw_error)?
+        .label(name)
+        .legend(line_key(color.stroke_width(2)));
+    Ok(())
+}
+
 /// The legend of a chart as every figure here draws it: upper right, on a translucent white box
 /// with a grey frame, labels at `font_size`.
 pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(

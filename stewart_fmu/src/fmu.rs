@@ -283,16 +283,19 @@ impl StewartFmu {
     fn point(&mut self) -> Result<PathPoint, ModelError> {
         let (t, initialized) = (self.data.time, self.data.initialized);
         let cabin = self.cabin()?;
-        let command = self.data.command.clone();
-        let model = self.model()?;
-        Ok(match model.compensation() {
-            Some(c) if initialized => match (c.sensor(), command) {
+        // the sensor's state lent out while the model is borrowed (moved, not copied: this runs
+        // at every evaluation), and put back whatever happens
+        let command = self.data.command.take();
+        let point = self.model().map(|model| match model.compensation() {
+            Some(c) if initialized => match (c.sensor(), &command) {
                 (SensorKind::Ideal, _) => c.ideal(&cabin, t),
                 (SensorKind::Sampled, Some(state)) => state.at(c, t),
                 _ => model.path().at(t),
             },
             _ => model.path().at(t),
-        })
+        });
+        self.data.command = command;
+        point
     }
 
     fn wrench(&mut self) -> Result<(Wrench, WrenchJacobians), ModelError> {

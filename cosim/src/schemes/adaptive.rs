@@ -10,6 +10,7 @@ use crate::error::StepError;
 use crate::error_estimate::{ErrorEstimate, Kind};
 use crate::iqn::{Accelerator, IqnOptions};
 use crate::step_control::{Controller, Tolerances};
+use crate::system::spec::prefix_rest;
 use crate::system::{Layout, Slot, Units};
 
 /// One accepted adaptive step.
@@ -87,11 +88,7 @@ impl<S: Units> Coupled<S> {
     /// Call before the first step.
     pub fn watch(&mut self, names: &[String]) -> Result<(), SetupError> {
         let l = self.units.layout();
-        let named = |candidate: &str, name: &str| {
-            candidate
-                .strip_prefix(name)
-                .is_some_and(|rest| rest.is_empty() || rest.starts_with('.') || rest.starts_with('['))
-        };
+        let named = |candidate: &str, name: &str| prefix_rest(candidate, name).is_some();
         let mut watched = Vec::new();
         for name in names {
             let inputs = (0..l.inputs()).filter(|&i| named(&l.input_names[i], name)).map(Watched::Input);

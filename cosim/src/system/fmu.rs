@@ -9,7 +9,7 @@
 use fmi2::import::{Capability, Fmu, FmuState, Instance, ScalarVariable};
 use fmi2::{Causality, VarType};
 
-use super::spec::{Connection, Endpoint, Linear, Matching, Parameter, SystemSpec, Value};
+use super::spec::{Connection, Endpoint, Linear, Matching, Parameter, SystemSpec, Value, prefix_rest};
 use super::{Capabilities, Layout, Slot, UnitError, UnitLayout, Units};
 use crate::error::SetupError;
 use crate::iqn::{Accelerator, IqnOptions};
@@ -407,8 +407,7 @@ fn observed_outputs<'a>(
             && observed.iter().any(|name| {
                 name.strip_prefix(component)
                     .and_then(|rest| rest.strip_prefix('.'))
-                    .and_then(|rest| v.name.strip_prefix(rest))
-                    .is_some_and(|tail| tail.is_empty() || tail.starts_with('.') || tail.starts_with('['))
+                    .is_some_and(|variable| prefix_rest(&v.name, variable).is_some())
             })
     })
 }
@@ -478,11 +477,7 @@ fn match_links<'a>(spec: &SystemSpec, fmus: &'a [Fmu]) -> Result<Vec<Link<'a>>, 
             }
             Matching::Prefix => {
                 for v in &fmus[a].description().variables {
-                    let Some(suffix) = v
-                        .name
-                        .strip_prefix(c.from.variable.as_str())
-                        .filter(|s| s.starts_with('.') || s.starts_with('[') || s.is_empty())
-                    else {
+                    let Some(suffix) = prefix_rest(&v.name, &c.from.variable) else {
                         continue;
                     };
                     if v.causality != Causality::Output {

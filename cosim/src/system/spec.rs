@@ -35,6 +35,13 @@ pub enum Matching {
     Prefix,
 }
 
+/// What follows `prefix` in `name` if `prefix` names it whole or as a prefix ending before a
+/// `.` or `[` (`cabin.r` for `cabin.r[1]`, `cabin` for `cabin.r[1]`, not `cab`): how
+/// [`Matching::Prefix`] connections and the adaptive step's watched names match variables.
+pub(crate) fn prefix_rest<'a>(name: &'a str, prefix: &str) -> Option<&'a str> {
+    name.strip_prefix(prefix).filter(|rest| rest.is_empty() || rest.starts_with('.') || rest.starts_with('['))
+}
+
 /// `input = factor · output + offset` (SSP `LinearTransformation`, or a unit conversion).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Linear {

@@ -570,13 +570,8 @@ fn figure_time(title: &str, runs: &[&Response], bands: &[(usize, Vec<(&str, f64)
             }
             let columns = chart.plotting_area().dim_in_pixel().0 as usize;
             for (i, r) in lines.iter().enumerate() {
-                let color = master::plot::PALETTE[i % master::plot::PALETTE.len()];
                 let y: Vec<f64> = r.trace.disp_mm.iter().map(|d| d[axis]).collect();
-                chart
-                    .draw_series(LineSeries::new(thinned(&r.trace.t, &y, (0.0, t1), columns), color.stroke_width(1)))
-                    .map_err(draw)?
-                    .label(r.case.name)
-                    .legend(master::plot::line_key(color.stroke_width(2)));
+                master::plot::palette_line(&mut chart, i, thinned(&r.trace.t, &y, (0.0, t1), columns), r.case.name)?;
             }
             master::plot::legend(&mut chart, 11)?;
         }
@@ -634,13 +629,8 @@ fn figure_spectrum(responses: &[Response], natural: &[(&str, Vec<f64>)]) -> anyh
                 }
             }
             for (i, r) in runs.iter().enumerate() {
-                let color = master::plot::PALETTE[i % master::plot::PALETTE.len()];
                 let pts: Vec<(f64, f64)> = r.spectrum.iter().map(|&(f, a)| (f, a.max(floor))).collect();
-                chart
-                    .draw_series(LineSeries::new(pts, color.stroke_width(1)))
-                    .map_err(draw)?
-                    .label(r.case.name)
-                    .legend(master::plot::line_key(color.stroke_width(2)));
+                master::plot::palette_line(&mut chart, i, pts, r.case.name)?;
             }
             master::plot::legend(&mut chart, 11)?;
         }
