@@ -141,6 +141,37 @@ fn rest_inputs(scene: &Scene) -> [f64; INPUTS] {
     u
 }
 
+/// How far the cabin inputs may lie from the scene's pose (m, rad) before leaving initialization
+/// mode warns: far above rounding and a pose printed to nine digits, far below any pose a
+/// mistaken importer would hand over.
+const POSE_WARNING_TOLERANCE: f64 = 1e-6;
+
+/// Why the cabin pose held at the start does not look like the scene's: an importer that left
+/// the cabin inputs at their declared start values (scene C's) while running another scene
+/// computes the platform on a cabin where the scene does not put it.
+fn pose_mismatch(scene_name: &str, scene: &Scene, u: &[f64; INPUTS]) -> Option<String> {
+    let rest = rest_inputs(scene);
+    let held = cabin_motion(u).ok()?;
+    let target = cabin_motion(&rest).ok()?;
+    let offset = (held.position - target.position).norm();
+    let angle = held.orientation.angle_to(&target.orientation);
+    (offset > POSE_WARNING_TOLERANCE || angle > POSE_WARNING_TOLERANCE).then(|| {
+        format!(
+            "the cabin inputs hold the pose cabin.r = {:?}, cabin.q = {:?}, {:.1} mm and {:.2} mrad from the pose of \
+             scene `{scene_name}` (cabin.r = {:?}, cabin.q = {:?}); the platform is computed on the pose held. \
+             Inputs never set keep their declared start values, scene C's pose: an importer running another \
+             scene sets cabin.* in initialization mode, from the cable FMU's outputs or the scene's pose \
+             (docs/fmus.md)",
+            &u[0..3],
+            &u[3..7],
+            offset * 1e3,
+            angle * 1e3,
+            &rest[0..3],
+            &rest[3..7],
+        )
+    })
+}
+
 /// The output variables in value-reference order from [`vr::FORCE`]: (name, unit, description).
 fn outputs() -> Vec<(String, &'static str, String)> {
     let mut v = Vec::new();
@@ -639,6 +670,10 @@ impl Model for StewartFmu {
         self.data.time = start_time;
         self.cache = Cache::default();
         Ok(())
+    }
+
+    fn initialization_warning(&mut self) -> Option<String> {
+        pose_mismatch(self.scene.name(), self.scene.value(), &self.data.inputs)
     }
 
     fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {

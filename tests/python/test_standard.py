@@ -1,15 +1,18 @@
 """FMI 2.0 as written, seen through fmpy: derivatives and dependencies at a communication point,
 initialization with the inputs the importer gives, and misuse through the C ABI."""
 
+import json
 import math
+import subprocess
 
 import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from conftest import Slave, fmu_path, DIST
+from conftest import Slave, fmu_path, DIST, REPO
 import fmpy
-from fmpy import read_model_description
+from fmpy import read_model_description, simulate_fmu
+from zoo import MASTER
 
 SCENES = ["lt50m_C.toml", "lt50m_B.toml"]
 
@@ -191,3 +194,72 @@ def test_misuse_through_the_c_abi_fails_cleanly(tmp_path):
     s = Slave(d, md, name="rate").initialize()
     expect_error(s, lambda: s.fmu.setRealInputDerivatives([s.vr["wrench.f[1]"]], [1], [math.inf]), "not a finite number")
     s.free()
+
+
+POSE_B = {"cabin.r[1]": -2.82, "cabin.r[2]": 8.89, "cabin.r[3]": 16.1,
+          "cabin.q[1]": 0.939692621, "cabin.q[2]": 0.326011192, "cabin.q[3]": 0.103414124, "cabin.q[4]": 0.0}
+WRENCH = [f"wrench.{p}[{k}]" for p in ("f", "m") for k in (1, 2, 3)]
+FORCES = [f"actuator.force[{k}]" for k in range(1, 7)]
+
+
+# The platform's first revolution (radius 0.1 m at 0.02 m/s) in 3142 equal steps: the samples of
+# `master stewart`, which takes ceil(T / 0.01) of them.
+REVOLUTION = 2 * math.pi * 0.1 / 0.02
+SAMPLE = REVOLUTION / 3142
+
+
+def platform_revolution(scene, pose, messages=None):
+    """The Stewart FMU under fmpy.simulate_fmu, cabin held still, over the platform's first
+    revolution at the samples of `master stewart`; `messages` collects the FMU's log."""
+
+    def logger(env, instance, status, category, message):
+        messages.append((status, category.decode(), message.decode()))
+
+    return simulate_fmu(
+        str(DIST / "stewart_fmu.fmu"), stop_time=REVOLUTION, output_interval=SAMPLE,
+        start_values={"scene": scene, "speed": 0.02, **pose}, output=WRENCH + FORCES,
+        logger=logger if messages is not None else None,
+    )
+
+
+def master_stewart(scene):
+    done = subprocess.run([str(MASTER), "stewart", "--scene", str(REPO / "scenes" / scene), "--json"],
+                          check=True, capture_output=True, text=True)
+    return json.loads(done.stdout)
+
+
+@pytest.mark.parametrize("scene,pose", [("lt50m_B.toml", POSE_B), ("lt50m_C.toml", {})], ids=["B", "C"])
+def test_the_platform_in_a_cabin_set_to_the_scene_pose_is_the_scene_platform(scene, pose):
+    """The README's fmpy example, over a whole revolution: with the cabin inputs at the scene's
+    pose the FMU gives the wrench and actuator-force ranges `master stewart` computes from the
+    library on a fixed cabin (another path: no FMU, no importer)."""
+    messages = []
+    result = platform_revolution(scene, pose, messages)
+    expected = master_stewart(scene)
+    assert not messages, messages
+    assert len(result) == expected["samples"] and abs(expected["revolution_s"] - REVOLUTION) < 1e-12
+    got = np.array([[result[n].min() for n in WRENCH + FORCES], [result[n].max() for n in WRENCH + FORCES]])
+    want = np.array([expected["wrench_min"] + expected["actuator_forces_n"]["min"],
+                     expected["wrench_max"] + expected["actuator_forces_n"]["max"]])
+    # B's quaternion, given to nine digits, turns the cabin by ~1e-9 rad from the scene's exact
+    # pose: ~1e-9 of the 1.8e3 N weight (6e-7 measured). C's pose is the declared start, exact.
+    tolerance = 2e-6 if pose else 1e-10
+    assert np.abs(got - want).max() <= tolerance, np.abs(got - want).max()
+
+
+def test_cabin_inputs_left_at_scene_c_under_scene_b_are_warned_about():
+    """Inputs never set keep their declared start values (scene C's pose): at B the platform is
+    then computed in a cabin at C. The FMU warns at fmi2ExitInitializationMode and the results
+    are C's, not B's."""
+    messages = []
+    unset = platform_revolution("lt50m_B.toml", {}, messages)
+    warnings = [m for m in messages if m[0] == 1]
+    assert len(warnings) == 1 and warnings[0][1] == "logWarning", messages
+    assert "fmi2ExitInitializationMode: the cabin inputs hold the pose" in warnings[0][2]
+    assert "scene `lt50m_B.toml`" in warnings[0][2]
+    at_c = platform_revolution("lt50m_C.toml", {})
+    at_b = platform_revolution("lt50m_B.toml", POSE_B)
+    for name in WRENCH + FORCES:
+        assert np.array_equal(unset[name], at_c[name]), name
+    # B tilts the cabin 40°: the platform's weight shifts the moment about y by ~400 N·m
+    assert abs(at_b["wrench.m[2]"].mean() - at_c["wrench.m[2]"].mean()) > 300.0

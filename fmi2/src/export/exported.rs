@@ -191,6 +191,7 @@ pub unsafe fn instantiate<M: Model>(
                 logger: cb.logger,
                 environment: cb.componentEnvironment,
                 log_errors: true,
+                log_warnings: true,
                 log_info: logging_on != fmi2False,
                 phase: Instantiated,
                 time: 0.0,
@@ -239,15 +240,18 @@ pub unsafe fn set_debug_logging<M: Model>(
             let on = logging_on != fmi2False;
             let cats = slice(categories, n, "categories")?;
             if cats.is_empty() {
-                (inst.log_errors, inst.log_info) = (on, on);
+                (inst.log_errors, inst.log_warnings, inst.log_info) = (on, on, on);
             }
             for &cat in cats {
                 match string(cat).ok_or("a category is a null pointer")?.as_str() {
-                    "logAll" => (inst.log_errors, inst.log_info) = (on, on),
+                    "logAll" => (inst.log_errors, inst.log_warnings, inst.log_info) = (on, on, on),
                     "logError" => inst.log_errors = on,
+                    "logWarning" => inst.log_warnings = on,
                     "logInfo" => inst.log_info = on,
                     other => {
-                        return Err(format!("unknown log category `{other}` (known: logError, logInfo, logAll)"));
+                        return Err(format!(
+                            "unknown log category `{other}` (known: logError, logWarning, logInfo, logAll)"
+                        ));
                     }
                 }
             }
@@ -306,7 +310,13 @@ pub unsafe fn exit_initialization_mode<M: Model>(c: fmi2Component) -> fmi2Status
             inst.model.exit_initialization(inst.start_time).msg()?;
             (inst.phase, inst.time) = (StepMode, inst.start_time);
             inst.log(fmi2OK, &format!("entered step mode at t = {}", inst.time));
-            Ok(fmi2OK)
+            match inst.model.initialization_warning() {
+                Some(warning) => {
+                    inst.log(fmi2Warning, &format!("fmi2ExitInitializationMode: {warning}"));
+                    Ok(fmi2Warning)
+                }
+                None => Ok(fmi2OK),
+            }
         })
     }
 }

@@ -55,6 +55,8 @@ pub(crate) struct Instance<M: Model> {
     pub(crate) logger: fmi2CallbackLogger,
     pub(crate) environment: fmi2ComponentEnvironment,
     pub(crate) log_errors: bool,
+    /// On unless the importer switches `logWarning` off: a warning is meant to be seen.
+    pub(crate) log_warnings: bool,
     pub(crate) log_info: bool,
     pub(crate) phase: Phase,
     pub(crate) time: f64,
@@ -73,8 +75,11 @@ pub(crate) struct Instance<M: Model> {
 impl<M: Model> Instance<M> {
     pub(crate) fn log(&self, status: fmi2Status, message: &str) {
         // A discarded step is reported like an error: the importer must learn why the model ended.
-        let category = if status >= fmi2Discard { "logError" } else { "logInfo" };
-        let enabled = if status >= fmi2Discard { self.log_errors } else { self.log_info };
+        let (category, enabled) = match status {
+            s if s >= fmi2Discard => ("logError", self.log_errors),
+            s if s == fmi2Warning => ("logWarning", self.log_warnings),
+            _ => ("logInfo", self.log_info),
+        };
         if enabled {
             log_to(self.logger, self.environment, &self.name, status, category, message);
         }

@@ -129,6 +129,14 @@ pub trait Model: Sized + Send + 'static {
     /// be consistent with the inputs held now.
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError>;
 
+    /// Asked right after a successful [`Model::exit_initialization`]: what the importer gave that
+    /// is probably not what it meant (e.g. inputs left at start values that do not fit the chosen
+    /// parameters). The layer logs it under `logWarning` and `fmi2ExitInitializationMode` returns
+    /// `fmi2Warning`; the run goes on.
+    fn initialization_warning(&mut self) -> Option<String> {
+        None
+    }
+
     /// Advance from `t` to `t + h` with the inputs currently set (and their derivatives, if the
     /// model interpolates inputs). `t` is the importer's communication point, already checked
     /// against the instance's own time.
@@ -189,10 +197,14 @@ pub trait Model: Sized + Send + 'static {
 }
 
 /// The log categories every exported FMU declares (name, description).
-pub(crate) const LOG_CATEGORIES: [(&str, &str); 3] = [
+pub(crate) const LOG_CATEGORIES: [(&str, &str); 4] = [
     (
         "logError",
         "Errors: calls in the wrong state, unknown value references, invalid values, model failures; and why a step was discarded",
+    ),
+    (
+        "logWarning",
+        "Warnings: the run goes on, but what the importer gave is probably not what it meant (e.g. inputs left at start values that do not fit the chosen scene)",
     ),
     ("logInfo", "Informational messages: instantiation, mode changes"),
     ("logAll", "All of the above"),

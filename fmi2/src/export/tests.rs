@@ -75,6 +75,10 @@ impl Model for Toy {
     fn exit_initialization(&mut self, _: f64) -> Result<(), ModelError> {
         Ok(())
     }
+    // u = 5 at the start is legal but suspicious.
+    fn initialization_warning(&mut self) -> Option<String> {
+        (self.u == 5.0).then(|| "u starts at 5".to_owned())
+    }
     fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {
         assert!(self.u != 13.0, "unlucky input 13 and 100% sure");
         // u = 99: the model ends half-way through the step.
@@ -635,6 +639,37 @@ fn input_derivatives_need_the_capability() {
     h.init();
     assert_eq!(h.output_derivative(0, 1), fmi2Error);
     assert!(h.error().contains("maxOutputDerivativeOrder = 0"));
+}
+
+#[test]
+fn an_initialization_warning_is_logged_and_returned_and_the_run_goes_on() {
+    let h = Harness::new();
+    h.setup(None);
+    h.enter();
+    h.set(0, 5.0);
+    assert_eq!(h.exit(), fmi2Warning);
+    let m = h.messages();
+    assert_eq!(m.len(), 1, "loggingOn = false still shows warnings: {m:?}");
+    assert_eq!(m[0].status, fmi2Warning);
+    assert_eq!(
+        (m[0].category.as_str(), m[0].text.as_str()),
+        ("logWarning", "fmi2ExitInitializationMode: u starts at 5")
+    );
+    assert_eq!(h.phase(), Phase::StepMode);
+    assert_eq!(h.step(0.0, 1.0), fmi2OK);
+
+    h.reset();
+    assert_eq!(h.debug_logging(false, &[c"logWarning"]), fmi2OK);
+    h.setup(None);
+    h.enter();
+    h.set(0, 5.0);
+    assert_eq!(h.exit(), fmi2Warning, "the status says so even when the message is switched off");
+    assert!(h.messages().is_empty());
+
+    h.reset();
+    h.init();
+    assert_eq!(h.phase(), Phase::StepMode);
+    assert!(h.messages().is_empty(), "no warning without cause");
 }
 
 #[test]
