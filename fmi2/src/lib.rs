@@ -11,6 +11,11 @@
 //! * [`resources`]: files a model reads through a String parameter, inside `resources/`.
 //! * [`ffi`]: the C types of the standard; [`uri`]: resource-location URIs.
 
+/// The README's examples, compiled by `cargo test` so that they follow the API.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExamples;
+
 pub mod description;
 pub mod export;
 pub mod ffi;
