@@ -278,6 +278,7 @@ def test_a_scheme_an_fmu_cannot_support_is_refused_up_front(systems, tmp_path):
             x1, f_out, x2 = chain_expected(cols["time"], scheme)
             assert np.max(np.abs(cols["d2.x"] - x2)) < 1e-12
     # the adaptive step rolls back too
-    p = subprocess.run([str(MASTER), "run", "--system", str(ssd), "--scheme", "ijcsa", "--adaptive"],
+    p = subprocess.run([str(MASTER), "run", "--system", str(ssd), "--scheme", "ijcsa", "--adaptive",
+                        "--allow-external-fmus"],
                        capture_output=True, text=True)
     assert p.returncode != 0 and "canGetAndSetFMUstate" in p.stderr, p.stderr

@@ -74,6 +74,8 @@ def run(system, scheme, dt, *extra, t_end=None, out_dir=None, expect_ok=True):
     csv_path = out_dir / f"{pathlib.Path(system).stem}-{scheme}-{dt}.csv"
     cmd = [str(MASTER), "run", "--system", str(system), "--scheme", scheme, "--dt", repr(dt),
            "--out", str(csv_path), "--json", *extra]
+    if str(system).endswith(".ssd"):
+        cmd.append("--allow-external-fmus")  # its FMUs are those in DIST, outside its folder
     if t_end is not None:
         cmd += ["--t-end", repr(t_end)]
     p = subprocess.run(cmd, capture_output=True, text=True)

@@ -32,8 +32,36 @@ fn invalid(file: &Path, message: String) -> SetupError {
     SetupError::File { path: file.to_owned(), message }
 }
 
-/// Reads an `.ssp` archive or an `.ssd` file.
+/// What reading a system may cost, and where its files may come from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReadLimits {
+    /// The most entries an `.ssp` archive may hold.
+    pub max_entries: usize,
+    /// The most bytes unpacked from an archive: the entries the system references.
+    pub max_unpacked_bytes: u64,
+    /// Whether a component or parameter file may lie outside the archive (or, for an `.ssd`,
+    /// outside its folder): off, so a system cannot make the master load a library from
+    /// anywhere on the machine.
+    pub allow_external: bool,
+}
+
+impl Default for ReadLimits {
+    fn default() -> ReadLimits {
+        ReadLimits { max_entries: 10_000, max_unpacked_bytes: 1 << 30, allow_external: false }
+    }
+}
+
+/// The name of the system description at an archive's root.
+const SSD_ENTRY: &str = "SystemStructure.ssd";
+
+/// Reads an `.ssp` archive or an `.ssd` file, within the default [`ReadLimits`].
 pub fn load(path: &Path) -> Result<LoadedSsp, SetupError> {
+    load_within(path, &ReadLimits::default())
+}
+
+/// Reads an `.ssp` archive or an `.ssd` file. Of an archive only what its system references is
+/// unpacked (the description, the FMUs, the parameter files), within `limits`.
+pub fn load_within(path: &Path, limits: &ReadLimits) -> Result<LoadedSsp, SetupError> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     match ext {
         "ssp" => {
@@ -42,18 +70,133 @@ pub fn load(path: &Path) -> Result<LoadedSsp, SetupError> {
                 .map_err(|e| invalid(path, format!("not a valid zip archive: {e}")))?;
             let dir =
                 TempDir::new("ssp").map_err(|e| invalid(path, format!("cannot create a temporary directory: {e}")))?;
-            zip.extract(dir.path()).map_err(|e| invalid(path, format!("cannot unpack: {e}")))?;
-            let ssd = dir.path().join("SystemStructure.ssd");
-            if !ssd.is_file() {
-                return Err(invalid(path, "the archive holds no SystemStructure.ssd at its root".into()));
-            }
-            let mut loaded = read_ssd(&ssd, &path.display().to_string())?;
+            unpack_referenced(path, &mut zip, dir.path(), limits)?;
+            let mut loaded = read_ssd(&dir.path().join(SSD_ENTRY), &path.display().to_string(), limits)?;
             loaded._unpacked = Some(dir);
             Ok(loaded)
         }
-        "ssd" => read_ssd(path, &path.display().to_string()),
+        "ssd" => read_ssd(path, &path.display().to_string(), limits),
         _ => Err(invalid(path, "give an SSP 1.0 system: an `.ssp` archive or an `.ssd` file".into())),
     }
+}
+
+/// Unpacks into `dir` the archive's `SystemStructure.ssd` and the entries its components and
+/// parameter bindings name (an FMU, or a folder of an unpacked one), nothing else.
+fn unpack_referenced<R: std::io::Read + std::io::Seek>(
+    archive: &Path,
+    zip: &mut zip::ZipArchive<R>,
+    dir: &Path,
+    limits: &ReadLimits,
+) -> Result<(), SetupError> {
+    if zip.len() > limits.max_entries {
+        return Err(invalid(
+            archive,
+            format!(
+                "{} entries, more than the {} allowed (--max-archive-entries raises the cap)",
+                zip.len(),
+                limits.max_entries
+            ),
+        ));
+    }
+    if zip.has_duplicate_names() {
+        return Err(invalid(
+            archive,
+            format!(
+                "the archive lists an entry name twice (two {SSD_ENTRY}, or two files of one name): \
+                 which one is meant is ambiguous; rebuild the archive"
+            ),
+        ));
+    }
+    let names: Vec<String> = zip.file_names().filter_map(Result::ok).map(|n| n.into_owned()).collect();
+    if !names.iter().any(|n| n == SSD_ENTRY) {
+        return Err(invalid(archive, format!("the archive holds no {SSD_ENTRY} at its root")));
+    }
+    let mut budget = limits.max_unpacked_bytes;
+    let mut unpack = |name: &str, budget: &mut u64| -> Result<(), SetupError> {
+        let mut entry = zip.by_name(name).map_err(|e| invalid(archive, format!("entry `{name}`: {e}")))?;
+        let Some(relative) = entry.enclosed_name() else {
+            return Err(invalid(archive, format!("entry `{name}` points outside the archive")));
+        };
+        let target = dir.join(relative);
+        if entry.is_dir() {
+            return std::fs::create_dir_all(&target).map_err(|e| invalid(&target, format!("cannot create: {e}")));
+        }
+        if let Some(parent) = target.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| invalid(parent, format!("cannot create: {e}")))?;
+        }
+        let mut out = std::fs::File::create(&target).map_err(|e| invalid(&target, format!("cannot create: {e}")))?;
+        // the sizes an entry declares may lie: count what is written
+        let written = std::io::copy(&mut std::io::Read::take(&mut entry, *budget + 1), &mut out)
+            .map_err(|e| invalid(archive, format!("entry `{name}`: cannot unpack: {e}")))?;
+        if written > *budget {
+            return Err(invalid(
+                archive,
+                format!(
+                    "unpacking `{name}` exceeds the {} MB the system's entries may take together \
+                     (--max-unpacked-mb raises the cap)",
+                    limits.max_unpacked_bytes >> 20
+                ),
+            ));
+        }
+        *budget -= written;
+        Ok(())
+    };
+    unpack(SSD_ENTRY, &mut budget)?;
+    let ssd = dir.join(SSD_ENTRY);
+    let text = std::fs::read_to_string(&ssd).map_err(|e| invalid(&ssd, format!("cannot read: {e}")))?;
+    // each entry once, however many components share it
+    let mut wanted = std::collections::BTreeSet::new();
+    for source in referenced_sources(&ssd, &text)? {
+        let Some(inside) = inside(&decode_uri(&source)) else {
+            if limits.allow_external {
+                continue; // read from where it points, as allowed
+            }
+            return Err(invalid(archive, outside_message(&source, "the archive")));
+        };
+        let key = inside.to_string_lossy().replace('\\', "/");
+        let before = wanted.len();
+        wanted.extend(names.iter().filter(|n| n.trim_end_matches('/') == key || n.starts_with(&format!("{key}/"))));
+        if wanted.len() == before && !names.iter().any(|n| n.trim_end_matches('/') == key) {
+            return Err(invalid(archive, format!("`{source}`, named in {SSD_ENTRY}, is not in the archive")));
+        }
+    }
+    for name in wanted {
+        unpack(name, &mut budget)?;
+    }
+    Ok(())
+}
+
+/// The `source` of every component and parameter binding of a description.
+fn referenced_sources(ssd: &Path, text: &str) -> Result<Vec<String>, SetupError> {
+    let doc = Document::parse(text).map_err(|e| invalid(ssd, format!("not well-formed XML: {e}")))?;
+    let referencing = |n: &Node| matches!(n.tag_name().name(), "Component" | "ParameterBinding");
+    Ok(doc
+        .descendants()
+        .filter(|n| n.is_element() && referencing(n))
+        .filter_map(|n| n.attribute("source").map(str::to_owned))
+        .collect())
+}
+
+/// `path` without `.` and with `..` resolved, if it is relative and stays inside its folder.
+fn inside(path: &Path) -> Option<PathBuf> {
+    use std::path::Component::*;
+    let mut out = PathBuf::new();
+    for part in path.components() {
+        match part {
+            Normal(p) => out.push(p),
+            CurDir => {}
+            ParentDir if out.pop() => {}
+            ParentDir | RootDir | Prefix(_) => return None,
+        }
+    }
+    (!out.as_os_str().is_empty()).then_some(out)
+}
+
+fn outside_message(source: &str, container: &str) -> String {
+    format!(
+        "`{source}` lies outside {container}: a system loads its FMUs and parameter files from its own \
+         files only, unless --allow-external-fmus says otherwise"
+    )
 }
 
 /// The position of a node, for messages.
@@ -70,7 +213,7 @@ fn child<'a, 'i>(n: Node<'a, 'i>, name: &'static str) -> Option<Node<'a, 'i>> {
     children(n, name).next()
 }
 
-fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
+fn read_ssd(ssd: &Path, origin: &str, limits: &ReadLimits) -> Result<LoadedSsp, SetupError> {
     let text = std::fs::read_to_string(ssd).map_err(|e| invalid(ssd, format!("cannot read: {e}")))?;
     let doc = Document::parse(&text).map_err(|e| invalid(ssd, format!("not well-formed XML: {e}")))?;
     let root = doc.root_element();
@@ -86,6 +229,7 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
         return Err(fail(root, format!("SSP version `{version}`; this master reads SSP 1.0")));
     }
     let base = ssd.parent().unwrap_or(Path::new(".")).to_owned();
+    let resolve = |n: Node, source: &str| resolve_source(&base, source, limits.allow_external).map_err(|m| fail(n, m));
     let system = child(root, "System").ok_or_else(|| fail(root, "no <ssd:System>".into()))?;
     if child(system, "ParameterBindings").is_some() {
         return Err(fail(
@@ -120,7 +264,10 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
                 return Err(fail(e, format!("component `{name}` has type `{mime}`; only FMUs are supported")));
             }
             let source = e.attribute("source").ok_or_else(|| fail(e, format!("component `{name}` has no `source`")))?;
-            spec.components.push(Component { name: name.to_owned(), source: resolve_uri(&base, source) });
+            if spec.components.iter().any(|c| c.name == name) {
+                return Err(fail(e, format!("a second component named `{name}`: component names must be unique")));
+            }
+            spec.components.push(Component { name: name.to_owned(), source: resolve(e, source)? });
             if let Some(connectors) = child(e, "Connectors") {
                 for c in children(connectors, "Connector") {
                     let cname = c.attribute("name").ok_or_else(|| fail(c, "a connector without `name`".into()))?;
@@ -148,7 +295,8 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
             }
             if let Some(bindings) = child(e, "ParameterBindings") {
                 for b in children(bindings, "ParameterBinding") {
-                    read_binding(&doc, ssd, &base, name, b, &mut spec.parameters)?;
+                    let file = b.attribute("source").map(|source| resolve(b, source)).transpose()?;
+                    read_binding(&doc, ssd, file.as_deref(), name, b, &mut spec.parameters)?;
                 }
             }
         }
@@ -228,8 +376,8 @@ fn read_ssd(ssd: &Path, origin: &str) -> Result<LoadedSsp, SetupError> {
     Ok(LoadedSsp { start_time: time("startTime")?, stop_time: time("stopTime")?, spec, _unpacked: None })
 }
 
-/// A relative URI against the directory of the `.ssd` (percent-decoded; `file:` accepted).
-fn resolve_uri(base: &Path, uri: &str) -> PathBuf {
+/// A URI's path: `file:` stripped, percent-decoded.
+fn decode_uri(uri: &str) -> PathBuf {
     let path = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")).unwrap_or(uri);
     let mut bytes = Vec::with_capacity(path.len());
     let raw = path.as_bytes();
@@ -247,14 +395,32 @@ fn resolve_uri(base: &Path, uri: &str) -> PathBuf {
         bytes.push(raw[i]);
         i += 1;
     }
-    let p = PathBuf::from(String::from_utf8_lossy(&bytes).into_owned());
-    if p.is_absolute() { p } else { base.join(p) }
+    PathBuf::from(String::from_utf8_lossy(&bytes).into_owned())
 }
 
+/// A `source` URI against the directory of the `.ssd`: inside it (no `..` out of it, no symbolic
+/// link out of it) unless `allow_external`.
+fn resolve_source(base: &Path, uri: &str, allow_external: bool) -> Result<PathBuf, String> {
+    let path = decode_uri(uri);
+    if allow_external {
+        return Ok(if path.is_absolute() { path } else { base.join(path) });
+    }
+    let within = inside(&path).map(|p| base.join(p)).ok_or_else(|| outside_message(uri, "the system's folder"))?;
+    // a link may lead out of the folder: compare where both really are (a missing file is the
+    // loader's to report)
+    if let (Ok(real), Ok(folder)) = (within.canonicalize(), base.canonicalize())
+        && !real.starts_with(&folder)
+    {
+        return Err(outside_message(uri, "the system's folder"));
+    }
+    Ok(within)
+}
+
+/// A parameter binding: from `file` (its `source`, resolved) or inline values.
 fn read_binding(
     doc: &Document,
     ssd: &Path,
-    base: &Path,
+    file: Option<&Path>,
     component: &str,
     b: Node,
     out: &mut Vec<Parameter>,
@@ -266,11 +432,10 @@ fn read_binding(
         return Err(fail(b, format!("component `{component}`: only parameter sets without mappings are supported")));
     }
     let prefix = b.attribute("prefix").unwrap_or("");
-    if let Some(source) = b.attribute("source") {
-        let file = resolve_uri(base, source);
-        let text = std::fs::read_to_string(&file).map_err(|e| invalid(&file, format!("cannot read: {e}")))?;
-        let ssv = Document::parse(&text).map_err(|e| invalid(&file, format!("not well-formed XML: {e}")))?;
-        read_parameter_set(&ssv, &file, ssv.root_element(), component, prefix, out)
+    if let Some(file) = file {
+        let text = std::fs::read_to_string(file).map_err(|e| invalid(file, format!("cannot read: {e}")))?;
+        let ssv = Document::parse(&text).map_err(|e| invalid(file, format!("not well-formed XML: {e}")))?;
+        read_parameter_set(&ssv, file, ssv.root_element(), component, prefix, out)
     } else if let Some(values) = child(b, "ParameterValues") {
         let set = child(values, "ParameterSet").ok_or_else(|| {
             fail(values, format!("component `{component}`: <ssd:ParameterValues> without <ssv:ParameterSet>"))
@@ -352,5 +517,176 @@ mod tests {
         assert!(!ssd_text(&system).contains("Annotation"));
         let spec = load(&ssd).unwrap().spec;
         assert!(spec.watch.is_empty() && !spec.kink_at_start);
+    }
+
+    /// A description of one system whose components (name, source) bind nothing, but `a`, which
+    /// takes its parameters from `binding` when given.
+    fn description(components: &[(&str, &str)], binding: Option<&str>) -> String {
+        let mut x = String::from(
+            r#"<?xml version="1.0" encoding="UTF-8"?>
+<ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" version="1.0" name="s">
+  <ssd:System name="s">
+    <ssd:Elements>
+"#,
+        );
+        for (name, source) in components {
+            let bindings = match binding {
+                Some(b) if *name == "a" => {
+                    format!("<ssd:ParameterBindings><ssd:ParameterBinding source=\"{b}\"/></ssd:ParameterBindings>")
+                }
+                _ => String::new(),
+            };
+            x.push_str(&format!(
+                "      <ssd:Component name=\"{name}\" source=\"{source}\">{bindings}</ssd:Component>\n"
+            ));
+        }
+        x.push_str("    </ssd:Elements>\n  </ssd:System>\n</ssd:SystemStructureDescription>\n");
+        x
+    }
+
+    const SSV: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<ssv:ParameterSet xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="b">
+  <ssv:Parameters><ssv:Parameter name="k"><ssv:Real value="60"/></ssv:Parameter></ssv:Parameters>
+</ssv:ParameterSet>
+"#;
+
+    /// An `.ssp` archive of the given entries in `dir` (deflated: a large entry of zeros stays small).
+    fn archive(dir: &Path, entries: &[(&str, &[u8])]) -> PathBuf {
+        let path = dir.join("system.ssp");
+        let mut zip = zip::ZipWriter::new(std::fs::File::create(&path).unwrap());
+        let deflated = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+        for (name, bytes) in entries {
+            zip.start_file(*name, deflated).unwrap();
+            std::io::Write::write_all(&mut zip, bytes).unwrap();
+        }
+        zip.finish().unwrap();
+        path
+    }
+
+    fn refused(path: &Path, limits: &ReadLimits) -> String {
+        match load_within(path, limits) {
+            Ok(_) => panic!("{} was read", path.display()),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    /// An archive's entries that its system does not name are never unpacked (an archive of a
+    /// few megabytes may hold gigabytes of zeros); what it names is unpacked within the cap, and
+    /// a component's unpacked FMU folder whole.
+    #[test]
+    fn an_archive_unpacks_only_what_its_system_references() {
+        let dir = TempDir::new("referenced").unwrap();
+        let ssd = description(&[("a", "a.fmu"), ("b", "fmus/b"), ("c", "a.fmu")], Some("params/a.ssv"));
+        let zeros = vec![0u8; 64 << 20];
+        let entries: [(&str, &[u8]); 6] = [
+            ("SystemStructure.ssd", ssd.as_bytes()),
+            ("a.fmu", b"the FMU's bytes"),
+            ("fmus/b/modelDescription.xml", b"<fmiModelDescription/>"),
+            ("fmus/b/binaries/linux64/b.so", b"a library"),
+            ("params/a.ssv", SSV.as_bytes()),
+            ("zeros.bin", &zeros),
+        ];
+        let ssp = archive(dir.path(), &entries);
+        assert!(std::fs::metadata(&ssp).unwrap().len() < 1 << 20, "64 MiB of zeros deflate to little");
+        let limits = ReadLimits { max_unpacked_bytes: 1 << 20, ..ReadLimits::default() };
+        let loaded = load_within(&ssp, &limits).unwrap();
+        let root = loaded.spec.components[0].source.parent().unwrap().to_owned();
+        for file in ["a.fmu", "fmus/b/modelDescription.xml", "fmus/b/binaries/linux64/b.so", "params/a.ssv"] {
+            assert!(root.join(file).is_file(), "{file} unpacked");
+        }
+        assert!(!root.join("zeros.bin").exists(), "an entry nothing names stays packed");
+        assert_eq!(loaded.spec.components[1].source, root.join("fmus/b"));
+        assert_eq!(loaded.spec.parameters.len(), 1);
+
+        let small = ReadLimits { max_unpacked_bytes: 100, ..ReadLimits::default() };
+        let e = refused(&ssp, &small);
+        assert!(e.contains("system.ssp") && e.contains("--max-unpacked-mb"), "{e}");
+        let few = ReadLimits { max_entries: 5, ..ReadLimits::default() };
+        let e = refused(&ssp, &few);
+        assert!(e.contains("6 entries, more than the 5 allowed") && e.contains("--max-archive-entries"), "{e}");
+        // the zeros, named, exceed the cap: counted as written, whatever the entry declares
+        let named = description(&[("a", "zeros.bin")], None);
+        let ssp = archive(dir.path(), &[("SystemStructure.ssd", named.as_bytes()), ("zeros.bin", &zeros)]);
+        let e = refused(&ssp, &ReadLimits { max_unpacked_bytes: 1 << 20, ..ReadLimits::default() });
+        assert!(e.contains("unpacking `zeros.bin` exceeds the 1 MB"), "{e}");
+    }
+
+    /// A component or parameter file outside the archive would let an archive load any library
+    /// on the machine: refused, naming the source, unless allowed.
+    #[test]
+    fn an_archive_cannot_reach_outside_itself() {
+        let dir = TempDir::new("outside").unwrap();
+        let elsewhere = dir.path().join("elsewhere.fmu");
+        std::fs::write(&elsewhere, b"a library").unwrap();
+        let absolute = elsewhere.display().to_string();
+        let cases = [("a", "../../elsewhere.fmu", None), ("a", "sub/../../x.fmu", None), ("a", &absolute, None)];
+        for (name, source, binding) in cases.iter().copied().chain([("a", "a.fmu", Some("../b.ssv"))]) {
+            let ssd = description(&[(name, source)], binding);
+            let ssp = archive(dir.path(), &[("SystemStructure.ssd", ssd.as_bytes()), ("a.fmu", b"x")]);
+            let e = refused(&ssp, &ReadLimits::default());
+            let named = binding.unwrap_or(source);
+            assert!(e.contains(&format!("`{named}` lies outside the archive")), "{e}");
+            assert!(e.contains("--allow-external-fmus"), "{e}");
+        }
+        let ssd = description(&[("a", &absolute)], None);
+        let ssp = archive(dir.path(), &[("SystemStructure.ssd", ssd.as_bytes())]);
+        let allowed = ReadLimits { allow_external: true, ..ReadLimits::default() };
+        assert_eq!(load_within(&ssp, &allowed).unwrap().spec.components[0].source, elsewhere);
+        let ssd = description(&[("a", "missing.fmu")], None);
+        let ssp = archive(dir.path(), &[("SystemStructure.ssd", ssd.as_bytes())]);
+        assert!(
+            refused(&ssp, &ReadLimits::default())
+                .contains("`missing.fmu`, named in SystemStructure.ssd, is not in the archive")
+        );
+    }
+
+    /// An `.ssd` reads its FMUs and parameter files from its own folder: `..`, absolute paths
+    /// and symbolic links out of it are refused unless allowed.
+    #[test]
+    fn an_ssd_cannot_reach_outside_its_folder() {
+        let dir = TempDir::new("ssd-outside").unwrap();
+        let folder = dir.path().join("system");
+        std::fs::create_dir(&folder).unwrap();
+        std::fs::write(dir.path().join("x.fmu"), b"a library").unwrap();
+        std::fs::write(folder.join("inside.fmu"), b"an FMU").unwrap();
+        std::os::unix::fs::symlink(dir.path().join("x.fmu"), folder.join("link.fmu")).unwrap();
+        let absolute = dir.path().join("x.fmu").display().to_string();
+        let ssd = folder.join("s.ssd");
+        for source in ["../x.fmu", "link.fmu", absolute.as_str()] {
+            std::fs::write(&ssd, description(&[("a", source)], None)).unwrap();
+            let e = refused(&ssd, &ReadLimits::default());
+            assert!(e.contains(&format!("`{source}` lies outside the system's folder")), "{e}");
+            let allowed = ReadLimits { allow_external: true, ..ReadLimits::default() };
+            assert!(load_within(&ssd, &allowed).is_ok(), "{source} allowed");
+        }
+        std::fs::write(&ssd, description(&[("a", "./inside.fmu")], None)).unwrap();
+        assert_eq!(load(&ssd).unwrap().spec.components[0].source, folder.join("inside.fmu"));
+    }
+
+    /// Two components of one name would write two CSV columns of one header; two descriptions in
+    /// one archive leave open which system is meant.
+    #[test]
+    fn duplicate_names_are_refused() {
+        let dir = TempDir::new("duplicates").unwrap();
+        let ssd = dir.path().join("s.ssd");
+        std::fs::write(dir.path().join("a.fmu"), b"x").unwrap();
+        std::fs::write(&ssd, description(&[("a", "a.fmu"), ("a", "a.fmu")], None)).unwrap();
+        let e = refused(&ssd, &ReadLimits::default());
+        assert!(e.contains("line 6: a second component named `a`"), "{e}");
+
+        // the zip writer refuses a duplicate name: write another, then give both entries one name
+        let one = description(&[("a", "a.fmu")], None);
+        let ssp =
+            archive(dir.path(), &[("SystemStructure.ssd", one.as_bytes()), ("SystemStructure.ssX", one.as_bytes())]);
+        let mut bytes = std::fs::read(&ssp).unwrap();
+        let (from, to) = (b"SystemStructure.ssX", b"SystemStructure.ssd");
+        let mut k = 0;
+        while let Some(at) = bytes[k..].windows(from.len()).position(|w| w == from) {
+            bytes[k + at..k + at + to.len()].copy_from_slice(to);
+            k += at + to.len();
+        }
+        std::fs::write(&ssp, bytes).unwrap();
+        let e = refused(&ssp, &ReadLimits::default());
+        assert!(e.contains("lists an entry name twice"), "{e}");
     }
 }

@@ -52,6 +52,8 @@ pub(crate) struct Args {
     pub(crate) quiet: bool,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
+    #[command(flatten)]
+    pub(crate) system_files: super::run_system::FileArgs,
 }
 
 /// JSON summary of a trace: every figure from every step (`dt` and `sample_interval_s` null
@@ -97,6 +99,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         (None, Some(system)) => return super::run_system::run(args, system),
         (None, None) => bail!("give --scene or --system"),
     };
+    if let Some(option) = args.system_files.given() {
+        bail!("{option} applies to --system (an SSP archive or .ssd); a --scene names its FMUs in [system]");
+    }
     let scene = load_scene(scene_file)?;
     let method = args.options.method(args.scheme)?;
     if args.options.adaptive && args.dt.is_some() {

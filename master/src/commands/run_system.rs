@@ -8,6 +8,7 @@ use std::io::{IsTerminal, Write};
 use std::path::Path;
 
 use anyhow::{Context, bail};
+use cosim::ssp::read::ReadLimits;
 use master::limits::num;
 use master::plot::{Line, PALETTE, Panel, stacked};
 use master::simulate::Method;
@@ -17,6 +18,47 @@ use serde_json::json;
 use super::output::Outputs;
 use super::run::Args;
 use super::{CmdResult, caps};
+
+/// Where a system's files may come from and what unpacking an archive may cost (--system only).
+#[derive(clap::Args)]
+pub(crate) struct FileArgs {
+    /// Let a --system load FMUs and parameter files from outside its archive (or, for an `.ssd`,
+    /// outside its folder): absolute paths, `..`, symbolic links out. Off: a system file cannot
+    /// make the master load a library from anywhere on the machine.
+    #[arg(long)]
+    pub(crate) allow_external_fmus: bool,
+    /// Most entries an `.ssp` archive may hold [default: 10000].
+    #[arg(long)]
+    pub(crate) max_archive_entries: Option<usize>,
+    /// Most megabytes unpacked from an `.ssp` archive: the entries its system references (the
+    /// description, the FMUs, the parameter files; nothing else is unpacked) [default: 1024].
+    #[arg(long)]
+    pub(crate) max_unpacked_mb: Option<u64>,
+}
+
+impl FileArgs {
+    fn limits(&self) -> ReadLimits {
+        let default = ReadLimits::default();
+        ReadLimits {
+            max_entries: self.max_archive_entries.unwrap_or(default.max_entries),
+            max_unpacked_bytes: self
+                .max_unpacked_mb
+                .map_or(default.max_unpacked_bytes, |mb| mb.saturating_mul(1 << 20)),
+            allow_external: self.allow_external_fmus,
+        }
+    }
+
+    /// The options given, for a run that has no system to apply them to.
+    pub(crate) fn given(&self) -> Option<&'static str> {
+        [
+            (self.allow_external_fmus, "--allow-external-fmus"),
+            (self.max_archive_entries.is_some(), "--max-archive-entries"),
+            (self.max_unpacked_mb.is_some(), "--max-unpacked-mb"),
+        ]
+        .into_iter()
+        .find_map(|(given, name)| given.then_some(name))
+    }
+}
 
 pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
     let (options, adaptive) = match args.options.method(args.scheme)? {
@@ -28,7 +70,7 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
             other.name()
         ),
     };
-    let loaded = cosim::ssp::read::load(file)?;
+    let loaded = cosim::ssp::read::load_within(file, &args.system_files.limits())?;
     let dt = match (&adaptive, args.dt) {
         (None, Some(dt)) => dt,
         (None, None) => bail!("--dt: give the macro step of the system (s)"),

@@ -425,3 +425,40 @@ fn run_system_with_the_adaptive_step_and_a_plot() {
         assert!(error <= rtol, "doubling, watching the velocities: {error:.2e} of the ranges at rtol {rtol}");
     }
 }
+
+/// `run --system` reads a system's FMUs from its own folder: an `.ssd` naming one outside it is
+/// refused, naming the source and the option that allows it; with the option it runs. The option
+/// belongs to --system.
+#[test]
+fn run_system_loads_fmus_from_outside_only_when_allowed() {
+    let dir = test_dir("outside");
+    let ssd = pair_ssd(&dir, "");
+    let inner = dir.join("inner");
+    std::fs::create_dir_all(&inner).unwrap();
+    std::fs::copy(dir.join("b.ssv"), inner.join("b.ssv")).unwrap();
+    let moved = inner.join("pair.ssd");
+    let text =
+        std::fs::read_to_string(&ssd).unwrap().replace(r#"source="oscillator.fmu""#, r#"source="../oscillator.fmu""#);
+    std::fs::write(&moved, text).unwrap();
+    let run = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_master"))
+            .args(["run", "--system", moved.to_str().unwrap(), "--scheme", "jacobi", "--dt", "0.01", "--quiet"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let refused = run(&[]);
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert!(err.contains("pair.ssd") && err.contains("`../oscillator.fmu` lies outside the system's folder"), "{err}");
+    assert!(err.contains("--allow-external-fmus"), "{err}");
+    let allowed = run(&["--allow-external-fmus"]);
+    assert!(allowed.status.success(), "{}", String::from_utf8_lossy(&allowed.stderr));
+
+    let scene = Command::new(env!("CARGO_BIN_EXE_master"))
+        .args(["run", "--scene", "../scenes/lt50m_C.toml", "--scheme", "ijcsa", "--allow-external-fmus"])
+        .output()
+        .unwrap();
+    assert!(!scene.status.success());
+    assert!(String::from_utf8_lossy(&scene.stderr).contains("--system"), "{}", String::from_utf8_lossy(&scene.stderr));
+}
