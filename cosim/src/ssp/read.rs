@@ -6,7 +6,9 @@
 //! optional `LinearTransformation` on Real ones; parameter bindings inline
 //! (`ParameterValues`) or in `.ssv` files, with an optional prefix; `DefaultExperiment`.
 //! Refused with a message: nested systems, connections to the system's own connectors,
-//! parameter mappings, enumeration and boolean/integer mapping transformations. Annotations are
+//! parameter mappings, enumeration and boolean/integer mapping transformations, duplicate
+//! component names; files outside the archive (or the `.ssd`'s folder) unless
+//! [`ReadLimits::allow_external`]. Of an archive only what the system names is unpacked. Annotations are
 //! ignored but this master's own ([`super::ADAPTIVE_ANNOTATION`]).
 
 use std::path::{Path, PathBuf};
@@ -154,11 +156,12 @@ fn unpack_referenced<R: std::io::Read + std::io::Seek>(
             return Err(invalid(archive, outside_message(&source, "the archive")));
         };
         let key = inside.to_string_lossy().replace('\\', "/");
-        let before = wanted.len();
-        wanted.extend(names.iter().filter(|n| n.trim_end_matches('/') == key || n.starts_with(&format!("{key}/"))));
-        if wanted.len() == before && !names.iter().any(|n| n.trim_end_matches('/') == key) {
+        let folder = format!("{key}/");
+        let mut named = names.iter().filter(|n| n.trim_end_matches('/') == key || n.starts_with(&folder)).peekable();
+        if named.peek().is_none() {
             return Err(invalid(archive, format!("`{source}`, named in {SSD_ENTRY}, is not in the archive")));
         }
+        wanted.extend(named);
     }
     for name in wanted {
         unpack(name, &mut budget)?;
