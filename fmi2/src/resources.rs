@@ -65,6 +65,10 @@ pub(crate) fn read_text(
         }
     }
     let io = |source| ResourceError::Io { path: file.clone(), source };
+    // Asked before opening: opening a FIFO blocks until someone writes to it.
+    if !std::fs::metadata(&file).map_err(io)?.is_file() {
+        return Err(io(std::io::Error::other("not a regular file")));
+    }
     let f = std::fs::File::open(&file).map_err(io)?;
     if !f.metadata().map_err(io)?.is_file() {
         return Err(io(std::io::Error::other("not a regular file")));
@@ -244,6 +248,29 @@ mod tests {
         assert_eq!((p.name(), *p.value()), ("two.txt", 2.0), "unchanged by the errors");
         assert!(NUMBERS.open(None, "one.txt").is_ok(), "shipped: found without a location");
         assert_eq!(NUMBERS.resources(), [Resource { name: "one.txt".into(), bytes: b"1".to_vec() }]);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// A FIFO (or any file that is not regular) is refused at once, by name, absolute or inside
+    /// resources/: opening one would block until someone writes to it.
+    #[test]
+    fn a_fifo_is_refused_without_blocking() {
+        let d = dir("fifo");
+        let res = d.join("resources");
+        let fifo = res.join("scene.toml");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status().unwrap();
+        assert!(made.success());
+        let (tx, rx) = std::sync::mpsc::channel();
+        let (relative, absolute) = (res.clone(), fifo.clone());
+        std::thread::spawn(move || {
+            let inside = read_text("scene.toml", Some(&relative), &[], 100).map(|_| ());
+            let named = read_text(absolute.to_str().unwrap(), None, &[], 100).map(|_| ());
+            tx.send((inside, named)).unwrap();
+        });
+        let (inside, named) = rx.recv_timeout(std::time::Duration::from_secs(10)).expect("reading a FIFO blocked");
+        for e in [inside.unwrap_err(), named.unwrap_err()] {
+            assert!(e.to_string().contains("scene.toml") && e.to_string().contains("not a regular file"), "{e}");
+        }
         std::fs::remove_dir_all(&d).unwrap();
     }
 
