@@ -27,7 +27,7 @@ use feedcore::Vec3;
 use feedcore::scene::{Scene, SceneError};
 use fmi2::description::indexed_names;
 use fmi2::export::{Derivative, Model, ModelError, Reals, Seeds, StepOutcome};
-use fmi2::resources::{FileKind, FileParameter};
+use fmi2::resources::{FileKind, FileParameter, SavedFile};
 use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::Vector6;
 use serde::{Deserialize, Serialize};
@@ -110,7 +110,8 @@ pub struct CableFmu {
 /// A saved state: the parameters, the inputs and, in step mode, the motion.
 #[derive(Serialize, Deserialize)]
 pub struct SavedCable<'a> {
-    scene: &'a str,
+    #[serde(borrow)]
+    scene: SavedFile<'a>,
     settings: Settings,
     wrench: [f64; 6],
     wrench_rate: [f64; 6],
@@ -587,7 +588,7 @@ impl Model for CableFmu {
             None => None,
         };
         Ok(SavedCable {
-            scene: self.scene.name(),
+            scene: self.scene.saved(),
             settings: self.settings,
             wrench: self.wrench.into(),
             wrench_rate: self.wrench_rate.into(),
@@ -598,7 +599,7 @@ impl Model for CableFmu {
     fn restore(&mut self, saved: SavedCable<'_>) -> Result<(), ModelError> {
         // A state carries its parameters: an instance configured otherwise adopts them (the
         // scene is looked up under the same rules as the parameter).
-        if self.scene.set(saved.scene)? || saved.settings != self.settings {
+        if self.scene.restore(saved.scene)? || saved.settings != self.settings {
             effective_scene(&self.scene, &saved.settings)?;
             self.settings = saved.settings;
             self.settings_changed();

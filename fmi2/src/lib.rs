@@ -17,6 +17,7 @@
 struct ReadmeExamples;
 
 pub mod description;
+pub mod digest;
 pub mod export;
 pub mod ffi;
 pub mod import;

@@ -26,6 +26,11 @@ pub enum ResourceError {
     NotText { path: PathBuf },
     #[error("{origin}: {message}")]
     Invalid { origin: String, message: String },
+    #[error(
+        "`{name}` is not the file the state was saved with (its contents changed, or another file took its \
+         name; digest {now:016x}, saved {saved:016x}): restore the state with the file as it was"
+    )]
+    Changed { name: String, saved: u64, now: u64 },
 }
 
 /// Text of the resource `name`: relative names inside `resources` (or one of `shipped`, the
@@ -90,9 +95,12 @@ pub(crate) fn load_parsed<T, E: std::fmt::Display>(
     shipped: &[(&str, &str)],
     limit: u64,
     parse: impl FnOnce(&str, &str) -> Result<T, E>,
-) -> Result<T, ResourceError> {
+) -> Result<(T, u64), ResourceError> {
     let (text, origin) = read_text(name, resources, shipped, limit)?;
-    parse(&text, &origin).map_err(|e| ResourceError::Invalid { origin, message: excerpt(&e.to_string(), 300) })
+    let digest = crate::digest::digest(text.as_bytes());
+    let value =
+        parse(&text, &origin).map_err(|e| ResourceError::Invalid { origin, message: excerpt(&e.to_string(), 300) })?;
+    Ok((value, digest))
 }
 
 /// One kind of file a model reads through a String parameter (a scene, a configuration).
@@ -122,13 +130,20 @@ impl<T, E: std::fmt::Display> FileKind<T, E> {
     /// The file `name`, read and parsed, as the value of a parameter; `resources`: the FMU's
     /// `resources/` directory, if the importer gave one.
     pub fn open(&'static self, resources: Option<&Path>, name: &str) -> Result<FileParameter<T, E>, ResourceError> {
-        let value = self.load(name, resources)?;
-        Ok(FileParameter { kind: self, resources: resources.map(Path::to_owned), name: name.to_owned(), value })
+        let (value, digest) = self.load(name, resources)?;
+        Ok(FileParameter { kind: self, resources: resources.map(Path::to_owned), name: name.to_owned(), value, digest })
     }
 
-    fn load(&self, name: &str, resources: Option<&Path>) -> Result<T, ResourceError> {
+    fn load(&self, name: &str, resources: Option<&Path>) -> Result<(T, u64), ResourceError> {
         load_parsed(name, resources, self.shipped, self.limit, self.parse)
     }
+}
+
+/// A file parameter in a saved state: the name, and the digest of the text read then.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SavedFile<'a> {
+    pub name: &'a str,
+    digest: u64,
 }
 
 /// A String parameter naming a file, and the file as parsed: a model keeps one per such
@@ -138,6 +153,8 @@ pub struct FileParameter<T: 'static, E: 'static> {
     resources: Option<PathBuf>,
     name: String,
     value: T,
+    /// Of the text read: a saved state keeps it with the name, to be restored with that file only.
+    digest: u64,
 }
 
 impl<T, E: std::fmt::Display> FileParameter<T, E> {
@@ -158,8 +175,29 @@ impl<T, E: std::fmt::Display> FileParameter<T, E> {
         if name == self.name {
             return Ok(false);
         }
-        self.value = self.kind.load(name, self.resources.as_deref())?;
+        (self.value, self.digest) = self.kind.load(name, self.resources.as_deref())?;
         self.name = name.to_owned();
+        Ok(true)
+    }
+
+    /// The parameter as a saved state keeps it.
+    pub fn saved(&self) -> SavedFile<'_> {
+        SavedFile { name: &self.name, digest: self.digest }
+    }
+
+    /// As [`FileParameter::set`], from a saved state: the file must be the one the state was
+    /// saved with (same digest), else [`ResourceError::Changed`] and the parameter is unchanged.
+    pub fn restore(&mut self, saved: SavedFile<'_>) -> Result<bool, ResourceError> {
+        let SavedFile { name, digest } = saved;
+        let changed = |now| ResourceError::Changed { name: name.to_owned(), saved: digest, now };
+        if name == self.name {
+            return if self.digest == digest { Ok(false) } else { Err(changed(self.digest)) };
+        }
+        let (value, now) = self.kind.load(name, self.resources.as_deref())?;
+        if now != digest {
+            return Err(changed(now));
+        }
+        (self.value, self.digest, self.name) = (value, now, name.to_owned());
         Ok(true)
     }
 }
@@ -248,6 +286,33 @@ mod tests {
         assert_eq!((p.name(), *p.value()), ("two.txt", 2.0), "unchanged by the errors");
         assert!(NUMBERS.open(None, "one.txt").is_ok(), "shipped: found without a location");
         assert_eq!(NUMBERS.resources(), [Resource { name: "one.txt".into(), bytes: b"1".to_vec() }]);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// A restored parameter must find the file it was saved with: the same name with other
+    /// contents is refused, and the parameter keeps what it had.
+    #[test]
+    fn a_saved_file_restores_only_with_the_same_contents() {
+        static NUMBERS: FileKind<f64, String> =
+            FileKind::new(&[], 100, |text, origin| text.trim().parse().map_err(|e| format!("{origin}: {e}")));
+        let d = dir("saved");
+        let res = d.join("resources");
+        std::fs::write(res.join("one.txt"), "1").unwrap();
+        std::fs::write(res.join("two.txt"), "2").unwrap();
+        let mut p = NUMBERS.open(Some(&res), "one.txt").unwrap();
+        let mut q = NUMBERS.open(Some(&res), "two.txt").unwrap();
+        assert_eq!(q.saved().name, "two.txt");
+        assert!(p.restore(q.saved()).unwrap());
+        assert_eq!(*p.value(), 2.0);
+        assert!(!q.restore(p.saved()).unwrap(), "the same file: nothing read again");
+        std::fs::write(res.join("two.txt"), "2.5").unwrap();
+        let mut r = NUMBERS.open(Some(&res), "one.txt").unwrap();
+        let e = r.restore(q.saved()).unwrap_err();
+        assert!(
+            matches!(e, ResourceError::Changed { .. }) && e.to_string().contains("`two.txt` is not the file"),
+            "{e}"
+        );
+        assert_eq!((r.name(), *r.value()), ("one.txt", 1.0), "unchanged by the refusal");
         std::fs::remove_dir_all(&d).unwrap();
     }
 

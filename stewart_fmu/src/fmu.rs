@@ -31,7 +31,7 @@ use feedcore::scene::{LEGS, Scene, SceneError, Start};
 use feedcore::{Quat, Vec3};
 use fmi2::description::indexed_names;
 use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
-use fmi2::resources::{FileKind, FileParameter};
+use fmi2::resources::{FileKind, FileParameter, SavedFile};
 use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::{Matrix3x6, Vector6};
 use serde::{Deserialize, Serialize};
@@ -128,7 +128,8 @@ struct Data {
 /// A saved state: the scene file's name and the rest.
 #[derive(Serialize, Deserialize)]
 pub struct SavedStewart<'a> {
-    scene: &'a str,
+    #[serde(borrow)]
+    scene: SavedFile<'a>,
     data: Data,
 }
 
@@ -806,11 +807,11 @@ impl Model for StewartFmu {
     }
 
     fn save(&mut self) -> Result<SavedStewart<'_>, ModelError> {
-        Ok(SavedStewart { scene: self.scene.name(), data: self.data.clone() })
+        Ok(SavedStewart { scene: self.scene.saved(), data: self.data.clone() })
     }
 
     fn restore(&mut self, saved: SavedStewart<'_>) -> Result<(), ModelError> {
-        if self.scene.set(saved.scene)? || saved.data.settings != self.data.settings {
+        if self.scene.restore(saved.scene)? || saved.data.settings != self.data.settings {
             self.settings_changed();
         }
         self.data = saved.data;

@@ -3,6 +3,7 @@ initialization with the inputs the importer gives, and misuse through the C ABI.
 
 import json
 import math
+import shutil
 import subprocess
 
 import numpy as np
@@ -263,3 +264,45 @@ def test_cabin_inputs_left_at_scene_c_under_scene_b_are_warned_about():
         assert np.array_equal(unset[name], at_c[name]), name
     # B tilts the cabin 40°: the platform's weight shifts the moment about y by ~400 N·m
     assert abs(at_b["wrench.m[2]"].mean() - at_c["wrench.m[2]"].mean()) > 300.0
+
+
+@pytest.mark.parametrize("name", ["cable_fmu", "stewart_fmu"])
+def test_a_damaged_or_edited_state_is_refused(name, tmp_path):
+    """A serialized state ends with a digest of its bytes: a flipped byte anywhere is refused at
+    fmi2DeSerializeFMUstate; a state whose scene name was edited (and its digest made to fit)
+    is refused at fmi2SetFMUstate, because the state keeps the digest of the scene it was made
+    with; an intact state restores."""
+    scene = tmp_path / "scene.toml"
+    shutil.copy(REPO / "scenes" / "lt50m_C.toml", scene)
+    s = open_fmu(name, tmp_path / "unpacked")
+    s.initialize({"scene": str(scene)})
+    s.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.01)
+    state = s.fmu.getFMUstate()
+    data = bytes(s.fmu.serializeFMUstate(state))
+    s.fmu.freeFMUstate(state)
+
+    for at in (0, len(data) // 2, len(data) - 1):
+        flipped = bytearray(data)
+        flipped[at] ^= 1
+        expect_error(s, lambda: s.fmu.deSerializeFMUstate(bytes(flipped)), "its digest does not match its bytes")
+        s.fmu.reset()
+        s.initialize({"scene": str(scene)})
+
+    s.free()
+
+    # another instance restores the state: its scene file changed on disk since the state was
+    # made, so the file the state names is not the one it was made with
+    scene.write_text(scene.read_text().replace("mass_kg = 720.0", "mass_kg = 721.0", 1))
+    s = open_fmu(name, tmp_path / "unpacked", instance="other")
+    s.initialize()
+    restored = s.fmu.deSerializeFMUstate(data)
+    expect_error(s, lambda: s.fmu.setFMUstate(restored), "scene.toml", "is not the file the state was saved with")
+    shutil.copy(REPO / "scenes" / "lt50m_C.toml", scene)
+    s.fmu.reset()
+    s.messages.clear()
+    s.initialize()
+    s.fmu.setFMUstate(restored)
+    s.fmu.doStep(currentCommunicationPoint=0.01, communicationStepSize=0.01)
+    s.fmu.freeFMUstate(restored)
+    assert not s.errors(), s.messages
+    s.free()

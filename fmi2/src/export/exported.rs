@@ -12,7 +12,7 @@ use std::ffi::{CStr, CString, c_char};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use super::instance::{Instance, Msg, Phase, describe, error_chain, log_to, panic_text};
-use super::state::{Snapshot, free_snapshot, snapshot_mut};
+use super::state::{Snapshot, free_snapshot, from_serialized, serialized, serialized_len, snapshot_mut};
 use super::{Derivative, Model, ModelError, Seeds, StepOutcome};
 use crate::description::{Causality, DescriptionError, ModelInfo, VarType};
 use crate::ffi::*;
@@ -558,7 +558,7 @@ pub unsafe fn serialized_fmu_state_size<M: Model>(
     // SAFETY: `c`, `state` and `size` as the contract says.
     unsafe {
         call::<M>(c, "fmi2SerializedFMUstateSize", ALL_BUT_FATAL, |_| {
-            write(size, snapshot_mut(state)?.bytes.len(), "size")?;
+            write(size, serialized_len(&snapshot_mut(state)?.bytes), "size")?;
             Ok(fmi2OK)
         })
     }
@@ -576,11 +576,12 @@ pub unsafe fn serialize_fmu_state<M: Model>(
     unsafe {
         call::<M>(c, "fmi2SerializeFMUstate", ALL_BUT_FATAL, |_| {
             let snap = snapshot_mut(state)?;
-            if size < snap.bytes.len() {
-                return Err(format!("buffer of {size} bytes is smaller than the state ({} bytes)", snap.bytes.len()));
+            let needed = serialized_len(&snap.bytes);
+            if size < needed {
+                return Err(format!("buffer of {size} bytes is smaller than the state ({needed} bytes)"));
             }
             let out = slice_mut(bytes.cast::<u8>(), size, "serializedState")?;
-            out[..snap.bytes.len()].copy_from_slice(&snap.bytes);
+            serialized(&snap.bytes, &mut out[..needed]);
             Ok(fmi2OK)
         })
     }
@@ -597,7 +598,7 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
     // SAFETY: `c`, the buffer, `state` and the state it holds as the contract says.
     unsafe {
         call::<M>(c, "fmi2DeSerializeFMUstate", ALL_BUT_FATAL, |inst| {
-            let data = slice(bytes.cast::<u8>(), size, "serializedState")?;
+            let data = from_serialized(slice(bytes.cast::<u8>(), size, "serializedState")?)?;
             let state = slice_mut(state, 1, "FMUstate")?;
             inst.check_state(data)?;
             if state[0].is_null() {

@@ -1,10 +1,14 @@
 //! Saved FMU states: what an `fmi2FMUstate` points to, and its bytes.
 //!
 //! A state is stored in its serialized form, so get/set and (de)serialize share one mechanism:
-//! `FMI2RSv2` (8 bytes), then postcard's encoding of the layer's [`Header`] and of the model's
-//! [`Model::State`]. postcard writes an f64 as its 8 little-endian bytes, so a rollback
-//! reproduces every number bit for bit; it refuses truncated input, invalid tags, booleans and
-//! UTF-8, and we refuse trailing bytes, so random or foreign bytes are rejected with a message.
+//! `FMI2RSv3` (8 bytes: the format and its version), then postcard's encoding of the layer's
+//! [`Header`] and of the model's [`Model::State`]. A state written out of the process
+//! (`fmi2SerializeFMUstate`) ends with the [digest](crate::digest) of those bytes, checked when it
+//! comes back, so a damaged or edited one is refused. postcard writes an f64 as its 8
+//! little-endian bytes, so a rollback reproduces every number bit for bit; it refuses truncated
+//! input, invalid tags, booleans and UTF-8, and we refuse trailing bytes, so random or foreign
+//! bytes are rejected with a message. A model keeps the files it read as their names and digests
+//! ([`crate::resources::SavedFile`]): restored only with the same contents.
 //! Long vectors of numbers go as one block of bytes ([`Reals`]).
 
 use std::fmt;
@@ -16,8 +20,40 @@ use super::Model;
 use super::instance::{Instance, Msg, Phase};
 use crate::ffi::fmi2FMUstate;
 
-/// First bytes of every saved state of this layer (format 2: postcard).
-const STATE_MAGIC: &[u8; 8] = b"FMI2RSv2";
+/// First bytes of every saved state of this layer (format 3: postcard, a digest when serialized).
+const STATE_MAGIC: &[u8; 8] = b"FMI2RSv3";
+/// What every format of this layer starts with; the last byte is the version.
+const FORMAT_PREFIX: &[u8; 7] = b"FMI2RSv";
+/// Bytes of the digest that ends a serialized state.
+const DIGEST_BYTES: usize = 8;
+
+/// A state as written out of the process: its bytes and their digest.
+pub(crate) fn serialized(bytes: &[u8], out: &mut [u8]) {
+    let (body, digest) = out.split_at_mut(bytes.len());
+    body.copy_from_slice(bytes);
+    digest[..DIGEST_BYTES].copy_from_slice(&crate::digest::digest(bytes).to_le_bytes());
+}
+
+/// The size of [`serialized`]'s output.
+pub(crate) fn serialized_len(bytes: &[u8]) -> usize {
+    bytes.len() + DIGEST_BYTES
+}
+
+/// The state in serialized bytes, if their digest matches.
+pub(crate) fn from_serialized(data: &[u8]) -> Result<&[u8], String> {
+    let Some(split) = data.len().checked_sub(DIGEST_BYTES).filter(|&n| n >= STATE_MAGIC.len()) else {
+        return Err(format!("not a state of this FMU: {} bytes are too few", data.len()));
+    };
+    let (body, digest) = data.split_at(split);
+    if !body.starts_with(STATE_MAGIC) && body.starts_with(FORMAT_PREFIX) {
+        let version = String::from_utf8_lossy(&body[..STATE_MAGIC.len()]).into_owned();
+        return Err(format!("a state of another format (`{version}`); this FMU reads `FMI2RSv3`"));
+    }
+    if digest != crate::digest::digest(body).to_le_bytes() {
+        return Err("not a state of this FMU: its digest does not match its bytes (damaged or edited)".into());
+    }
+    Ok(body)
+}
 /// First field of every [`Snapshot`] this layer allocates.
 const SNAPSHOT_TAG: u64 = 0x5253_5441_5445_4d49;
 

@@ -543,7 +543,8 @@ fn fmu_states_roll_back_bit_for_bit_and_round_trip() {
     assert_eq!(other.set_state(copy), fmi2OK);
     assert_eq!(other.phase(), StepMode, "the phase travels with the state");
     assert_eq!(other.get(1).to_bits(), y1.to_bits());
-    // Damaged, foreign, truncated, padded or random bytes are rejected with a reason.
+    // Damaged, foreign, truncated, padded or random bytes are rejected with a reason: by the
+    // digest, and where the digest is made to fit (as a forger would), by what it protects.
     let mut junk = NO_STATE;
     let mut refused = |bad: &[u8], why: &str| {
         other.reset();
@@ -552,19 +553,32 @@ fn fmu_states_roll_back_bit_for_bit_and_round_trip() {
         assert!(e.contains(why), "`{e}` does not say `{why}`");
         assert!(junk.is_null());
     };
-    let mut bad = bytes.clone();
+    let body = &bytes[..bytes.len() - 8];
+    let sealed = |body: &[u8]| [body, &crate::digest::digest(body).to_le_bytes()].concat();
+    assert_eq!(sealed(body), bytes, "a serialized state ends with the digest of the rest");
+    for at in [0, 9, bytes.len() / 2, bytes.len() - 9, bytes.len() - 1] {
+        let mut flipped = bytes.clone();
+        flipped[at] ^= 0x01;
+        refused(&flipped, "its digest does not match its bytes (damaged or edited)");
+    }
+    refused(&bytes[..bytes.len() - 1], "digest does not match");
+    refused(&bytes[..7], "7 bytes are too few");
+    let mut bad = body.to_vec();
     bad[0] = b'X';
-    refused(&bad, "wrong header");
-    let mut foreign = bytes.clone();
+    refused(&sealed(&bad), "wrong header");
+    let mut older = body.to_vec();
+    older[7] = b'2';
+    refused(&sealed(&older), "a state of another format (`FMI2RSv2`); this FMU reads `FMI2RSv3`");
+    let mut foreign = body.to_vec();
     let at = foreign.windows(GUID.len()).position(|w| w == GUID.as_bytes()).unwrap();
     foreign[at..at + GUID.len()].copy_from_slice(b"{yot}");
-    refused(&foreign, "GUID `{yot}`");
-    refused(&bytes[..bytes.len() - 1], "not a state of this FMU");
-    refused(&[&bytes[..], &[0]].concat(), "1 unexpected trailing bytes");
-    let mut error_phase = bytes.clone();
+    refused(&sealed(&foreign), "GUID `{yot}`");
+    refused(&sealed(&body[..body.len() - 1]), "not a state of this FMU");
+    refused(&sealed(&[body, &[0]].concat()), "1 unexpected trailing bytes");
+    let mut error_phase = body.to_vec();
     let at = 8 + 1 + GUID.len(); // magic, the GUID's length and text, then the phase
     error_phase[at] = 4; // Phase::Error
-    refused(&error_phase, "phase `error` is never saved");
+    refused(&sealed(&error_phase), "phase `error` is never saved");
     let mut random = 0x2545_f491_4f6c_dd1du64;
     for _ in 0..200 {
         let bytes: Vec<u8> = (0..64)
@@ -576,7 +590,7 @@ fn fmu_states_roll_back_bit_for_bit_and_round_trip() {
             })
             .collect();
         refused(&bytes, "not a state of this FMU");
-        refused(&[&b"FMI2RSv2"[..], &bytes].concat(), "not a state of this FMU");
+        refused(&sealed(&[&b"FMI2RSv3"[..], &bytes].concat()), "not a state of this FMU");
     }
     assert_eq!(h.free_state(&mut state), fmi2OK);
     assert!(state.is_null());

@@ -13,7 +13,7 @@
 use std::path::Path;
 
 use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
-use fmi2::resources::{FileKind, FileParameter};
+use fmi2::resources::{FileKind, FileParameter, SavedFile};
 use fmi2::{
     Causality, CoSimulationFlags, DefaultExperiment, ModelDescription, Resource, VarType, Variability, Variable,
 };
@@ -83,7 +83,8 @@ pub struct Oscillator {
 /// A saved state: the configuration file's name and the rest.
 #[derive(Serialize, Deserialize)]
 pub struct SavedOscillator<'a> {
-    config: &'a str,
+    #[serde(borrow)]
+    config: SavedFile<'a>,
     data: Data,
 }
 
@@ -347,11 +348,11 @@ impl Model for Oscillator {
     }
 
     fn save(&mut self) -> Result<SavedOscillator<'_>, ModelError> {
-        Ok(SavedOscillator { config: self.config.name(), data: self.data })
+        Ok(SavedOscillator { config: self.config.saved(), data: self.data })
     }
 
     fn restore(&mut self, saved: SavedOscillator<'_>) -> Result<(), ModelError> {
-        self.config.set(saved.config)?;
+        self.config.restore(saved.config)?;
         self.data = saved.data;
         Ok(())
     }

@@ -9,7 +9,7 @@
 use std::path::Path;
 
 use fmi2::export::{Model, ModelError, Resource, StepOutcome};
-use fmi2::resources::{FileKind, FileParameter};
+use fmi2::resources::{FileKind, FileParameter, SavedFile};
 use fmi2::{Causality, ModelDescription, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 use zoo_models::{Table, TableError};
@@ -44,7 +44,8 @@ pub struct ResourceFmu {
 /// A saved state: the file's name and the time.
 #[derive(Serialize, Deserialize)]
 pub struct SavedResource<'a> {
-    file: &'a str,
+    #[serde(borrow)]
+    file: SavedFile<'a>,
     time: f64,
 }
 
@@ -117,11 +118,11 @@ impl Model for ResourceFmu {
     }
 
     fn save(&mut self) -> Result<SavedResource<'_>, ModelError> {
-        Ok(SavedResource { file: self.table.name(), time: self.time })
+        Ok(SavedResource { file: self.table.saved(), time: self.time })
     }
 
     fn restore(&mut self, saved: SavedResource<'_>) -> Result<(), ModelError> {
-        self.table.set(saved.file)?;
+        self.table.restore(saved.file)?;
         self.time = saved.time;
         Ok(())
     }
