@@ -363,7 +363,9 @@ fn variables(w0: &Vector6<f64>) -> Vec<Variable> {
         .map(|(k, name)| {
             let unit = if k < 3 { "N" } else { "N.m" };
             let what = if k < 3 { "force" } else { "moment about the cabin centre point" };
-            Variable::real_input(name.clone(), vr::WRENCH + k as u32, w0[k], unit).describe(format!(
+            // 1e7 N (N·m): thirty times the weight of FAST's 30 t cabin; only a mistaken or
+            // hostile value lies beyond
+            Variable::real_input(name.clone(), vr::WRENCH + k as u32, w0[k], unit).range(-1e7, 1e7).describe(format!(
                 "{what} the Stewart platform exerts on the cabin, world frame (start: scene C's static value)"
             ))
         })

@@ -465,10 +465,23 @@ impl Model for StewartFmu {
             13..16 => "acceleration of the cabin centre point, world frame",
             _ => "angular acceleration of the cabin, world frame",
         };
+        // Far beyond any cabin on cables (FAST's reflector is 500 m across), so that only a
+        // mistaken or hostile value is refused: positions within 10 km, speeds 1 km/s, 1e5 in
+        // the accelerations' units; quaternion components within ±1.5 (normalized here).
+        let bound = |i: usize| match i {
+            0..3 => 1e4,
+            3..7 => 1.5,
+            7..13 => 1e3,
+            _ => 1e5,
+        };
         let mut variables: Vec<Variable> = inputs
             .iter()
             .enumerate()
-            .map(|(i, n)| Variable::real_input(n.clone(), i as u32, rest[i], units(i)).describe(what(i)))
+            .map(|(i, n)| {
+                Variable::real_input(n.clone(), i as u32, rest[i], units(i))
+                    .range(-bound(i), bound(i))
+                    .describe(what(i))
+            })
             .collect();
         // Direct feedthrough, exactly (see the module documentation); in initialization mode
         // the parameters that shape the platform's motion at the start count as well.
@@ -533,16 +546,19 @@ impl Model for StewartFmu {
         variables.push(
             Variable::parameter("radius", vr::RADIUS, -1.0, false)
                 .unit("m")
+                .range(-1.0, 10.0)
                 .describe("radius of the platform's circle; negative: the scene's value"),
         );
         variables.push(
             Variable::parameter("speed", vr::SPEED, -1.0, false)
                 .unit("m/s")
+                .range(-1.0, 10.0)
                 .describe("speed of the platform on the circle (0: held still); negative: the scene's value"),
         );
         variables.push(
             Variable::parameter("ramp_time", vr::RAMP_TIME, -1.0, false)
                 .unit("s")
+                .range(-1.0, 1e4)
                 .describe("duration of the smooth start (with start = 2); non-positive: the scene's value"),
         );
         variables.push(

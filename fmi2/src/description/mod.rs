@@ -154,6 +154,10 @@ pub struct Variable {
     pub start: Option<Value>,
     /// A unit of [`ModelDescription::units`]; Real variables only.
     pub unit: Option<String>,
+    /// The declared range `[min, max]` (Real only; either end may be absent): the exporter
+    /// refuses a value set outside it.
+    pub min: Option<f64>,
+    pub max: Option<f64>,
     pub description: String,
     /// Outputs: the inputs this output depends on at a communication point in step mode (direct
     /// feedthrough), by name, in `ModelVariables` order (`<ModelStructure><Outputs>`; `None`: on
@@ -198,6 +202,8 @@ impl Variable {
             initial: None,
             start: None,
             unit: None,
+            min: None,
+            max: None,
             description: String::new(),
             depends_on: None,
             initial_depends_on: None,
@@ -212,6 +218,26 @@ impl Variable {
     pub fn unit(mut self, unit: &str) -> Variable {
         self.unit = if unit.is_empty() { None } else { Some(unit.to_owned()) };
         self
+    }
+
+    /// The physical range of a Real variable: values set outside it are refused.
+    pub fn range(mut self, min: f64, max: f64) -> Variable {
+        (self.min, self.max) = (Some(min), Some(max));
+        self
+    }
+
+    /// `None` if `x` lies in the declared range, else why not.
+    pub fn outside_range(&self, x: f64) -> Option<String> {
+        let below = self.min.filter(|&m| x < m);
+        let above = self.max.filter(|&m| x > m);
+        (below.is_some() || above.is_some()).then(|| {
+            let end = |e: Option<f64>| e.map_or_else(String::new, |e| format!("{e:e}"));
+            format!(
+                "{x:e}: outside the declared range [{}, {}] (min/max in modelDescription.xml)",
+                end(self.min),
+                end(self.max)
+            )
+        })
     }
 
     pub fn initial(mut self, initial: Initial) -> Variable {

@@ -261,6 +261,19 @@ fn check_variable(v: &Variable) -> Result<Option<Initial>, String> {
     if c == C::Independent && v.var_type != VarType::Real {
         return Err("the independent variable must be Real".into());
     }
+    if (v.min.is_some() || v.max.is_some()) && v.var_type != VarType::Real {
+        return Err("min and max are declared for Real variables only".into());
+    }
+    if let (Some(lo), Some(hi)) = (v.min, v.max)
+        && !(lo <= hi)
+    {
+        return Err(format!("min {lo} is above max {hi}"));
+    }
+    if let Some(crate::Value::Real(s)) = v.start
+        && let Some(why) = v.outside_range(s)
+    {
+        return Err(format!("start {why}"));
+    }
     // Allowed `initial` values and the default (FMI 2.0, table in section 2.2.7).
     let (allowed, default): (&[I], Option<I>) = match (c, var) {
         (C::Input | C::Independent, _) => (&[], None),

@@ -392,7 +392,7 @@ unsafe fn set<M: Model, T: Copy>(
     vr: *const fmi2ValueReference,
     n: usize,
     value: *const T,
-    invalid: impl Fn(T) -> Option<String>,
+    invalid: impl Fn(&crate::Variable, T) -> Option<String>,
     write: impl Fn(&mut M, u32, T) -> Result<(), ModelError>,
 ) -> fmi2Status {
     // SAFETY: `c` and the two arrays as the contract says.
@@ -405,7 +405,7 @@ unsafe fn set<M: Model, T: Copy>(
                 if !v.settable_in(phase) {
                     return Err(format!("{} cannot be set in state `{}`", describe(v), inst.phase.name()));
                 }
-                if let Some(why) = invalid(x) {
+                if let Some(why) = invalid(&v.var, x) {
                     return Err(format!("{} = {why}", describe(v)));
                 }
             }
@@ -465,29 +465,30 @@ pub unsafe fn get_string<M: Model>(c: fmi2Component, vr: *const u32, n: usize, v
 /// # Safety
 /// As the module's contract; `vr` and `value` hold `n` elements.
 pub unsafe fn set_real<M: Model>(c: fmi2Component, vr: *const u32, n: usize, value: *const f64) -> fmi2Status {
+    let invalid = |v: &crate::Variable, x| finite(x).or_else(|| v.outside_range(x));
     // SAFETY: the contract is set's.
-    unsafe { set::<M, f64>(c, "fmi2SetReal", VarType::Real, vr, n, value, finite, |m, r, x| m.set_real(r, x)) }
+    unsafe { set::<M, f64>(c, "fmi2SetReal", VarType::Real, vr, n, value, invalid, |m, r, x| m.set_real(r, x)) }
 }
 /// # Safety
 /// As [`set_real`].
 pub unsafe fn set_integer<M: Model>(c: fmi2Component, vr: *const u32, n: usize, value: *const i32) -> fmi2Status {
     let write = |m: &mut M, r, x| m.set_integer(r, x);
     // SAFETY: the contract is set's.
-    unsafe { set::<M, i32>(c, "fmi2SetInteger", VarType::Integer, vr, n, value, |_| None, write) }
+    unsafe { set::<M, i32>(c, "fmi2SetInteger", VarType::Integer, vr, n, value, |_, _| None, write) }
 }
 /// # Safety
 /// As [`set_real`].
 pub unsafe fn set_boolean<M: Model>(c: fmi2Component, vr: *const u32, n: usize, value: *const i32) -> fmi2Status {
     let write = |m: &mut M, r, x| m.set_boolean(r, x != fmi2False);
     // SAFETY: the contract is set's.
-    unsafe { set::<M, i32>(c, "fmi2SetBoolean", VarType::Boolean, vr, n, value, |_| None, write) }
+    unsafe { set::<M, i32>(c, "fmi2SetBoolean", VarType::Boolean, vr, n, value, |_, _| None, write) }
 }
 /// # Safety
 /// As [`set_real`]; each string is null or NUL-terminated (copied, the caller keeps ownership).
 pub unsafe fn set_string<M: Model>(c: fmi2Component, vr: *const u32, n: usize, value: *const fmi2String) -> fmi2Status {
     // SAFETY: a non-null string is NUL-terminated and unchanged during the call (the contract).
     let text = |p: fmi2String| (!p.is_null()).then(|| unsafe { CStr::from_ptr(p) }.to_str());
-    let invalid = |p: fmi2String| match text(p) {
+    let invalid = |_: &crate::Variable, p: fmi2String| match text(p) {
         None => Some("a null pointer".to_owned()),
         Some(Err(_)) => Some("a string that is not UTF-8".to_owned()),
         Some(Ok(_)) => None,

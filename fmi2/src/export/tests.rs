@@ -45,7 +45,7 @@ impl Model for Toy {
             "1",
             flags,
             vec![
-                Variable::real_input("u", 0, 0.0, ""),
+                Variable::real_input("u", 0, 0.0, "").range(-1e3, 1e3),
                 Variable::real_output("y", 1, "").depends_on(&["u"]),
                 Variable::parameter("p", 2, 1.0, false),
                 Variable::parameter("q", 3, 1.0, true),
@@ -364,6 +364,15 @@ fn variable_checks_name_the_variable() {
     assert!(h.error().contains("= inf: not a finite number"));
     h.reset();
     h.init();
+    assert_eq!(h.set(0, 1001.0), fmi2Error);
+    assert_eq!(
+        h.error(),
+        "fmi2SetReal: `u` (input, continuous) = 1.001e3: outside the declared range [-1e3, 1e3] (min/max in modelDescription.xml)"
+    );
+    assert_eq!(h.get(0), 0.0, "refused: unchanged");
+    h.reset();
+    h.init();
+    assert_eq!(h.set(0, 1000.0), fmi2OK, "the range includes its ends");
     assert_eq!(h.set(2, 1.0), fmi2Error);
     assert_eq!(h.error(), "fmi2SetReal: `p` (parameter, fixed) cannot be set in state `step mode`");
     h.reset();

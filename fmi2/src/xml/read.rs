@@ -212,6 +212,14 @@ fn parse_variable(sv: Node) -> Result<Variable, ReadError> {
             ))
         })?),
     };
+    let bound = |name: &str| -> Result<Option<f64>, _> {
+        match ty.attribute(name).filter(|_| var_type == VarType::Real) {
+            None => Ok(None),
+            Some(text) => {
+                text.trim().parse().map(Some).map_err(|_| ctx(format!("{name} `{text}` is not a Real value")))
+            }
+        }
+    };
     Ok(Variable {
         name: name.to_owned(),
         value_reference,
@@ -221,6 +229,8 @@ fn parse_variable(sv: Node) -> Result<Variable, ReadError> {
         initial,
         start,
         unit: ty.attribute("unit").map(str::to_owned),
+        min: bound("min")?,
+        max: bound("max")?,
         description: sv.attribute("description").unwrap_or("").to_owned(),
         depends_on: None,
         initial_depends_on: None,
@@ -285,6 +295,12 @@ mod tests {
             r#"<VendorAnnotations><Tool name="x"><StepMapDerivative/></Tool></VendorAnnotations><ModelVariables>"#,
         );
         assert!(!parse_model_description(&other_tool).unwrap().flags.provides_step_map_derivative);
+        let ranged = MINIMAL.replace(r#"<Real start="1"/>"#, r#"<Real min="-2.5" max="1e3" start="1"/>"#);
+        let u = &parse_model_description(&ranged).unwrap().variables[0];
+        assert_eq!((u.min, u.max), (Some(-2.5), Some(1e3)));
+        assert!(u.outside_range(1e3).is_none() && u.outside_range(1001.0).is_some());
+        let bad = MINIMAL.replace(r#"<Real start="1"/>"#, r#"<Real min="low" start="1"/>"#);
+        assert!(parse_model_description(&bad).unwrap_err().to_string().contains("min `low` is not a Real value"));
     }
 
     #[test]

@@ -132,6 +132,11 @@ pub(crate) fn write(d: &ModelDescription) -> String {
         if let Some(u) = &var.unit {
             let _ = write!(x, r#" unit="{}""#, escape(u));
         }
+        for (name, bound) in [("min", var.min), ("max", var.max)] {
+            if let Some(b) = bound {
+                let _ = write!(x, r#" {name}="{}""#, crate::Value::Real(b));
+            }
+        }
         if let Some(s) = &var.start {
             let _ = write!(x, r#" start="{}""#, escape(&s.to_string()));
         }
