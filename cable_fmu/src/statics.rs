@@ -42,6 +42,13 @@ pub struct CableReport {
     pub shape: ChainStatics,
 }
 
+impl CableReport {
+    /// The larger of the two end tensions: what the rope must hold.
+    pub fn largest_tension(&self) -> f64 {
+        self.tension_anchor.max(self.tension_cabin)
+    }
+}
+
 /// A static equilibrium of the net at a prescribed cabin pose.
 #[derive(Clone, Debug)]
 pub struct Equilibrium {

@@ -84,9 +84,18 @@ pub struct Cables {
     pub youngs_modulus_pa: f64,
     /// Two-node bar elements per cable (the paper's k − 1).
     pub elements: usize,
+    /// The rope's minimum breaking load, N (optional): statics, run and sweep report each
+    /// cable's utilisation (tension over it) and flag overload.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub breaking_load_n: Option<f64>,
 }
 
 impl Cables {
+    /// A tension over the breaking load (1: at it), if the scene gives one.
+    pub fn utilisation(&self, tension_n: f64) -> Option<f64> {
+        self.breaking_load_n.map(|b| tension_n / b)
+    }
+
     pub fn mass_per_length(&self) -> f64 {
         self.area_m2 * self.density_kg_m3
     }
@@ -265,6 +274,20 @@ pub enum Quantity {
     PlatformPose,
 }
 
+impl Quantity {
+    /// The name a scene gives it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Quantity::CabinDisplacement => "cabin_displacement",
+            Quantity::CabinRotation => "cabin_rotation",
+            Quantity::CableTensions => "cable_tensions",
+            Quantity::Wrench => "wrench",
+            Quantity::ActuatorForces => "actuator_forces",
+            Quantity::PlatformPose => "platform_pose",
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Outputs {
@@ -363,6 +386,13 @@ pub enum SensorKind {
 /// How far from the platform's centre a feed point may lie, m.
 const FEED_POINT_REACH_M: f64 = 100.0;
 
+/// Positions a scene may hold, m: a radio telescope spans kilometres, so a farther one is a
+/// mistyped number.
+const FAR_M: f64 = 1e6;
+
+/// Sample rates a sensor may have, Hz.
+const SENSOR_RATES_HZ: (f64, f64) = (1e-6, 1e6);
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Control {
@@ -398,8 +428,8 @@ pub struct Control {
     pub noise_m: f64,
     #[serde(default)]
     pub noise_rad: f64,
-    #[serde(default)]
-    pub seed: u64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
     /// Bandwidth of the command filter (two first-order stages, critically damped), Hz; absent:
     /// each new command is reached along a smooth step in half a sample period.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -509,12 +539,19 @@ impl Control {
         unused("delay_s", !sampled && self.delay_s != 0.0, what)?;
         unused("noise_m", !sampled && self.noise_m != 0.0, what)?;
         unused("noise_rad", !sampled && self.noise_rad != 0.0, what)?;
+        unused("seed", !sampled && self.seed.is_some(), what)?;
         unused("bandwidth_hz", !sampled && self.bandwidth_hz.is_some(), what)?;
         if sampled {
             let rate = self
                 .sample_rate_hz
                 .ok_or_else(|| c.err("control.sample_rate_hz", "", "sensor = \"sampled\" needs a sample rate"))?;
             c.positive("control.sample_rate_hz", rate)?;
+            c.within(
+                "control.sample_rate_hz",
+                rate,
+                SENSOR_RATES_HZ,
+                "a sensor's rate: one sample in 11.6 days to 1 MHz",
+            )?;
             c.finite_nonneg("control.delay_s", self.delay_s)?;
             c.finite_nonneg("control.noise_m", self.noise_m)?;
             c.finite_nonneg("control.noise_rad", self.noise_rad)?;
@@ -717,6 +754,9 @@ impl Scene {
         c.positive("cables.area_m2", self.cables.area_m2)?;
         c.positive("cables.density_kg_m3", self.cables.density_kg_m3)?;
         c.positive("cables.youngs_modulus_pa", self.cables.youngs_modulus_pa)?;
+        if let Some(b) = self.cables.breaking_load_n {
+            c.positive("cables.breaking_load_n", b)?;
+        }
         if self.cables.elements < 1 {
             return Err(c.err(
                 "cables.elements",
@@ -726,11 +766,11 @@ impl Scene {
         }
 
         c.positive("cabin.mass_kg", self.cabin.mass_kg)?;
-        c.vector("cabin.center_of_mass_m", &self.cabin.center_of_mass_m)?;
+        c.position("cabin.center_of_mass_m", &self.cabin.center_of_mass_m)?;
         c.inertia("cabin.inertia_kg_m2", &self.cabin.inertia_kg_m2)?;
         c.ring("cabin.attachments", &self.cabin.attachments, Some(n))?;
 
-        c.vector("pose.position_m", &self.pose.position_m)?;
+        c.position("pose.position_m", &self.pose.position_m)?;
         self.pose_orientation_checked(&c)?;
         let (p, r) = (self.target_position(), self.target_orientation());
         for (i, (a, b)) in self.anchors().iter().zip(self.attachments_body()).enumerate() {
@@ -753,7 +793,7 @@ impl Scene {
         c.ring("stewart.platform_joints", &s.platform_joints, Some(LEGS))?;
         c.positive("stewart.platform.mass_kg", s.platform.mass_kg)?;
         c.inertia("stewart.platform.inertia_kg_m2", &s.platform.inertia_kg_m2)?;
-        c.vector("stewart.platform.nominal_center_m", &s.platform.nominal_center_m)?;
+        c.position("stewart.platform.nominal_center_m", &s.platform.nominal_center_m)?;
         for (name, part) in [("stewart.upper_leg", &s.upper_leg), ("stewart.lower_leg", &s.lower_leg)] {
             c.positive(&format!("{name}.mass_kg"), part.mass_kg)?;
             c.positive(&format!("{name}.length_m"), part.length_m)?;
@@ -833,6 +873,25 @@ impl Scene {
             ));
         }
         c.positive("outputs.sample_interval_s", self.outputs.sample_interval_s)?;
+        for q in &self.outputs.quantities {
+            let unwritten = match q {
+                Quantity::CableTensions | Quantity::PlatformPose => Some("no command writes its time history"),
+                Quantity::ActuatorForces if self.control.is_none() => {
+                    Some("written with the feed's columns, in scenes with [control] only")
+                }
+                _ => None,
+            };
+            if let Some(why) = unwritten {
+                return Err(c.err(
+                    "outputs.quantities",
+                    &format!("\"{}\"", q.name()),
+                    &format!(
+                        "{why}; written: cabin_displacement, cabin_rotation, wrench (and with [control] actuator_forces); \
+                         remove it"
+                    ),
+                ));
+            }
+        }
         if let Some(d) = &self.disturbance {
             c.vector("disturbance.force_amplitude_n", &d.force_amplitude_n)?;
             c.vector("disturbance.moment_amplitude_nm", &d.moment_amplitude_nm)?;
@@ -1021,10 +1080,31 @@ impl Check<'_> {
         Ok(())
     }
 
+    /// `x` within `range`, else an error saying what the range is (`what`).
+    fn within(&self, key: &str, x: f64, range: (f64, f64), what: &str) -> Result<(), SceneError> {
+        self.finite(key, x)?;
+        if (range.0..=range.1).contains(&x) {
+            Ok(())
+        } else {
+            Err(self.err(key, &show(x), &format!("must lie in [{:e}, {:e}] ({what})", range.0, range.1)))
+        }
+    }
+
+    /// A position, m: finite and within [`FAR_M`] of the origin.
+    fn position(&self, key: &str, v: &[f64]) -> Result<(), SceneError> {
+        for (i, x) in v.iter().enumerate() {
+            self.within(&format!("{key}[{i}]"), *x, (-FAR_M, FAR_M), "positions within 1000 km")?;
+        }
+        Ok(())
+    }
+
     fn ring(&self, key: &str, ring: &Ring, count: Option<usize>) -> Result<(), SceneError> {
         self.positive(&format!("{key}.radius_m"), ring.radius_m)?;
-        self.finite(&format!("{key}.z_m"), ring.z_m)?;
-        self.vector(&format!("{key}.angle_deg"), &ring.angle_deg)?;
+        self.within(&format!("{key}.radius_m"), ring.radius_m, (0.0, FAR_M), "positions within 1000 km")?;
+        self.within(&format!("{key}.z_m"), ring.z_m, (-FAR_M, FAR_M), "positions within 1000 km")?;
+        for (i, a) in ring.angle_deg.iter().enumerate() {
+            self.within(&format!("{key}.angle_deg[{i}]"), *a, (-360.0, 360.0), "an angle within one turn")?;
+        }
         if let Some(n) = count
             && ring.angle_deg.len() != n
         {

@@ -273,3 +273,54 @@ fn only_regular_files_of_bounded_size_are_read() {
     Scene::load_limited(&big, 1 << 20).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Where the physics gives a bound, a number beyond it is a mistake: angles beyond a turn,
+/// positions beyond 1000 km, a sensor faster than 1 MHz or slower than one sample in 11.6 days,
+/// a breaking load that is not positive; output quantities no command writes; a sensor key
+/// given to a sensor that does not use it.
+#[test]
+fn values_beyond_engineering_bounds_are_refused_by_key() {
+    let cases = [
+        (
+            "angle_deg = [20.0, 80.0, 140.0, 200.0, 260.0, 320.0]",
+            "angle_deg = [1e300, 80.0, 140.0, 200.0, 260.0, 320.0]",
+            "anchors.angle_deg[0]",
+            "one turn",
+        ),
+        ("position_m = [0.0, 0.0, 9.8]", "position_m = [0.0, 0.0, 2e6]", "pose.position_m[2]", "1000 km"),
+        ("elements = 20", "elements = 20\nbreaking_load_n = -5.0", "cables.breaking_load_n", "must be positive"),
+        (
+            r#"quantities = ["cabin_displacement", "cabin_rotation", "wrench"]"#,
+            r#"quantities = ["cabin_displacement", "cable_tensions"]"#,
+            "outputs.quantities",
+            "no command writes its time history",
+        ),
+        (
+            r#"quantities = ["cabin_displacement", "cabin_rotation", "wrench"]"#,
+            r#"quantities = ["actuator_forces"]"#,
+            "outputs.quantities",
+            "with [control] only",
+        ),
+    ];
+    for (from, to, key, why) in cases {
+        let e = rejected(from, to);
+        assert_eq!(e.key, key, "{e}");
+        assert!(e.to_string().contains(why), "{e}");
+    }
+    let compensated = text("lt50m_C_compensated.toml");
+    let edited = |from: &str, to: &str| {
+        assert_eq!(compensated.matches(from).count(), 1, "{from}");
+        Scene::from_toml(&compensated.replace(from, to), "edited.toml").unwrap_err()
+    };
+    for rate in ["5e-324", "5e10"] {
+        let e = edited("sample_rate_hz = 50.0", &format!("sample_rate_hz = {rate}"));
+        assert_eq!(e.key, "control.sample_rate_hz", "{e}");
+        assert!(e.to_string().contains("1 MHz"), "{e}");
+    }
+    let ideal = "sensor = \"ideal\"\nseed = 1\n";
+    let sampled = "sensor = \"sampled\"\nsample_rate_hz = 50.0\ndelay_s = 0.02\nnoise_m = 1e-4\nnoise_rad = 2e-5\nseed = 1\nbandwidth_hz = 0.5\n";
+    let e = edited(sampled, ideal);
+    assert_eq!(e.key, "control.seed", "{e}");
+    assert!(e.to_string().contains("only used with sensor = \"sampled\""), "{e}");
+    assert!(Scene::from_toml(&compensated.replace(sampled, "sensor = \"ideal\"\n"), "ok.toml").is_ok());
+}

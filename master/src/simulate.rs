@@ -905,6 +905,16 @@ fn vec6(v: &nalgebra::Vector6<f64>) -> [f64; 6] {
     [v[0], v[1], v[2], v[3], v[4], v[5]]
 }
 
+/// Where this process writes its scene variants.
+fn variants_dir() -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("master-variants-{}", std::process::id()))
+}
+
+/// Removes the scene variants this process wrote (when its command ends, however it ends).
+pub fn remove_variants() {
+    let _ = std::fs::remove_dir_all(variants_dir());
+}
+
 /// Writes `scene` (a variant of the one read from `scene_file`) to a private file, with the FMU
 /// paths of its `[system]` made absolute, so that the FMUs read this variant; returns the variant
 /// and its file.
@@ -919,7 +929,7 @@ pub fn write_variant(scene: &Scene, scene_file: &Path, tag: &str) -> std::io::Re
             }
         }
     }
-    let dir = std::env::temp_dir().join(format!("master-variants-{}", std::process::id()));
+    let dir = variants_dir();
     std::fs::create_dir_all(&dir)?;
     let file = dir.join(format!("{tag}.toml"));
     std::fs::write(&file, s.to_toml())?;

@@ -17,6 +17,7 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use feedcore::Vec3;
 use feedcore::scene::{Scene, SensorKind};
+use master::limits::{Footprint, PlanError, check_memory};
 use master::monolithic::Monolithic;
 use master::plot::{Line, PALETTE, Panel, stacked};
 use master::table::Table;
@@ -25,7 +26,7 @@ use stewart_fmu::{Compensation, Stewart};
 
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::positive;
-use super::{CmdResult, load_scene};
+use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
@@ -71,6 +72,24 @@ fn step_for(period: f64) -> f64 {
     period / (period / 0.0025 - 1e-9).ceil().max(8.0)
 }
 
+/// The steps of a run over `t_end` at `h`, refused before anything runs when `h` is not a
+/// positive finite number or the steps exceed --max-steps, or the model would not fit in memory.
+fn checked_steps(scene: &Scene, h: f64, t_end: f64, what: &str) -> anyhow::Result<usize> {
+    let limits = caps().run;
+    if !(h > 0.0 && h.is_finite()) {
+        bail!("{what}: the step h = {h} s the sensor's rate gives is not a positive finite number");
+    }
+    if !(t_end > 0.0 && t_end.is_finite()) {
+        return Err(PlanError::BadEnd(t_end)).context(what.to_owned());
+    }
+    let steps = (t_end / h).round();
+    if !(steps <= limits.max_steps as f64) {
+        return Err(PlanError::TooManySteps { steps, dt: h, t_end, cap: limits.max_steps }).context(what.to_owned());
+    }
+    check_memory(scene, Footprint::Coupled, 0, &limits).context(what.to_owned())?;
+    Ok(steps as usize)
+}
+
 /// One run of the monolithic model, step by step: time, |cabin displacement| and |feed error|
 /// (mm), and with `replay` the feed error a decoupled model predicts on these cabin poses.
 #[derive(Default)]
@@ -93,10 +112,9 @@ fn history(
     scene: &Scene,
     comp: &Compensation,
     h: f64,
-    t_end: f64,
+    steps: usize,
     replay: Option<&Compensation>,
 ) -> anyhow::Result<History> {
-    let steps = (t_end / h).round() as usize;
     let mut m = Monolithic::new(scene)?;
     let mut replayed = replay.map(|c| (c, c.start_state()));
     let mut out = History::default();
@@ -130,7 +148,7 @@ fn uncompensated(scene: &Scene) -> Scene {
     let mut s = scene.clone();
     let c = s.control.as_mut().expect("checked");
     c.sensor = SensorKind::Off;
-    (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz) = (None, 0.0, 0.0, 0.0, None);
+    (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz, c.seed) = (None, 0.0, 0.0, 0.0, None, None);
     s
 }
 
@@ -159,6 +177,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     };
     let comp = Stewart::from_scene(&scene)?.compensation().cloned().expect("a scene with [control] has one");
     let h = step_for(period);
+    let steps = checked_steps(&scene, h, args.t_end, &format!("{shown}: the runs over {} s", args.t_end))?;
     let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
     let mut declare = |f: &str| outputs.declare("--out", &args.out.join(f), f.rsplit('.').next());
     let (csv_id, svg_id) = (declare("compensation.csv")?, declare("compensation.svg")?);
@@ -170,11 +189,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let off = uncompensated(&scene);
     eprintln!("{shown}: uncompensated, compensated and decoupled runs over {} s at h = {h} s …", args.t_end);
     let mains = master::parallel::map_in_order(&[true, false], jobs, |_, &is_off| {
-        if is_off {
-            history(&off, &comp, h, args.t_end, Some(&comp))
-        } else {
-            history(&scene, &comp, h, args.t_end, None)
-        }
+        if is_off { history(&off, &comp, h, steps, Some(&comp)) } else { history(&scene, &comp, h, steps, None) }
     })?;
     let mut mains = mains.into_iter();
     let off_run = mains.next().expect("two runs").context("the uncompensated run")?;
@@ -195,19 +210,21 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             let mut s = scene.clone();
             let c = s.control.as_mut().expect("checked");
             (c.sample_rate_hz, c.delay_s) = (Some(rate), delay);
-            s.validate(&shown.to_string()).with_context(|| format!("sweep case {rate} Hz, delay {delay} s"))?;
-            cases.push((rate, delay, s));
+            let case = format!("sweep case {rate} Hz, delay {delay} s");
+            s.validate(&shown.to_string()).with_context(|| case.clone())?;
+            let steps = checked_steps(&s, step_for(1.0 / rate), args.sweep_t_end, &case)?;
+            cases.push((rate, delay, s, steps));
         }
     }
     eprintln!("sweep: {} runs over {} s …", cases.len(), args.sweep_t_end);
     let quiet = !std::io::stderr().is_terminal();
-    let results = master::parallel::map_in_order(&cases, jobs, |_, (rate, delay, s)| {
+    let results = master::parallel::map_in_order(&cases, jobs, |_, (rate, delay, s, steps)| {
         let c = Stewart::from_scene(s).map(|st| st.compensation().cloned().expect("has [control]"));
         let c = match c {
             Ok(c) => c,
             Err(e) => return Verdict { stable: false, rms: f64::NAN, peak: f64::NAN, note: e.to_string() },
         };
-        match history(s, &c, step_for(1.0 / rate), args.sweep_t_end, None) {
+        match history(s, &c, step_for(1.0 / rate), *steps, None) {
             Ok(r) => {
                 let n = r.feed_mm.len();
                 let (rms, peak) = rms_peak(&r.feed_mm);
@@ -277,7 +294,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     // sweep.csv and its figure
     outputs.write(sweep_csv_id, |w| {
         writeln!(w, "sample_rate_hz,delay_s,verdict,feed_err_rms_mm,feed_err_peak_mm,note")?;
-        for ((rate, delay, _), v) in cases.iter().zip(&results) {
+        for ((rate, delay, _, _), v) in cases.iter().zip(&results) {
             let verdict = if v.stable { "stable" } else { "unstable" };
             writeln!(w, "{rate},{delay},{verdict},{:e},{:e},\"{}\"", v.rms, v.peak, v.note.replace('"', "'"))?;
         }
@@ -329,7 +346,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
 fn sweep_figure(
     name: &str,
     args: &Args,
-    cases: &[(f64, f64, Scene)],
+    cases: &[(f64, f64, Scene, usize)],
     results: &[Verdict],
 ) -> Result<String, Box<dyn std::error::Error + Send + Sync>> {
     let stable_max = results.iter().filter(|v| v.stable).map(|v| v.rms).fold(0.0, f64::max);

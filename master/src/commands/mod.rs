@@ -57,6 +57,18 @@ pub(crate) fn caps() -> Caps {
     *CAPS.get_or_init(|| Caps { run: Limits::default(), scene_bytes: feedcore::scene::MAX_SCENE_BYTES })
 }
 
+/// One run of a scene within the caps of the command line (what `master run` checks).
+pub(crate) fn simulate(
+    scene: &Scene,
+    scene_file: &Path,
+    method: master::simulate::Method,
+    dt: f64,
+    t_end: f64,
+    quiet: bool,
+) -> Result<master::simulate::Trace, master::simulate::RunError> {
+    master::simulate::Run::prepare(scene, scene_file, method, dt, t_end, &caps().run)?.execute(quiet)
+}
+
 /// Reads a scene within the size cap; a file over it names the flag that raises it.
 pub(crate) fn load_scene(path: &Path) -> anyhow::Result<Scene> {
     match Scene::load_limited(path, caps().scene_bytes) {

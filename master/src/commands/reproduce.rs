@@ -19,14 +19,14 @@ use cable_fmu::modes::tangent;
 use feedcore::Vec3;
 use feedcore::rigid::RigidMotion;
 use feedcore::scene::{Scene, Start, WrenchModel};
-use master::simulate::{Method, Trace, simulate};
+use master::simulate::{Method, Trace};
 use nalgebra::{DMatrix, Matrix6, Vector6};
 use plotters::prelude::*;
 use stewart_fmu::Stewart;
 
 use super::modes::{Hypothesis, Platform, case_frequencies};
 use super::output::Outputs;
-use super::{CmdResult, load_scene};
+use super::{CmdResult, load_scene, simulate};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {

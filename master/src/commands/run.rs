@@ -93,6 +93,17 @@ pub(crate) fn plot_traces(outputs: &Outputs, id: OutputId, traces: &[&Trace], ti
     outputs.write(id, |w| w.write_all(svg.as_bytes()))
 }
 
+/// Each cable's larger end tension over its breaking load at the static equilibrium of the
+/// target pose, if the scene gives a breaking load.
+fn static_utilisation(scene: &Scene) -> anyhow::Result<Option<Vec<f64>>> {
+    if scene.cables.breaking_load_n.is_none() {
+        return Ok(None);
+    }
+    let net = cable_fmu::net::CableNet::from_scene(scene);
+    let eq = cable_fmu::statics::form_find(&net, scene.target_position(), scene.target_orientation())?;
+    Ok(Some(eq.cables.iter().filter_map(|c| scene.cables.utilisation(c.largest_tension())).collect()))
+}
+
 pub(crate) fn run(args: &Args) -> CmdResult {
     let scene_file = match (&args.scene, &args.system) {
         (Some(f), _) => f,
@@ -130,6 +141,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     outputs.open()?;
 
     let trace = run.execute(quiet)?;
+    let utilisation = static_utilisation(&scene)?;
     if let Some(id) = csv {
         outputs.write(id, |w| trace.write_csv(w, &scene.outputs.quantities))?;
     }
@@ -155,9 +167,23 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             feed.summary.events[0].time_s
         );
     }
+    if let Some(u) = utilisation.as_ref().filter(|u| u.iter().any(|&x| x > 1.0)) {
+        eprintln!(
+            "warning: at the static equilibrium cables {:?} carry more than their breaking load (cables.breaking_load_n)",
+            (0..u.len()).filter(|&i| u[i] > 1.0).collect::<Vec<_>>()
+        );
+    }
     if args.json {
-        writeln!(out, "{}", serde_json::to_string_pretty(&summary(&scene, &trace))?)?;
+        let mut s = summary(&scene, &trace);
+        if let Some(u) = &utilisation {
+            s["cable_utilisation_static"] = json!(u);
+        }
+        writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?;
         return Ok(());
+    }
+    if let Some(u) = &utilisation {
+        let list: Vec<String> = u.iter().map(|x| format!("{x:.3}")).collect();
+        writeln!(out, "cable utilisation at the static equilibrium (tension / breaking load): {}", list.join(", "))?;
     }
     let m = trace.max_abs_disp_mm();
     writeln!(

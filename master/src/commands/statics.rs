@@ -19,7 +19,9 @@ pub(crate) struct Args {
     pub(crate) scene: PathBuf,
     /// Print JSON instead of a table: cabin_position [x, y, z] (m), cabin_orientation
     /// [w, x, y, z] (unit quaternion, body to world), and per cable unstretched_length_m,
-    /// tension_anchor_n, tension_cabin_n, slack, nearly_slack, state, lowest_point_z_m.
+    /// tension_anchor_n, tension_cabin_n, slack, nearly_slack, state, lowest_point_z_m, and
+    /// utilisation (the larger end tension over cables.breaking_load_n; null without it) and
+    /// overloaded.
     #[arg(long)]
     pub(crate) json: bool,
 }
@@ -32,6 +34,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let net = CableNet::from_scene(&scene);
     let eq = form_find(&net, scene.target_position(), scene.target_orientation())?;
     let q = eq.orientation;
+    let utilisation = |c: &cable_fmu::statics::CableReport| scene.cables.utilisation(c.largest_tension());
+    let overloaded: Vec<usize> =
+        (0..eq.cables.len()).filter(|&i| utilisation(&eq.cables[i]).is_some_and(|u| u > 1.0)).collect();
     if args.json {
         let cables: Vec<_> = eq
             .cables
@@ -48,6 +53,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
                     "nearly_slack": c.state == CableState::NearlySlack,
                     "state": c.state,
                     "lowest_point_z_m": c.lowest_point_z,
+                    "utilisation": utilisation(c),
+                    "overloaded": overloaded.contains(&i),
                 })
             })
             .collect();
@@ -77,14 +84,18 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         net.spec.elements
     )?;
     writeln!(out)?;
-    let mut t = Table::new(["cable", "azimuth °", "unstretched m", "T anchor N", "T cabin N", "lowest z m", "state"]);
+    let mut header = vec!["cable", "azimuth °", "unstretched m", "T anchor N", "T cabin N", "lowest z m", "state"];
+    if scene.cables.breaking_load_n.is_some() {
+        header.push("utilisation");
+    }
+    let mut t = Table::new(header);
     for (i, c) in eq.cables.iter().enumerate() {
         let state = match c.state {
             CableState::Taut => "taut",
             CableState::NearlySlack => "nearly slack (sags below its cabin end)",
             CableState::Slack => "SLACK",
         };
-        t.row([
+        let mut row = vec![
             i.to_string(),
             format!("{:.0}", scene.anchors.angle_deg[i]),
             format!("{:.6}", c.unstretched_length),
@@ -92,7 +103,11 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             format!("{:.1}", c.tension_cabin),
             format!("{:.3}", c.lowest_point_z),
             state.to_string(),
-        ]);
+        ];
+        if let Some(u) = utilisation(c) {
+            row.push(format!("{u:.3}{}", if u > 1.0 { " OVERLOAD" } else { "" }));
+        }
+        t.row(row);
     }
     write!(out, "{}", t.render())?;
     writeln!(out)?;
@@ -101,5 +116,11 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         "Tensions are the axial forces of the end elements; residual of the cabin equations {:.1e} N.",
         eq.residual
     )?;
+    if let (false, Some(b)) = (overloaded.is_empty(), scene.cables.breaking_load_n) {
+        writeln!(
+            out,
+            "warning: cables {overloaded:?} carry more than their breaking load {b} N (cables.breaking_load_n)"
+        )?;
+    }
     Ok(())
 }

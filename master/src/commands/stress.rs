@@ -9,10 +9,10 @@ use std::path::PathBuf;
 
 use feedcore::scene::{Scene, Start};
 use master::cosim::{Options, Scheme};
-use master::simulate::{Method, Trace, simulate, write_variant};
+use master::simulate::{Method, Trace, write_variant};
 use master::table::Table;
 
-use super::{CmdResult, load_scene};
+use super::{CmdResult, load_scene, simulate};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
@@ -70,6 +70,9 @@ fn fast_part(t: &Trace) -> f64 {
 pub(crate) fn run(args: &Args) -> CmdResult {
     let quiet = !std::io::stderr().is_terminal();
     let scale = if args.quick { 1.0 / 50.0 } else { 1.0 };
+    // the durations run, as the labels say them (shortened with --quick)
+    let long = |t: f64| master::limits::num(t * scale);
+    let short = |t: f64| master::limits::num(t * scale.max(0.1));
     let c = load_scene(&args.scene_c)?;
     let b = load_scene(&args.scene_b)?;
     let mut table = Table::new(["case", "result", "figures"]);
@@ -91,7 +94,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     };
 
     report(
-        "1000 s, ijcsa, C",
+        &format!("{} s, ijcsa, C", long(1000.0)),
         (|| {
             let t = simulate(&c, &args.scene_c, ijcsa(), 0.01, 1000.0 * scale, quiet)?;
             let (early, late) = thirds(&t);
@@ -103,7 +106,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         })(),
     );
     report(
-        "1000 s, monolithic, C",
+        &format!("{} s, monolithic, C", long(1000.0)),
         (|| {
             let t = simulate(&c, &args.scene_c, Method::Monolithic, 0.01, 1000.0 * scale, quiet)?;
             let (early, late) = thirds(&t);
@@ -119,7 +122,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         ("50 elements per cable, C", &|s: &mut Scene| s.cables.elements = 50),
     ] {
         report(
-            case,
+            &format!("{case}, {} s", short(20.0)),
             (|| {
                 let (v, f) = variant(&c, &args.scene_c, &format!("stress-{}", case.len()), edit)?;
                 let m = simulate(&v, &f, Method::Monolithic, 0.01, 20.0 * scale.max(0.1), quiet)?;
@@ -135,7 +138,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         );
     }
     report(
-        "B: cable 4 nearly slack, ijcsa 100 s",
+        &format!("B: cable 4 nearly slack, ijcsa {} s", long(100.0)),
         (|| {
             let t = simulate(&b, &args.scene_b, ijcsa(), 0.01, 100.0 * scale, quiet)?;
             let (early, late) = thirds(&t);
@@ -146,7 +149,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         })(),
     );
     report(
-        "abrupt against ramp start (5 s), monolithic, C, 60 s",
+        &format!("abrupt against ramp start (5 s), monolithic, C, {} s", short(60.0)),
         (|| {
             let a = simulate(&c, &args.scene_c, Method::Monolithic, 0.01, 60.0 * scale.max(0.1), quiet)?;
             let (v, f) = variant(&c, &args.scene_c, "stress-ramp", &|s: &mut Scene| s.motion.start = Start::Ramp)?;
@@ -161,7 +164,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         })(),
     );
     report(
-        "platform held still, ijcsa and monolithic, B, 100 s",
+        &format!("platform held still, ijcsa and monolithic, B, {} s", long(100.0)),
         (|| {
             let (v, f) = variant(&b, &args.scene_b, "stress-still", &|s: &mut Scene| s.motion.speed_m_s = 0.0)?;
             let j = simulate(&v, &f, ijcsa(), 0.01, 100.0 * scale, quiet)?;

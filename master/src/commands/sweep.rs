@@ -99,7 +99,12 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let placement = Placement { surface, tilt_share: args.tilt_share };
     let method = args.run.map(|s| args.options.method(s)).transpose()?;
     let limits = caps().run;
-    let request = Request { modes: args.modes as usize, run: method.clone().map(|m| (m, args.t_end)), limits };
+    let request = Request {
+        modes: args.modes as usize,
+        run: method.clone().map(|m| (m, args.t_end)),
+        limits,
+        utilisation: scene.cables.breaking_load_n.is_some(),
+    };
     let jobs = args.jobs.map(usize::from);
     let points: Vec<usize> = (0..grid.len()).filter(|i| shard.contains(*i)).collect();
     // every run's steps and what its method needs, at every step swept (the points differ

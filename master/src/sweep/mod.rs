@@ -313,6 +313,8 @@ pub struct Request {
     pub run: Option<(Method, f64)>,
     /// Caps of every run (steps, memory).
     pub limits: Limits,
+    /// Report `max_utilisation` (the scene gives `cables.breaking_load_n`).
+    pub utilisation: bool,
 }
 
 /// A short coupled run at a point.
@@ -330,6 +332,9 @@ pub struct Outcome {
     pub feasible: bool,
     pub min_tension_n: f64,
     pub max_tension_n: f64,
+    /// The largest tension over the breaking load (NaN without one); above 1 the point is not
+    /// feasible.
+    pub max_utilisation: f64,
     pub slack_cables: usize,
     pub nearly_slack_cables: usize,
     /// Largest ratio of a cable's unstretched length to its chord.
@@ -355,6 +360,7 @@ pub fn evaluate(
         feasible: false,
         min_tension_n: f64::NAN,
         max_tension_n: f64::NAN,
+        max_utilisation: f64::NAN,
         slack_cables: 0,
         nearly_slack_cables: 0,
         length_over_chord: f64::NAN,
@@ -392,6 +398,14 @@ pub fn evaluate(
                 })
                 .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
             out.length_over_chord = ratio;
+            out.max_utilisation = scene.cables.utilisation(out.max_tension_n).unwrap_or(f64::NAN);
+            if out.max_utilisation > 1.0 {
+                let note = format!(
+                    "overloaded: the largest tension {:.0} N is {:.2} times the breaking load (cables.breaking_load_n)",
+                    out.max_tension_n, out.max_utilisation
+                );
+                return finish(out, note);
+            }
             if ratio > DEEP_SAG {
                 return finish(
                     out,
@@ -458,6 +472,9 @@ pub fn columns(grid: &Grid, request: &Request) -> Vec<String> {
         ["feasible", "min_tension_n", "max_tension_n", "slack_cables", "nearly_slack_cables", "length_over_chord"]
             .map(String::from),
     );
+    if request.utilisation {
+        c.push("max_utilisation".into());
+    }
     c.extend((1..=request.modes).map(|k| format!("f{k}_hz")));
     if request.run.is_some() {
         c.extend(["run_peak_mm", "run_iterations", "run_wall_s"].map(String::from));
@@ -479,6 +496,9 @@ pub fn cells(index: usize, values: &[(Axis, f64)], request: &Request, o: &Outcom
         c.extend([String::new(), String::new()]);
     }
     c.push(num(o.length_over_chord));
+    if request.utilisation {
+        c.push(num(o.max_utilisation));
+    }
     c.extend((0..request.modes).map(|k| o.frequencies_hz.get(k).map_or(String::new(), |f| num(*f))));
     if request.run.is_some() {
         match &o.run {

@@ -62,3 +62,75 @@ fn a_bad_scene_fails_with_the_key_and_value() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("bad.toml") && err.contains("cabin.mass_kg") && err.contains("-720"), "{err}");
 }
+
+/// With a breaking load, statics, run and sweep report each cable's utilisation — its larger end
+/// tension over the breaking load, from the tensions statics prints — and flag overload: the
+/// statics text and run warn, the sweep marks the point infeasible.
+#[test]
+fn a_breaking_load_gives_the_utilisation_and_flags_overload() {
+    // at B the end tensions run from 0.2 to 6.1 kN: 5 kN overloads two cables
+    let (_, file) = crate::common::scene("lt50m_B.toml", "breaking", |s| s.cables.breaking_load_n = Some(5000.0));
+    let path = file.to_str().unwrap();
+    let v = run_json(&["statics", "--scene", path, "--json"]);
+    let mut overloaded = Vec::new();
+    let mut utilisation = Vec::new();
+    for (i, c) in v["cables"].as_array().unwrap().iter().enumerate() {
+        let largest = c["tension_anchor_n"].as_f64().unwrap().max(c["tension_cabin_n"].as_f64().unwrap());
+        let u = c["utilisation"].as_f64().unwrap();
+        assert_eq!(u, largest / 5000.0);
+        assert_eq!(c["overloaded"].as_bool().unwrap(), u > 1.0);
+        if u > 1.0 {
+            overloaded.push(i);
+        }
+        utilisation.push(u);
+    }
+    assert_eq!(overloaded, [0, 3]);
+    let text = Command::new(crate::MASTER).args(["statics", "--scene", path]).output().unwrap();
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.contains("OVERLOAD") && text.contains("warning: cables [0, 3] carry more than their breaking load"),
+        "{text}"
+    );
+
+    let run = Command::new(crate::MASTER)
+        .args(["run", "--scene", path, "--scheme", "monolithic", "--t-end", "0.05", "--json"])
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    assert!(String::from_utf8_lossy(&run.stderr).contains("cables [0, 3] carry more than their breaking load"));
+    let j: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let from_run: Vec<f64> = serde_json::from_value(j["cable_utilisation_static"].clone()).unwrap();
+    assert_eq!(from_run, utilisation);
+    // without a breaking load, nothing is added
+    let plain = run_json(&[
+        "run",
+        "--scene",
+        &scene_path("lt50m_B.toml"),
+        "--scheme",
+        "monolithic",
+        "--t-end",
+        "0.05",
+        "--json",
+    ]);
+    assert!(plain.get("cable_utilisation_static").is_none());
+
+    let out = std::env::temp_dir().join(format!("master-breaking-sweep-{}", std::process::id()));
+    let sweep = Command::new(crate::MASTER)
+        .args(["sweep", "--scene", path, "--grid", "mass=1:2:2", "--modes", "0", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(sweep.status.success(), "{}", String::from_utf8_lossy(&sweep.stderr));
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    let mut lines = csv.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        let u: f64 = cells[col("max_utilisation")].parse().unwrap();
+        let max_t: f64 = cells[col("max_tension_n")].parse().unwrap();
+        assert_eq!(u, max_t / 5000.0);
+        assert_eq!(cells[col("feasible")], "false", "{line}");
+        assert!(line.contains("overloaded"), "{line}");
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+}

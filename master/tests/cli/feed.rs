@@ -49,7 +49,8 @@ fn an_ideal_sensor_puts_the_feed_on_its_target_and_the_json_is_the_csv() {
     for (scheme, tag) in [("ijcsa", "ideal-ijcsa"), ("iqn-ils", "ideal-iqn")] {
         let (_, file) = controlled(tag, |c| {
             c.sensor = SensorKind::Ideal;
-            (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz) = (None, 0.0, 0.0, 0.0, None);
+            (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz, c.seed) =
+                (None, 0.0, 0.0, 0.0, None, None);
             c.target = TargetKind::Circle;
             c.circle_center_offset_m = Some([-0.05, 0.0, 0.0]);
             c.circle_speed_m_s = Some(0.02);
@@ -89,7 +90,8 @@ fn a_cabin_held_still_with_an_ideal_sensor_gives_zero_feed_error() {
         s.wind = None;
         let c = s.control.as_mut().unwrap();
         c.sensor = SensorKind::Ideal;
-        (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz) = (None, 0.0, 0.0, 0.0, None);
+        (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz, c.seed) =
+            (None, 0.0, 0.0, 0.0, None, None);
     });
     let (v, _, _) = run(&file, "ijcsa", "1", "0.01");
     assert!(v["feed_err_peak_mm"].as_f64().unwrap() < 1e-7, "{v}");
@@ -142,7 +144,8 @@ fn models_refuse_what_they_cannot_compensate() {
     assert!(e.contains("--h-max 0.01 s") && e.contains("at most 0.005 s"), "{e}");
     let (_, file) = controlled("refuse-ideal", |c| {
         c.sensor = SensorKind::Ideal;
-        (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz) = (None, 0.0, 0.0, 0.0, None);
+        (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz, c.seed) =
+            (None, 0.0, 0.0, 0.0, None, None);
     });
     let out = master(&["run", "--scene", file.to_str().unwrap(), "--scheme", "monolithic", "--t-end", "0.1"]);
     assert!(!out.status.success());

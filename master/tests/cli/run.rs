@@ -158,6 +158,49 @@ fn every_stress_case_runs() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}\n{}", String::from_utf8_lossy(&out.stderr));
     assert_eq!(text.lines().filter(|l| l.contains("  ok  ")).count(), 7, "{text}");
+    // the labels give the durations run: 50 times shorter, at least a tenth for the short cases
+    for label in [
+        "20 s, ijcsa, C",
+        "20 s, monolithic, C",
+        "E × 10, C, 2 s",
+        "50 elements per cable, C, 2 s",
+        "B: cable 4 nearly slack, ijcsa 2 s",
+        "abrupt against ramp start (5 s), monolithic, C, 6 s",
+        "platform held still, ijcsa and monolithic, B, 2 s",
+    ] {
+        assert!(text.contains(label), "{label} not in {text}");
+    }
+    assert!(!text.contains("1000 s") && !text.contains("100 s"), "{text}");
+}
+
+/// `master compensation` checks its runs as `master run` does, before any runs: a sample rate
+/// whose step is not a number is refused by the scene, and --max-steps holds.
+#[test]
+fn compensation_honours_the_caps() {
+    let (_, file) = common::scene("lt50m_C_compensated.toml", "comp-caps", |_| {});
+    let out_dir = std::env::temp_dir().join(format!("master-comp-caps-{}", std::process::id()));
+    let out = master(&[
+        "compensation",
+        "--scene",
+        file.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--max-steps",
+        "1000",
+    ]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(e.contains("exceed the cap of 1000 steps") && e.contains("--max-steps"), "{e}");
+    assert!(!out_dir.join("compensation.csv").exists(), "nothing written");
+    for (k, rate) in [5e-324, 5e10].into_iter().enumerate() {
+        let (_, bad) = common::scene("lt50m_C_compensated.toml", &format!("comp-rate-{k}"), |s| {
+            s.control.as_mut().unwrap().sample_rate_hz = Some(rate)
+        });
+        let out = master(&["compensation", "--scene", bad.to_str().unwrap(), "--out", out_dir.to_str().unwrap()]);
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && e.contains("`control.sample_rate_hz`") && e.contains("1 MHz"), "{e}");
+        assert!(!out_dir.join("compensation.csv").exists(), "nothing written");
+    }
 }
 
 /// The peak and every summary figure come from every step, not from the samples: sampled every

@@ -202,3 +202,25 @@ fn scaling_measures_every_method_and_size() {
     let table = String::from_utf8_lossy(&result.stdout);
     assert!(table.contains("| monolithic | 8 |"), "{table}");
 }
+
+/// The scene variants a command writes for its runs are gone when it ends (a private temporary
+/// directory per run of the tool).
+#[test]
+fn scene_variants_are_removed_when_the_command_ends() {
+    let tmp = std::env::temp_dir().join(format!("master-variants-test-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    let (_, scene) = crate::common::scene("lt50m_C.toml", "variants", |_| {});
+    let out = tmp.join("out");
+    for t_end in ["0.02"] {
+        let status = std::process::Command::new(crate::MASTER)
+            .env("TMPDIR", &tmp)
+            .args(["sweep", "--scene", scene.to_str().unwrap(), "--grid", "x=0,1", "--modes", "0", "--quiet"])
+            .args(["--run", "monolithic", "--t-end", t_end, "--out", out.to_str().unwrap()])
+            .status()
+            .unwrap();
+        assert_eq!(status.success(), t_end == "0.02");
+        let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert!(left.iter().all(|n| !n.to_string_lossy().starts_with("master-variants")), "{left:?}");
+    }
+    std::fs::remove_dir_all(&tmp).unwrap();
+}
