@@ -12,11 +12,15 @@
 //! * [`progress`]: a progress bar for long runs on a terminal;
 //! * [`table`]: plain-text tables;
 //! * [`parallel`]: independent cases on every core, results in order;
-//! * [`sweep`]: grids over the workspace and the parameters, their tables and maps.
+//! * [`sweep`]: grids over the workspace and the parameters, their tables and maps;
+//! * [`interrupt`]: Ctrl-C between steps and points; [`journal`]: the points a long command
+//!   finished, kept through an interrupt or a kill for `--resume`.
 
 pub use cosim;
 pub use monolithic;
 pub mod feed;
+pub mod interrupt;
+pub mod journal;
 pub mod limits;
 pub mod parallel;
 pub mod plot;

@@ -80,6 +80,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    master::interrupt::install();
     commands::set_caps(commands::Caps {
         run: Limits {
             max_steps: cli.caps.max_steps,
@@ -114,7 +115,11 @@ fn main() -> ExitCode {
             for cause in e.chain().skip(1) {
                 eprintln!("  caused by: {cause}");
             }
-            ExitCode::FAILURE
+            if master::interrupt::interrupted() {
+                ExitCode::from(master::interrupt::EXIT_CODE)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

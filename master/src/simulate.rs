@@ -72,6 +72,9 @@ pub enum RunError {
     /// A step failed or gave a non-finite value.
     #[error("the {method} run stopped at t = {time:.6} s: {reason}")]
     Stopped { method: &'static str, time: f64, reason: String },
+    /// Ctrl-C: the run stopped after the step in hand.
+    #[error("the {method} run was interrupted at t = {time:.6} s (Ctrl-C)")]
+    Interrupted { method: &'static str, time: f64 },
     /// The results could not be written.
     #[error("writing the results of the {method} run")]
     Output {
@@ -296,6 +299,9 @@ impl Recorder {
 
     /// The state after step `k` (0: the start) at time `t`.
     fn observe(&mut self, k: u64, t: f64, p: &Probe) -> Result<(), RunError> {
+        if crate::interrupt::interrupted() {
+            return Err(RunError::Interrupted { method: self.method, time: t });
+        }
         let names = ["x", "y", "z"];
         for i in 0..3 {
             if !p.position[i].is_finite() {

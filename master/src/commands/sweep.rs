@@ -13,12 +13,13 @@ use std::time::Instant;
 use anyhow::Context;
 use cable_fmu::model::CableCabin;
 use feedcore::scene::Scene;
+use master::journal::{self, Journal, JournalError};
 use master::limits::{Footprint, check_memory_of};
-use master::parallel;
 use master::simulate::Run;
 use master::sweep::table::{self, Table};
 use master::sweep::{self, Axis, Grid, Placement, Request, Shard, Surface, map};
 use master::table::Table as TextTable;
+use master::{interrupt, parallel};
 
 use super::output::{OutputId, Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions, positive};
@@ -68,6 +69,11 @@ pub(crate) struct Args {
     /// No progress lines.
     #[arg(long)]
     pub(crate) quiet: bool,
+    /// Continue a sweep that was interrupted or killed: the points its journal in --out
+    /// (`sweep.csv.partial`, written as each point finishes) holds are not computed again, and
+    /// the table is the uninterrupted one (but for wall times).
+    #[arg(long, conflicts_with = "merge")]
+    pub(crate) resume: bool,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
 }
@@ -131,20 +137,6 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         .transpose()?;
     outputs.open()?;
 
-    let quiet = args.quiet || !std::io::stderr().is_terminal();
-    eprintln!("{}: {} of {} points (shard {shard}) on {workers} threads", scene.name, points.len(), grid.len());
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let start = Instant::now();
-    let rows = parallel::map_in_order(&points, jobs, |_, &index| {
-        let values = grid.point(index);
-        let outcome = sweep::evaluate(&scene, scene_file, &placement, &request, index, &values);
-        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-        if !quiet {
-            eprintln!("[{k}/{}] point {index}: {}", points.len(), brief(&outcome));
-        }
-        (index, sweep::cells(index, &values, &request, &outcome))
-    })?;
-    let wall = start.elapsed().as_secs_f64();
     let run_text = match (args.run, &request.run) {
         (Some(name), Some((_, t))) => format!("{} for {t} s", name.as_str()),
         _ => "none".into(),
@@ -162,10 +154,61 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         ("points".into(), grid.len().to_string()),
         ("shard".into(), shard.to_string()),
     ];
-    let t = Table { header, columns: sweep::columns(&grid, &request), rows: rows.into_iter().collect() };
+    let columns = sweep::columns(&grid, &request);
+    // every input that decides the rows: a journal of other work is refused
+    let identity = format!("{header:?} {columns:?} {:?}", args.options);
+    let csv_path = outputs.path(csv_id).to_owned();
+    let csv_name = csv_path.file_name().map_or("sweep.csv".into(), |n| n.to_string_lossy().into_owned());
+    let journal = Journal::open(&journal::path(&args.out, &csv_name), &identity, args.resume)?;
+
+    let quiet = args.quiet || !std::io::stderr().is_terminal();
+    eprintln!(
+        "{}: {} of {} points (shard {shard}) on {workers} threads{}",
+        scene.name,
+        points.len(),
+        grid.len(),
+        if journal.resumed() > 0 { format!(", {} done before", journal.resumed()) } else { String::new() }
+    );
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let start = Instant::now();
+    let rows =
+        parallel::map_in_order(&points, jobs, |_, &index| -> Result<Option<(usize, Vec<String>)>, JournalError> {
+            if let Some(cells) = journal.done(index) {
+                return Ok(Some((index, cells.to_vec())));
+            }
+            if interrupt::interrupted() {
+                return Ok(None);
+            }
+            let values = grid.point(index);
+            let outcome = sweep::evaluate(&scene, scene_file, &placement, &request, index, &values);
+            if interrupt::interrupted() {
+                return Ok(None); // perhaps cut short: done again on --resume
+            }
+            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            if !quiet {
+                eprintln!("[{k}/{}] point {index}: {}", points.len(), brief(&outcome));
+            }
+            let cells = sweep::cells(index, &values, &request, &outcome);
+            journal.record(index, &cells)?;
+            Ok(Some((index, cells)))
+        })?;
+    let rows: Vec<(usize, Vec<String>)> = match rows.into_iter().collect::<Result<Option<Vec<_>>, _>>()? {
+        Some(rows) => rows,
+        None => {
+            return Err(interrupt::Interrupted).with_context(|| {
+                format!(
+                    "the finished points are kept in {}; continue with the same command and --resume",
+                    journal::path(&args.out, &csv_name).display()
+                )
+            });
+        }
+    };
+    let wall = start.elapsed().as_secs_f64();
+    let t = Table { header, columns, rows: rows.into_iter().collect() };
     let summary = finish(&t, &outputs, csv_id, svg_id)?;
-    let csv = outputs.path(csv_id).to_owned();
+    let csv = csv_path;
     outputs.commit()?;
+    journal.finish()?;
     let mut out = std::io::stdout().lock();
     writeln!(
         out,

@@ -86,7 +86,7 @@ impl Table {
 }
 
 /// The CSV form of a cell: quoted when it holds a comma or a quote.
-fn quoted(cell: &str) -> String {
+pub fn quoted(cell: &str) -> String {
     if cell.contains([',', '"', '\n']) {
         format!("\"{}\"", cell.replace('"', "\"\"").replace('\n', " "))
     } else {
@@ -95,7 +95,7 @@ fn quoted(cell: &str) -> String {
 }
 
 /// Splits a CSV line (quoted cells may hold commas; `""` is a quote).
-fn split(line: &str) -> Result<Vec<String>, String> {
+pub fn split(line: &str) -> Result<Vec<String>, String> {
     let mut cells = vec![String::new()];
     let mut chars = line.chars().peekable();
     let mut in_quotes = false;

@@ -211,16 +211,101 @@ fn scene_variants_are_removed_when_the_command_ends() {
     std::fs::create_dir_all(&tmp).unwrap();
     let (_, scene) = crate::common::scene("lt50m_C.toml", "variants", |_| {});
     let out = tmp.join("out");
-    for t_end in ["0.02"] {
-        let status = std::process::Command::new(crate::MASTER)
-            .env("TMPDIR", &tmp)
-            .args(["sweep", "--scene", scene.to_str().unwrap(), "--grid", "x=0,1", "--modes", "0", "--quiet"])
-            .args(["--run", "monolithic", "--t-end", t_end, "--out", out.to_str().unwrap()])
-            .status()
-            .unwrap();
-        assert_eq!(status.success(), t_end == "0.02");
-        let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().map(|e| e.unwrap().file_name()).collect();
-        assert!(left.iter().all(|n| !n.to_string_lossy().starts_with("master-variants")), "{left:?}");
-    }
+    let status = std::process::Command::new(crate::MASTER)
+        .env("TMPDIR", &tmp)
+        .args(["sweep", "--scene", scene.to_str().unwrap(), "--grid", "x=0,1", "--modes", "0", "--quiet"])
+        .args(["--run", "monolithic", "--t-end", "0.02", "--out", out.to_str().unwrap()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.iter().all(|n| !n.to_string_lossy().starts_with("master-variants")), "{left:?}");
     std::fs::remove_dir_all(&tmp).unwrap();
+}
+
+/// The rows of a sweep's CSV without its wall-time columns.
+fn rows_but_wall(csv: &std::path::Path) -> Vec<Vec<String>> {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let keep: Vec<usize> = (0..header.len()).filter(|&i| !header[i].ends_with("wall_s")).collect();
+    let mut rows = vec![keep.iter().map(|&i| header[i].to_string()).collect::<Vec<_>>()];
+    for line in lines {
+        let cells = master::sweep::table::split(line).unwrap();
+        rows.push(keep.iter().map(|&i| cells[i].clone()).collect());
+    }
+    rows
+}
+
+/// Waits until the journal holds `n` finished points (or the sweep ended).
+fn wait_for_points(journal: &std::path::Path, child: &mut std::process::Child, n: usize) {
+    let start = std::time::Instant::now();
+    while std::fs::read_to_string(journal).map_or(0, |t| t.lines().count().saturating_sub(1)) < n {
+        assert!(child.try_wait().unwrap().is_none(), "the sweep ended before {n} points");
+        assert!(start.elapsed().as_secs() < 120, "no progress");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+/// A sweep killed halfway (SIGKILL: no chance to clean up) or interrupted (Ctrl-C: exit 130, no
+/// table, the finished points kept) and continued with --resume gives the uninterrupted table,
+/// but for its wall times; without --resume the journal is not overwritten.
+#[test]
+fn a_killed_or_interrupted_sweep_resumes_to_the_uninterrupted_table() {
+    let (_, scene) = crate::common::scene("lt50m_C.toml", "resume", |_| {});
+    let base = std::env::temp_dir().join(format!("master-resume-{}", std::process::id()));
+    let args = |out: &std::path::Path| {
+        let mut a: Vec<String> = ["sweep", "--scene", scene.to_str().unwrap(), "--grid", "x=-1:1:24", "--modes", "2"]
+            .map(String::from)
+            .to_vec();
+        a.extend(["--run", "ijcsa", "--t-end", "20", "--jobs", "1", "--quiet", "--out"].map(String::from));
+        a.push(out.display().to_string());
+        a
+    };
+    let whole = base.join("whole");
+    assert!(master(&args(&whole).iter().map(String::as_str).collect::<Vec<_>>()).status.success());
+    let expected = rows_but_wall(&whole.join("sweep.csv"));
+    assert_eq!(expected.len(), 25);
+
+    for how in ["kill", "interrupt"] {
+        let out = base.join(how);
+        let journal = out.join("sweep.csv.partial");
+        let mut child = std::process::Command::new(crate::MASTER)
+            .args(args(&out))
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        wait_for_points(&journal, &mut child, 5);
+        if how == "kill" {
+            child.kill().unwrap();
+            child.wait().unwrap();
+        } else {
+            let sent = std::process::Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+            assert!(sent.success());
+            let done = child.wait_with_output().unwrap();
+            assert_eq!(done.status.code(), Some(130));
+            let err = String::from_utf8_lossy(&done.stderr);
+            assert!(err.contains("interrupted (Ctrl-C)") && err.contains("--resume"), "{err}");
+        }
+        assert!(!out.join("sweep.csv").exists(), "{how}: no table that looks complete");
+        assert!(journal.exists(), "{how}: the finished points are kept");
+        let again = master(&args(&out).iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(!again.status.success() && String::from_utf8_lossy(&again.stderr).contains("--resume"));
+        let mut resumed = args(&out);
+        resumed.push("--resume".into());
+        let done = master(&resumed.iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+        assert!(String::from_utf8_lossy(&done.stderr).contains("done before"));
+        assert_eq!(rows_but_wall(&out.join("sweep.csv")), expected, "{how}");
+        assert!(!journal.exists(), "{how}: the journal goes when the sweep completes");
+    }
+    // a journal of other work is refused
+    let out = base.join("foreign");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("sweep.csv.partial"), "# master journal: something else\n").unwrap();
+    let mut resumed = args(&out);
+    resumed.push("--resume".into());
+    let refused = master(&resumed.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("a journal of other work"));
+    std::fs::remove_dir_all(&base).unwrap();
 }
