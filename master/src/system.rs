@@ -354,7 +354,12 @@ impl<'a> SystemRun<'a> {
                     },
                 }
             },
-            |_, t, s| sample(&mut cell.borrow_mut(), t, s.h, &mut sinks),
+            |_, t, s| {
+                if crate::interrupt::interrupted() {
+                    return Err(RunError::Interrupted { method, time: t });
+                }
+                sample(&mut cell.borrow_mut(), t, s.h, &mut sinks)
+            },
         )?;
         let mut c = cell.into_inner();
         if let Some(f) = sinks.csv.as_mut() {

@@ -10,13 +10,14 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
+use master::journal::{self, Journal};
 use master::plot::{Precision, work_precision};
 use master::simulate::{Run, RunError, Trace, write_variant};
 use master::table::Table;
 
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions, positive, tolerance};
-use super::{CmdResult, caps, load_scene};
+use super::{CmdResult, caps, fingerprint, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
@@ -55,6 +56,11 @@ pub(crate) struct Args {
     /// No progress bars.
     #[arg(long)]
     pub(crate) quiet: bool,
+    /// Continue a bench that was interrupted or killed: the measurements its journal in --out
+    /// (`bench.csv.partial`, written as each finishes) holds are not taken again (the reference
+    /// run is); they keep their wall times.
+    #[arg(long)]
+    pub(crate) resume: bool,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
 }
@@ -82,6 +88,25 @@ struct AdaptiveMeasured {
     rejected: u64,
     h_min: f64,
     h_max: f64,
+}
+
+/// A measurement as a journal keeps it: `ok` and its numbers (exactly), or `failed` and why.
+fn to_cells(result: &Result<Vec<f64>, String>) -> Vec<String> {
+    match result {
+        Ok(numbers) => std::iter::once("ok".to_owned()).chain(numbers.iter().map(|x| format!("{x:?}"))).collect(),
+        Err(why) => vec!["failed".to_owned(), why.clone()],
+    }
+}
+
+fn from_cells(cells: &[String], count: usize) -> anyhow::Result<Result<Vec<f64>, String>> {
+    match cells {
+        [ok, numbers @ ..] if ok == "ok" && numbers.len() == count => Ok(Ok(numbers
+            .iter()
+            .map(|x| x.parse::<f64>().with_context(|| format!("a journal number `{x}`")))
+            .collect::<anyhow::Result<_>>()?)),
+        [failed, why] if failed == "failed" => Ok(Err(why.clone())),
+        _ => anyhow::bail!("a journal measurement of {} fields", cells.len()),
+    }
 }
 
 /// Runs `run` `repeats` times: the median wall time and the last trace; a run that stops (a
@@ -183,38 +208,67 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         .transpose()?;
     outputs.open()?;
 
+    let identity = format!(
+        "bench {} {:?} {:?} {} {:?} {reference_dt:?} {:?} {:?}",
+        fingerprint(&variant),
+        args.schemes.iter().map(|s| s.as_str()).collect::<Vec<_>>(),
+        dts,
+        args.repeats,
+        t_end,
+        args.adaptive_rtols,
+        args.options
+    );
+    let journal = Journal::open(&journal::path(&args.out, "bench.csv"), &identity, args.resume)?;
     let quiet = args.quiet || !std::io::stderr().is_terminal();
     eprintln!("reference: monolithic at h = {reference_dt} s …");
     let reference = reference.execute(quiet)?;
     let peak = reference.peak_mm();
     let percent = |m: f64| if peak > 0.0 { 100.0 * m / peak } else { f64::NAN };
     let mut cells = Vec::new();
-    for (name, dt, run) in &runs {
-        eprintln!("{} at h = {dt} s …", name.as_str());
-        let result = repeated(run, args.repeats, quiet)
-            .with_context(|| format!("{} at h = {dt} s", name.as_str()))?
-            .map(|(wall, t)| {
-                let (max, rms) = t.error_against(&reference);
-                Measured { wall, max, rms, iterations: t.mean_iterations() }
-            });
+    for (i, (name, dt, run)) in runs.iter().enumerate() {
+        let numbers = match journal.done(i) {
+            Some(done) => from_cells(done, 4)?,
+            None => {
+                eprintln!("{} at h = {dt} s …", name.as_str());
+                let numbers = repeated(run, args.repeats, quiet)
+                    .with_context(|| format!("{} at h = {dt} s", name.as_str()))?
+                    .map(|(wall, t)| {
+                        let (max, rms) = t.error_against(&reference);
+                        vec![wall, max, rms, t.mean_iterations()]
+                    });
+                journal.record(i, &to_cells(&numbers))?;
+                numbers
+            }
+        };
+        let result = numbers.map(|m| Measured { wall: m[0], max: m[1], rms: m[2], iterations: m[3] });
         cells.push(Cell { scheme: *name, dt: *dt, result });
     }
     let mut adaptive_cells = Vec::new();
-    for (name, rtol, run) in &adaptive_runs {
-        eprintln!("{} adaptive at rtol = {rtol:e} …", name.as_str());
-        let result = repeated(run, args.repeats, quiet)
-            .with_context(|| format!("{} adaptive at rtol {rtol:e}", name.as_str()))?
-            .map(|(wall, t)| {
-                let s = &t.summary;
-                AdaptiveMeasured {
-                    wall,
-                    max: t.error_against(&reference).0,
-                    steps: s.steps,
-                    rejected: s.rejected_steps,
-                    h_min: s.h_min_used,
-                    h_max: s.h_max_used,
-                }
-            });
+    for (k, (name, rtol, run)) in adaptive_runs.iter().enumerate() {
+        let i = runs.len() + k;
+        let numbers = match journal.done(i) {
+            Some(done) => from_cells(done, 6)?,
+            None => {
+                eprintln!("{} adaptive at rtol = {rtol:e} …", name.as_str());
+                let numbers = repeated(run, args.repeats, quiet)
+                    .with_context(|| format!("{} adaptive at rtol {rtol:e}", name.as_str()))?
+                    .map(|(wall, t)| {
+                        let s = &t.summary;
+                        let max = t.error_against(&reference).0;
+                        vec![wall, max, s.steps as f64, s.rejected_steps as f64, s.h_min_used, s.h_max_used]
+                    });
+                journal.record(i, &to_cells(&numbers))?;
+                numbers
+            }
+        };
+        let result = numbers.map(|m| AdaptiveMeasured {
+            wall: m[0],
+            max: m[1],
+            steps: m[2] as u64,
+            rejected: m[3] as u64,
+            h_min: m[4],
+            h_max: m[5],
+        });
         adaptive_cells.push((*name, *rtol, result));
     }
 
@@ -294,6 +348,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     };
     let (csv_path, svg_path) = (outputs.path(csv_id).to_owned(), outputs.path(svg_id).to_owned());
     outputs.commit()?;
+    journal.finish()?;
 
     let mut out = std::io::stdout().lock();
     writeln!(

@@ -17,6 +17,8 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use feedcore::Vec3;
 use feedcore::scene::{Scene, SensorKind};
+use master::interrupt;
+use master::journal::{self, Journal};
 use master::limits::{Footprint, PlanError, check_memory};
 use master::monolithic::Monolithic;
 use master::plot::{Line, PALETTE, Panel, stacked};
@@ -26,7 +28,7 @@ use stewart_fmu::{Compensation, Stewart};
 
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::positive;
-use super::{CmdResult, caps, load_scene};
+use super::{CmdResult, caps, fingerprint, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
@@ -57,6 +59,11 @@ pub(crate) struct Args {
     /// Worker threads (default: one per core).
     #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
     pub(crate) jobs: Option<u16>,
+    /// Continue a study that was interrupted or killed: the sweep cases its journal in --out
+    /// (`sweep.csv.partial`, written as each case finishes) holds are not run again (the two
+    /// long runs are).
+    #[arg(long)]
+    pub(crate) resume: bool,
 }
 
 fn non_negative(text: &str) -> Result<f64, String> {
@@ -125,6 +132,7 @@ fn history(
         c.feed_error(&(p + r * relative), r, s.time).0.norm() * 1e3
     };
     for _ in 0..steps {
+        interrupt::check()?;
         if let Some((c, state)) = replayed.as_mut() {
             state.sample(c, s.time, &s.cabin.position, &s.cabin.orientation);
         }
@@ -158,6 +166,24 @@ struct Verdict {
     rms: f64,
     peak: f64,
     note: String,
+}
+
+impl Verdict {
+    /// As a journal keeps it (the numbers exactly, NaN included).
+    fn to_cells(&self) -> Vec<String> {
+        vec![self.stable.to_string(), format!("{:?}", self.rms), format!("{:?}", self.peak), self.note.clone()]
+    }
+
+    fn from_cells(cells: &[String]) -> anyhow::Result<Verdict> {
+        let [stable, rms, peak, note] = cells else { bail!("a journal case of {} fields, not 4", cells.len()) };
+        let number = |x: &String| x.parse::<f64>().with_context(|| format!("a journal number `{x}`"));
+        Ok(Verdict {
+            stable: stable.parse().with_context(|| format!("a journal verdict `{stable}`"))?,
+            rms: number(rms)?,
+            peak: number(peak)?,
+            note: note.clone(),
+        })
+    }
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
@@ -216,9 +242,19 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             cases.push((rate, delay, s, steps));
         }
     }
-    eprintln!("sweep: {} runs over {} s …", cases.len(), args.sweep_t_end);
+    let identity = format!(
+        "compensation {} {:?} {:?} {:?} {:?}",
+        fingerprint(&scene),
+        args.rates,
+        args.delays,
+        args.sweep_t_end,
+        args.t_end
+    );
+    let journal_file = journal::path(&args.out, "sweep.csv");
+    let journal = Journal::open(&journal_file, &identity, args.resume)?;
+    eprintln!("sweep: {} runs over {} s ({} done before) …", cases.len(), args.sweep_t_end, journal.resumed());
     let quiet = !std::io::stderr().is_terminal();
-    let results = master::parallel::map_in_order(&cases, jobs, |_, (rate, delay, s, steps)| {
+    let case = |(rate, delay, s, steps): &(f64, f64, Scene, usize)| {
         let c = Stewart::from_scene(s).map(|st| st.compensation().cloned().expect("has [control]"));
         let c = match c {
             Ok(c) => c,
@@ -249,7 +285,32 @@ pub(crate) fn run(args: &Args) -> CmdResult {
                 Verdict { stable: false, rms: f64::NAN, peak: f64::NAN, note }
             }
         }
+    };
+    let results = master::parallel::map_in_order(&cases, jobs, |i, c| -> anyhow::Result<Option<Verdict>> {
+        if let Some(cells) = journal.done(i) {
+            return Verdict::from_cells(cells).map(Some);
+        }
+        if interrupt::interrupted() {
+            return Ok(None);
+        }
+        let verdict = case(c);
+        if interrupt::interrupted() {
+            return Ok(None); // perhaps cut short: run again on --resume
+        }
+        journal.record(i, &verdict.to_cells())?;
+        Ok(Some(verdict))
     })?;
+    let results: Vec<Verdict> = match results.into_iter().collect::<anyhow::Result<Option<Vec<_>>>>()? {
+        Some(r) => r,
+        None => {
+            return Err(interrupt::Interrupted).with_context(|| {
+                format!(
+                    "the finished sweep cases are kept in {}; continue with the same command and --resume",
+                    journal_file.display()
+                )
+            });
+        }
+    };
 
     // compensation.csv (at the scene's sample interval) and its figure
     let every = ((scene.outputs.sample_interval_s / h).round() as usize).max(1);
@@ -306,6 +367,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let paths: Vec<PathBuf> =
         [csv_id, svg_id, sweep_csv_id, sweep_svg_id].iter().map(|&i| outputs.path(i).to_owned()).collect();
     outputs.commit()?;
+    journal.finish()?;
 
     // the text
     let mut out = std::io::stdout().lock();

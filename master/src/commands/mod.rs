@@ -57,6 +57,12 @@ pub(crate) fn caps() -> Caps {
     *CAPS.get_or_init(|| Caps { run: Limits::default(), scene_bytes: feedcore::scene::MAX_SCENE_BYTES })
 }
 
+/// The digest of a scene as parsed: parts of one sweep, and a journal and the work it belongs
+/// to, must share it.
+pub(crate) fn fingerprint(scene: &Scene) -> String {
+    format!("{:016x}", fmi2::digest::digest(scene.to_toml().as_bytes()))
+}
+
 /// One run of a scene within the caps of the command line (what `master run` checks).
 pub(crate) fn simulate(
     scene: &Scene,

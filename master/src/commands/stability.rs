@@ -8,13 +8,15 @@ use std::path::PathBuf;
 use anyhow::Context;
 use cable_fmu::net::CableNet;
 use cable_fmu::statics::{StaticsError, form_find};
+use master::interrupt;
+use master::journal::{self, Journal};
 use master::plot::{CATEGORY_COLORS, Cell, MapPanel, stability_map};
 use master::simulate::{Run, RunError, write_variant};
 use master::table::Table;
 
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions, positive};
-use super::{CmdResult, caps, load_scene};
+use super::{CmdResult, caps, fingerprint, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
@@ -50,6 +52,10 @@ pub(crate) struct Args {
     /// with one).
     #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
     pub(crate) jobs: Option<u16>,
+    /// Continue a map that was interrupted or killed: the cells its journal in --out
+    /// (`stability.csv.partial`, written as each cell finishes) holds are not run again.
+    #[arg(long)]
+    pub(crate) resume: bool,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
 }
@@ -62,6 +68,33 @@ enum Verdict {
     NotConverged,
     /// The scaled platform cannot be held at the pose at all (a cable would have to push).
     Infeasible,
+}
+
+impl Verdict {
+    const ALL: [Verdict; 4] = [Verdict::Stable, Verdict::Unstable, Verdict::NotConverged, Verdict::Infeasible];
+
+    fn label(self) -> &'static str {
+        match self {
+            Verdict::Stable => "stable",
+            Verdict::Unstable => "unstable",
+            Verdict::NotConverged => "not converged",
+            Verdict::Infeasible => "infeasible",
+        }
+    }
+}
+
+/// A cell's outcome as a journal keeps it (the number exactly, NaN included).
+fn to_cells((verdict, iterations, note): &(Verdict, f64, String)) -> Vec<String> {
+    vec![verdict.label().to_owned(), format!("{iterations:?}"), note.clone()]
+}
+
+fn from_cells(cells: &[String]) -> anyhow::Result<(Verdict, f64, String)> {
+    let [verdict, iterations, note] = cells else { anyhow::bail!("a journal cell of {} fields, not 3", cells.len()) };
+    let verdict = Verdict::ALL
+        .into_iter()
+        .find(|v| v.label() == verdict)
+        .with_context(|| format!("a journal verdict `{verdict}`"))?;
+    Ok((verdict, iterations.parse().with_context(|| format!("a journal number `{iterations}`"))?, note.clone()))
 }
 
 /// How a run that stopped failed: an iteration limit reached without a sign of divergence is
@@ -115,7 +148,18 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     // bars only when one runs at a time
     let jobs = args.jobs.map(usize::from);
     let quiet = args.quiet || !std::io::stderr().is_terminal() || master::parallel::threads(jobs) > 1;
-    let results = master::parallel::map_in_order(&cases, jobs, |_, (name, f, dt, feasible, run)| {
+    let identity = format!(
+        "stability {} {:?} {:?} {:?} {:?} {:?}",
+        fingerprint(&scene),
+        args.schemes.iter().map(|s| s.as_str()).collect::<Vec<_>>(),
+        args.ratios,
+        args.dts,
+        args.t_end,
+        args.options
+    );
+    let journal_file = journal::path(&args.out, "stability.csv");
+    let journal = Journal::open(&journal_file, &identity, args.resume)?;
+    let cell = |(name, f, dt, feasible, run): &(SchemeName, f64, f64, bool, Run)| {
         if !feasible {
             return Ok((Verdict::Infeasible, f64::NAN, "a cable would have to push".to_string()));
         }
@@ -139,19 +183,39 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             // a missing FMU or a model that cannot be set up is no verdict on the scheme
             Err(e) => Err(e),
         }
+    };
+    let results = master::parallel::map_in_order(&cases, jobs, |i, case| -> anyhow::Result<Option<_>> {
+        if let Some(cells) = journal.done(i) {
+            return from_cells(cells).map(Some);
+        }
+        if interrupt::interrupted() {
+            return Ok(None);
+        }
+        match cell(case) {
+            Err(RunError::Interrupted { .. }) => Ok(None),
+            Err(e) => Err(e).with_context(|| format!("{}, mass ×{}, h = {} s", case.0.as_str(), case.1, case.2)),
+            Ok(result) => {
+                journal.record(i, &to_cells(&result))?;
+                Ok(Some(result))
+            }
+        }
     })?;
+    let results: Vec<(Verdict, f64, String)> = match results.into_iter().collect::<anyhow::Result<Option<Vec<_>>>>()? {
+        Some(r) => r,
+        None => {
+            return Err(interrupt::Interrupted).with_context(|| {
+                format!(
+                    "the finished cells are kept in {}; continue with the same command and --resume",
+                    journal_file.display()
+                )
+            });
+        }
+    };
     let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
-    for ((name, f, dt, _, _), result) in cases.iter().zip(results) {
-        let (verdict, iterations, note) =
-            result.with_context(|| format!("{}, mass ×{f}, h = {dt} s", name.as_str()))?;
+    for ((name, f, dt, _, _), (verdict, iterations, note)) in cases.iter().zip(results) {
         rows.push((*name, *f, *dt, verdict, iterations, note));
     }
-    let label = |v: Verdict| match v {
-        Verdict::Stable => "stable",
-        Verdict::Unstable => "unstable",
-        Verdict::NotConverged => "not converged",
-        Verdict::Infeasible => "infeasible",
-    };
+    let label = Verdict::label;
     let mut csv = String::from("scheme,mass_factor,dt_s,verdict,mean_iterations,note\n");
     for (s, f, dt, v, it, note) in &rows {
         let it = if it.is_nan() { String::new() } else { format!("{it:.3}") };
@@ -210,6 +274,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     outputs.write(svg_id, |w| w.write_all(svg.as_bytes()))?;
     let (csv_path, svg_path) = (outputs.path(csv_id).to_owned(), outputs.path(svg_id).to_owned());
     outputs.commit()?;
+    journal.finish()?;
     let mut out = std::io::stdout().lock();
     write!(out, "{text}")?;
     writeln!(out)?;

@@ -12,7 +12,6 @@ use std::time::Instant;
 
 use anyhow::Context;
 use cable_fmu::model::CableCabin;
-use feedcore::scene::Scene;
 use master::journal::{self, Journal, JournalError};
 use master::limits::{Footprint, check_memory_of};
 use master::simulate::Run;
@@ -23,7 +22,7 @@ use master::{interrupt, parallel};
 
 use super::output::{OutputId, Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions, positive};
-use super::{CmdResult, caps, load_scene};
+use super::{CmdResult, caps, fingerprint, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
@@ -84,13 +83,6 @@ fn finite(text: &str) -> Result<f64, String> {
         Ok(x) if x.is_finite() => Ok(x),
         _ => Err(format!("`{text}`: give a finite number")),
     }
-}
-
-/// FNV-1a of the scene as parsed: parts of one sweep must share it.
-fn fingerprint(scene: &Scene) -> String {
-    let hash =
-        scene.to_toml().bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
-    format!("{hash:016x}")
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {

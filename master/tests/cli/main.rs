@@ -11,7 +11,8 @@
 //! * `cosim`: the coupling schemes and the adaptive step against the monolithic model;
 //! * `step_map`: IJCSA with the FMUs' step-map extension against finite differences;
 //! * `ssp_system`: SSP systems of FMUs that know nothing of the project's physics;
-//! * `sweep`: sweeps and their shards against the library, point by point.
+//! * `sweep`: sweeps and their shards against the library, point by point;
+//! * `resume`: long commands killed halfway and continued with --resume.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -25,6 +26,7 @@ mod mutants;
 mod package;
 mod plots;
 mod reproduce;
+mod resume;
 mod run;
 mod slack;
 mod ssp_system;

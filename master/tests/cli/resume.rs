@@ -1,0 +1,140 @@
+//! Long commands killed halfway and continued with `--resume`: the stability map, the bench and
+//! the compensation study give the uninterrupted results (but for wall times). The sweep's
+//! test, with the interrupt as well, is in `sweep`.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::{MASTER, common, master};
+
+/// Runs `args` into `out` and kills it (SIGKILL) once its journal holds `points`, then
+/// continues it with --resume; returns the directory.
+fn killed_and_resumed(args: &[String], out: &Path, journal: &str, points: usize) {
+    let journal = out.join(journal);
+    let mut child = Command::new(MASTER).args(args).arg("--out").arg(out).stderr(Stdio::null()).spawn().unwrap();
+    let start = Instant::now();
+    while std::fs::read_to_string(&journal).map_or(0, |t| t.lines().count().saturating_sub(1)) < points {
+        assert!(child.try_wait().unwrap().is_none(), "ended before {points} points: make the work longer");
+        assert!(start.elapsed() < Duration::from_secs(120), "no progress");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(journal.exists());
+    let mut resumed: Vec<&str> = args.iter().map(String::as_str).collect();
+    resumed.extend(["--out", out.to_str().unwrap(), "--resume"]);
+    let done = master(&resumed);
+    assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+    assert!(!journal.exists(), "the journal goes when the work completes");
+}
+
+/// The lines of a CSV without the column `drop` (wall times).
+fn without(csv: &Path, drop: &str) -> Vec<String> {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let skip = header.iter().position(|h| *h == drop);
+    text.lines()
+        .map(|l| {
+            let cells = master::sweep::table::split(l).unwrap();
+            cells
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| Some(*i) != skip)
+                .map(|(_, c)| c.as_str())
+                .collect::<Vec<_>>()
+                .join(",")
+        })
+        .collect()
+}
+
+fn dirs(tag: &str) -> (PathBuf, PathBuf) {
+    let base = std::env::temp_dir().join(format!("master-resume-{tag}-{}", std::process::id()));
+    (base.join("whole"), base.join("resumed"))
+}
+
+fn strings(args: &[&str]) -> Vec<String> {
+    args.iter().map(|s| s.to_string()).collect()
+}
+
+#[test]
+fn a_killed_stability_map_resumes_to_the_same_map() {
+    let (_, scene) = common::scene("lt50m_C.toml", "resume-stability", |_| {});
+    let args = strings(&[
+        "stability",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--schemes",
+        "ijcsa,iqn-ils",
+        "--ratios",
+        "0.5,1,2",
+        "--dts",
+        "0.02,0.01",
+        "--t-end",
+        "40",
+        "--jobs",
+        "1",
+        "--quiet",
+    ]);
+    let (whole, resumed) = dirs("stability");
+    let mut all: Vec<&str> = args.iter().map(String::as_str).collect();
+    all.extend(["--out", whole.to_str().unwrap()]);
+    assert!(master(&all).status.success());
+    killed_and_resumed(&args, &resumed, "stability.csv.partial", 4);
+    for f in ["stability.csv", "stability.svg"] {
+        assert_eq!(std::fs::read(whole.join(f)).unwrap(), std::fs::read(resumed.join(f)).unwrap(), "{f}");
+    }
+}
+
+#[test]
+fn a_killed_bench_resumes_to_the_same_table() {
+    let (_, scene) = common::scene("lt50m_C.toml", "resume-bench", |_| {});
+    let args = strings(&[
+        "bench",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--schemes",
+        "monolithic,ijcsa,iqn-ils",
+        "--dts",
+        "0.02,0.01,0.005",
+        "--t-end",
+        "60",
+        "--repeats",
+        "1",
+        "--quiet",
+    ]);
+    let (whole, resumed) = dirs("bench");
+    let mut all: Vec<&str> = args.iter().map(String::as_str).collect();
+    all.extend(["--out", whole.to_str().unwrap()]);
+    assert!(master(&all).status.success());
+    killed_and_resumed(&args, &resumed, "bench.csv.partial", 3);
+    assert_eq!(without(&whole.join("bench.csv"), "wall_time_s"), without(&resumed.join("bench.csv"), "wall_time_s"));
+}
+
+#[test]
+fn a_killed_compensation_study_resumes_to_the_same_tables() {
+    let (_, scene) = common::scene("lt50m_C_compensated.toml", "resume-compensation", |_| {});
+    let args = strings(&[
+        "compensation",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--t-end",
+        "2",
+        "--sweep-t-end",
+        "4",
+        "--rates",
+        "10,25,50",
+        "--delays",
+        "0,0.02,0.05,0.1",
+        "--jobs",
+        "1",
+    ]);
+    let (whole, resumed) = dirs("compensation");
+    let mut all: Vec<&str> = args.iter().map(String::as_str).collect();
+    all.extend(["--out", whole.to_str().unwrap()]);
+    assert!(master(&all).status.success());
+    killed_and_resumed(&args, &resumed, "sweep.csv.partial", 3);
+    for f in ["sweep.csv", "compensation.csv"] {
+        assert_eq!(std::fs::read(whole.join(f)).unwrap(), std::fs::read(resumed.join(f)).unwrap(), "{f}");
+    }
+}
