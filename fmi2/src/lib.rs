@@ -10,12 +10,14 @@
 //! * [`import`]: loads any FMI 2.0 Co-Simulation FMU and calls it through a safe API.
 //! * [`resources`]: files a model reads through a String parameter, inside `resources/`.
 //! * [`ffi`]: the C types of the standard; [`uri`]: resource-location URIs.
+//! * [`archive`]: single entries of a zip archive unpacked within a budget; [`digest`]: FNV-1a.
 
 /// The README's examples, compiled by `cargo test` so that they follow the API.
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 struct ReadmeExamples;
 
+pub mod archive;
 pub mod description;
 pub mod digest;
 pub mod export;

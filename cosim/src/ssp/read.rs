@@ -72,8 +72,17 @@ pub fn load_within(path: &Path, limits: &ReadLimits) -> Result<LoadedSsp, SetupE
                 .map_err(|e| invalid(path, format!("not a valid zip archive: {e}")))?;
             let dir =
                 TempDir::new("ssp").map_err(|e| invalid(path, format!("cannot create a temporary directory: {e}")))?;
-            unpack_referenced(path, &mut zip, dir.path(), limits)?;
-            let mut loaded = read_ssd(&dir.path().join(SSD_ENTRY), &path.display().to_string(), limits)?;
+            // a file inside the archive is named as the archive's entry, not by where it was unpacked
+            let inside = |e: SetupError| match e {
+                SetupError::File { path: file, message } if file.starts_with(dir.path()) => {
+                    let entry = file.strip_prefix(dir.path()).unwrap_or(&file).display().to_string();
+                    invalid(path, format!("{entry}: {message}"))
+                }
+                other => other,
+            };
+            unpack_referenced(path, &mut zip, dir.path(), limits).map_err(inside)?;
+            let mut loaded =
+                read_ssd(&dir.path().join(SSD_ENTRY), &path.display().to_string(), limits).map_err(inside)?;
             loaded._unpacked = Some(dir);
             Ok(loaded)
         }
@@ -115,33 +124,17 @@ fn unpack_referenced<R: std::io::Read + std::io::Seek>(
     }
     let mut budget = limits.max_unpacked_bytes;
     let mut unpack = |name: &str, budget: &mut u64| -> Result<(), SetupError> {
-        let mut entry = zip.by_name(name).map_err(|e| invalid(archive, format!("entry `{name}`: {e}")))?;
-        let Some(relative) = entry.enclosed_name() else {
-            return Err(invalid(archive, format!("entry `{name}` points outside the archive")));
-        };
-        let target = dir.join(relative);
-        if entry.is_dir() {
-            return std::fs::create_dir_all(&target).map_err(|e| invalid(&target, format!("cannot create: {e}")));
-        }
-        if let Some(parent) = target.parent() {
-            std::fs::create_dir_all(parent).map_err(|e| invalid(parent, format!("cannot create: {e}")))?;
-        }
-        let mut out = std::fs::File::create(&target).map_err(|e| invalid(&target, format!("cannot create: {e}")))?;
-        // the sizes an entry declares may lie: count what is written
-        let written = std::io::copy(&mut std::io::Read::take(&mut entry, *budget + 1), &mut out)
-            .map_err(|e| invalid(archive, format!("entry `{name}`: cannot unpack: {e}")))?;
-        if written > *budget {
-            return Err(invalid(
+        fmi2::archive::unpack_entry(zip, name, dir, budget, limits.max_unpacked_bytes).map_err(|e| match e {
+            fmi2::archive::UnpackError::TooLarge { .. } => invalid(
                 archive,
                 format!(
                     "unpacking `{name}` exceeds the {} MB the system's entries may take together \
                      (--max-unpacked-mb raises the cap)",
                     limits.max_unpacked_bytes >> 20
                 ),
-            ));
-        }
-        *budget -= written;
-        Ok(())
+            ),
+            other => invalid(archive, other.to_string()),
+        })
     };
     unpack(SSD_ENTRY, &mut budget)?;
     let ssd = dir.join(SSD_ENTRY);

@@ -43,6 +43,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::ffi::*;
 use api::Api;
+
+/// The description at an FMU's root.
+const MODEL_DESCRIPTION: &str = "modelDescription.xml";
+
+/// The most an FMU may unpack to (its description, binary and resources): 4 GiB.
+pub const MAX_UNPACKED_BYTES: u64 = 4 << 30;
 pub(crate) use log::LogSink;
 
 /// Everything that can go wrong, with enough context to act on it.
@@ -173,16 +179,43 @@ impl fmt::Debug for Fmu {
 
 impl Fmu {
     /// Unpack an `.fmu` archive to a temporary directory (removed when the last handle is dropped)
-    /// and load it.
+    /// and load it. Only what an importer uses is unpacked — `modelDescription.xml`, this
+    /// platform's binary, `resources/` — at most [`MAX_UNPACKED_BYTES`] of it; documentation,
+    /// sources and other platforms' binaries stay packed.
     pub fn load(archive: &Path) -> Result<Fmu, Error> {
         let err = |message: String| Error::Load { path: archive.to_owned(), message };
         let file = std::fs::File::open(archive).map_err(|e| err(format!("cannot open: {e}")))?;
         let mut zip = zip::ZipArchive::new(std::io::BufReader::new(file))
             .map_err(|e| err(format!("not a valid zip archive: {e}")))?;
+        if zip.has_duplicate_names() {
+            return Err(err("the archive lists an entry name twice: which one is meant is ambiguous".into()));
+        }
         let stem = archive.file_stem().and_then(|s| s.to_str()).unwrap_or("fmu");
         let stem: String = stem.chars().filter(|c| c.is_ascii_alphanumeric() || *c == '_').take(32).collect();
         let dir = TempDir::new(&stem).map_err(|e| err(format!("cannot create a temporary directory: {e}")))?;
-        zip.extract(&dir.0).map_err(|e| err(format!("cannot unpack into {}: {e}", dir.0.display())))?;
+        let mut budget = MAX_UNPACKED_BYTES;
+        let mut unpack = |zip: &mut zip::ZipArchive<_>, name: &str| {
+            crate::archive::unpack_entry(zip, name, &dir.0, &mut budget, MAX_UNPACKED_BYTES)
+                .map_err(|e| err(e.to_string()))
+        };
+        if zip.index_for_name(MODEL_DESCRIPTION).is_some() {
+            unpack(&mut zip, MODEL_DESCRIPTION)?;
+        }
+        // the binary's name comes from the description (open() reports a missing or bad one)
+        let identifier = std::fs::read_to_string(dir.0.join(MODEL_DESCRIPTION))
+            .ok()
+            .and_then(|text| parse_model_description(&text).ok())
+            .map(|d| d.model_identifier);
+        let binary = identifier.map(|id| format!("binaries/{}/{id}.so", crate::package::PLATFORM));
+        let needed: Vec<String> = zip
+            .file_names()
+            .filter_map(Result::ok)
+            .filter(|n| Some(n.as_ref()) == binary.as_deref() || n.starts_with("resources/"))
+            .map(|n| n.into_owned())
+            .collect();
+        for name in needed {
+            unpack(&mut zip, &name)?;
+        }
         let root = dir.0.clone();
         Self::open(&root, Some(dir)).map_err(|e| match e {
             Error::Load { message, .. } => err(message),

@@ -396,3 +396,58 @@ fn a_wrong_guid_is_refused_at_instantiation() {
     drop(g);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A copy of the packaged FMU with `extra` entries added.
+fn with_entries(tag: &str, extra: &[(&str, &[u8])]) -> std::path::PathBuf {
+    let mut src = zip::ZipArchive::new(std::fs::File::open(common::archive()).unwrap()).unwrap();
+    let path = std::env::temp_dir().join(format!("fmi2-entries-{tag}-{}.fmu", std::process::id()));
+    let mut out = zip::ZipWriter::new(std::fs::File::create(&path).unwrap());
+    for i in 0..src.len() {
+        out.raw_copy_file(src.by_index(i).unwrap()).unwrap();
+    }
+    let deflated = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    for (name, bytes) in extra {
+        out.start_file(*name, deflated).unwrap();
+        std::io::Write::write_all(&mut out, bytes).unwrap();
+    }
+    out.finish().unwrap();
+    path
+}
+
+/// Loading an FMU unpacks what an importer uses — the description, this platform's binary,
+/// resources/ — and leaves documentation, sources and other platforms' binaries packed (an
+/// archive of a few megabytes may hold gigabytes of zeros); an archive listing a name twice is
+/// refused.
+#[test]
+fn loading_unpacks_only_what_the_importer_uses() {
+    let zeros = vec![0u8; 64 << 20];
+    let extra: [(&str, &[u8]); 3] =
+        [("documentation/zeros.bin", &zeros), ("binaries/win64/oscillator.dll", b"MZ"), ("sources/model.c", b"int x;")];
+    let path = with_entries("extra", &extra);
+    assert!(std::fs::metadata(&path).unwrap().len() < (8 << 20), "the zeros deflate to little");
+    let fmu = Fmu::load(&path).unwrap();
+    let root = fmu.root();
+    assert!(root.join("modelDescription.xml").is_file());
+    assert!(root.join("binaries/linux64/oscillator.so").is_file());
+    assert!(root.join("resources").is_dir());
+    for left in ["documentation", "sources", "binaries/win64"] {
+        assert!(!root.join(left).exists(), "{left} stays packed");
+    }
+    let mut i = ready(&fmu, "unpacked");
+    i.do_step(0.0, 0.01).unwrap();
+
+    // two entries of one name: write another, then give both one name in the bytes
+    let twice = with_entries("twice", &[("modelDescription.xmX", b"<x/>")]);
+    let mut bytes = std::fs::read(&twice).unwrap();
+    let (from, to) = (b"modelDescription.xmX", b"modelDescription.xml");
+    let mut k = 0;
+    while let Some(at) = bytes[k..].windows(from.len()).position(|w| w == from) {
+        bytes[k + at..k + at + to.len()].copy_from_slice(to);
+        k += at + to.len();
+    }
+    std::fs::write(&twice, bytes).unwrap();
+    let e = Fmu::load(&twice).unwrap_err().to_string();
+    assert!(e.contains("lists an entry name twice"), "{e}");
+    std::fs::remove_file(&path).unwrap();
+    std::fs::remove_file(&twice).unwrap();
+}

@@ -7,6 +7,7 @@
 //! * `plots`: the SVG figures read back;
 //! * `misuse`: careless and hostile use of the command line;
 //! * `mutants`: every scene key set to hostile values, each outcome classified;
+//! * `archive_mutants`: hostile SSP archives and FMU states, each outcome classified;
 //! * `slack`: a cable going slack and taut again, the monolithic model against IJCSA;
 //! * `cosim`: the coupling schemes and the adaptive step against the monolithic model;
 //! * `step_map`: IJCSA with the FMUs' step-map extension against finite differences;
@@ -19,6 +20,7 @@ mod common;
 
 mod adaptive;
 mod analyses;
+mod archive_mutants;
 mod cosim;
 mod feed;
 mod misuse;
