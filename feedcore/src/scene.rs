@@ -90,7 +90,16 @@ pub struct Cables {
     pub breaking_load_n: Option<f64>,
 }
 
+/// Axial strain beyond which a steel rope has left its elastic range (steel yields near 1 %):
+/// the linear-elastic cables of the models no longer describe it.
+pub const ELASTIC_STRAIN_LIMIT: f64 = 0.01;
+
 impl Cables {
+    /// The axial strain a tension gives.
+    pub fn strain(&self, tension_n: f64) -> f64 {
+        tension_n / self.axial_stiffness()
+    }
+
     /// A tension over the breaking load (1: at it), if the scene gives one.
     pub fn utilisation(&self, tension_n: f64) -> Option<f64> {
         self.breaking_load_n.map(|b| tension_n / b)

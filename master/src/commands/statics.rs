@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use cable_fmu::net::CableNet;
 use cable_fmu::statics::{CableState, form_find};
+use feedcore::scene::ELASTIC_STRAIN_LIMIT;
 use master::limits::{Footprint, check_memory};
 use master::table::Table;
 use serde_json::json;
@@ -21,7 +22,7 @@ pub(crate) struct Args {
     /// [w, x, y, z] (unit quaternion, body to world), and per cable unstretched_length_m,
     /// tension_anchor_n, tension_cabin_n, slack, nearly_slack, state, lowest_point_z_m, and
     /// utilisation (the larger end tension over cables.breaking_load_n; null without it) and
-    /// overloaded.
+    /// overloaded, and strain (of the larger end tension; the text warns beyond 1 %).
     #[arg(long)]
     pub(crate) json: bool,
 }
@@ -55,6 +56,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
                     "lowest_point_z_m": c.lowest_point_z,
                     "utilisation": utilisation(c),
                     "overloaded": overloaded.contains(&i),
+                    "strain": scene.cables.strain(c.largest_tension()),
                 })
             })
             .collect();
@@ -116,6 +118,18 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         "Tensions are the axial forces of the end elements; residual of the cabin equations {:.1e} N.",
         eq.residual
     )?;
+    let strained: Vec<usize> = (0..eq.cables.len())
+        .filter(|&i| scene.cables.strain(eq.cables[i].largest_tension()) > ELASTIC_STRAIN_LIMIT)
+        .collect();
+    if !strained.is_empty() {
+        let largest = eq.cables.iter().map(|c| scene.cables.strain(c.largest_tension())).fold(0.0, f64::max);
+        writeln!(
+            out,
+            "warning: cables {strained:?} are stretched beyond 1 % (up to {:.3e} %): beyond a steel rope's elastic \
+             range, where the model's linear-elastic cables do not hold; these tensions are not physical",
+            largest * 100.0
+        )?;
+    }
     if let (false, Some(b)) = (overloaded.is_empty(), scene.cables.breaking_load_n) {
         writeln!(
             out,

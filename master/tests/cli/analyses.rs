@@ -134,3 +134,28 @@ fn a_breaking_load_gives_the_utilisation_and_flags_overload() {
     }
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+/// Without a breaking load, statics still says when its tensions cannot be physical: a cabin a
+/// billion times heavier stretches the cables far beyond a steel rope's elastic range (the
+/// models' cables are linear elastic); the reference scenes stay far within it.
+#[test]
+fn tensions_beyond_the_elastic_range_are_flagged() {
+    let (_, heavy) = crate::common::scene("lt50m_C.toml", "heavy", |s| s.cabin.mass_kg *= 1e9);
+    let out = Command::new(crate::MASTER).args(["statics", "--scene", heavy.to_str().unwrap()]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("warning: cables [0, 1, 2, 3, 4, 5] are stretched beyond 1 %"), "{text}");
+    let v = run_json(&["statics", "--scene", heavy.to_str().unwrap(), "--json"]);
+    assert!(v["cables"].as_array().unwrap().iter().all(|c| c["strain"].as_f64().unwrap() > 1e3));
+    for name in ["lt50m_B.toml", "lt50m_C.toml", "fast500_centre.toml", "fast500_rim.toml"] {
+        let out = Command::new(crate::MASTER).args(["statics", "--scene", &scene_path(name)]).output().unwrap();
+        assert!(!String::from_utf8_lossy(&out.stdout).contains("warning"), "{name}");
+        let v = run_json(&["statics", "--scene", &scene_path(name), "--json"]);
+        for c in v["cables"].as_array().unwrap() {
+            let strain = c["strain"].as_f64().unwrap();
+            let largest = c["tension_anchor_n"].as_f64().unwrap().max(c["tension_cabin_n"].as_f64().unwrap());
+            let scene = Scene::load(scene_path(name)).unwrap();
+            assert_eq!(strain, largest / (scene.cables.area_m2 * scene.cables.youngs_modulus_pa));
+            assert!(strain < 0.005, "{name}: {strain}"); // FAST at the rim: 0.23 %
+        }
+    }
+}

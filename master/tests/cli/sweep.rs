@@ -218,6 +218,13 @@ fn scene_variants_are_removed_when_the_command_ends() {
         .status()
         .unwrap();
     assert!(status.success());
+    let stability = std::process::Command::new(crate::MASTER)
+        .env("TMPDIR", &tmp)
+        .args(["stability", "--scene", scene.to_str().unwrap(), "--schemes", "ijcsa", "--ratios", "1"])
+        .args(["--dts", "0.02", "--t-end", "0.04", "--quiet", "--out", out.to_str().unwrap()])
+        .status()
+        .unwrap();
+    assert!(stability.success());
     let left: Vec<_> = std::fs::read_dir(&tmp).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert!(left.iter().all(|n| !n.to_string_lossy().starts_with("master-variants")), "{left:?}");
     std::fs::remove_dir_all(&tmp).unwrap();
