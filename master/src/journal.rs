@@ -123,3 +123,44 @@ impl Journal {
 pub fn path(dir: &Path, name: &str) -> PathBuf {
     dir.join(format!("{name}.partial"))
 }
+
+/// `compute(i, &items[i])` for every item on `jobs` threads, results in order: each written to
+/// `journal` as it finishes (as `encode` gives its cells) and taken from it (`decode`) where an
+/// earlier run finished it. After Ctrl-C no item starts, a result finished meanwhile is not
+/// kept (it may have been cut short), and the whole is [`Interrupted`](crate::interrupt::Interrupted),
+/// naming the journal that keeps the rest for `--resume`.
+pub fn map_journaled<T, R>(
+    items: &[T],
+    jobs: Option<usize>,
+    journal: &Journal,
+    encode: impl Fn(&R) -> Vec<String> + Sync,
+    decode: impl Fn(&[String]) -> anyhow::Result<R> + Sync,
+    compute: impl Fn(usize, &T) -> anyhow::Result<R> + Sync + Send,
+) -> anyhow::Result<Vec<R>>
+where
+    T: Sync,
+    R: Send,
+{
+    let results = crate::parallel::map_in_order(items, jobs, |i, item| -> anyhow::Result<Option<R>> {
+        if let Some(cells) = journal.done(i) {
+            return decode(cells).map(Some);
+        }
+        if crate::interrupt::interrupted() {
+            return Ok(None);
+        }
+        let result = compute(i, item);
+        if crate::interrupt::interrupted() {
+            return Ok(None);
+        }
+        let result = result?;
+        journal.record(i, &encode(&result))?;
+        Ok(Some(result))
+    })?;
+    match results.into_iter().collect::<anyhow::Result<Option<Vec<R>>>>()? {
+        Some(all) => Ok(all),
+        None => Err(anyhow::Error::new(crate::interrupt::Interrupted).context(format!(
+            "the finished points are kept in {}; continue with the same command and --resume",
+            journal.path.display()
+        ))),
+    }
+}

@@ -250,8 +250,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         args.sweep_t_end,
         args.t_end
     );
-    let journal_file = journal::path(&args.out, "sweep.csv");
-    let journal = Journal::open(&journal_file, &identity, args.resume)?;
+    let journal = Journal::open(&journal::path(&args.out, "sweep.csv"), &identity, args.resume)?;
     eprintln!("sweep: {} runs over {} s ({} done before) …", cases.len(), args.sweep_t_end, journal.resumed());
     let quiet = !std::io::stderr().is_terminal();
     let case = |(rate, delay, s, steps): &(f64, f64, Scene, usize)| {
@@ -286,31 +285,14 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             }
         }
     };
-    let results = master::parallel::map_in_order(&cases, jobs, |i, c| -> anyhow::Result<Option<Verdict>> {
-        if let Some(cells) = journal.done(i) {
-            return Verdict::from_cells(cells).map(Some);
-        }
-        if interrupt::interrupted() {
-            return Ok(None);
-        }
-        let verdict = case(c);
-        if interrupt::interrupted() {
-            return Ok(None); // perhaps cut short: run again on --resume
-        }
-        journal.record(i, &verdict.to_cells())?;
-        Ok(Some(verdict))
-    })?;
-    let results: Vec<Verdict> = match results.into_iter().collect::<anyhow::Result<Option<Vec<_>>>>()? {
-        Some(r) => r,
-        None => {
-            return Err(interrupt::Interrupted).with_context(|| {
-                format!(
-                    "the finished sweep cases are kept in {}; continue with the same command and --resume",
-                    journal_file.display()
-                )
-            });
-        }
-    };
+    let results = journal::map_journaled(
+        &cases,
+        jobs,
+        &journal,
+        Verdict::to_cells,
+        |c| Verdict::from_cells(c),
+        |_, c| Ok(case(c)),
+    )?;
 
     // compensation.csv (at the scene's sample interval) and its figure
     let every = ((scene.outputs.sample_interval_s / h).round() as usize).max(1);

@@ -8,7 +8,6 @@ use std::path::PathBuf;
 use anyhow::Context;
 use cable_fmu::net::CableNet;
 use cable_fmu::statics::{StaticsError, form_find};
-use master::interrupt;
 use master::journal::{self, Journal};
 use master::plot::{CATEGORY_COLORS, Cell, MapPanel, stability_map};
 use master::simulate::{Run, RunError, write_variant};
@@ -157,8 +156,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         args.t_end,
         args.options
     );
-    let journal_file = journal::path(&args.out, "stability.csv");
-    let journal = Journal::open(&journal_file, &identity, args.resume)?;
+    let journal = Journal::open(&journal::path(&args.out, "stability.csv"), &identity, args.resume)?;
     let cell = |(name, f, dt, feasible, run): &(SchemeName, f64, f64, bool, Run)| {
         if !feasible {
             return Ok((Verdict::Infeasible, f64::NAN, "a cable would have to push".to_string()));
@@ -184,33 +182,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             Err(e) => Err(e),
         }
     };
-    let results = master::parallel::map_in_order(&cases, jobs, |i, case| -> anyhow::Result<Option<_>> {
-        if let Some(cells) = journal.done(i) {
-            return from_cells(cells).map(Some);
-        }
-        if interrupt::interrupted() {
-            return Ok(None);
-        }
-        match cell(case) {
-            Err(RunError::Interrupted { .. }) => Ok(None),
-            Err(e) => Err(e).with_context(|| format!("{}, mass ×{}, h = {} s", case.0.as_str(), case.1, case.2)),
-            Ok(result) => {
-                journal.record(i, &to_cells(&result))?;
-                Ok(Some(result))
-            }
-        }
+    let results = journal::map_journaled(&cases, jobs, &journal, to_cells, from_cells, |_, case| {
+        cell(case).with_context(|| format!("{}, mass ×{}, h = {} s", case.0.as_str(), case.1, case.2))
     })?;
-    let results: Vec<(Verdict, f64, String)> = match results.into_iter().collect::<anyhow::Result<Option<Vec<_>>>>()? {
-        Some(r) => r,
-        None => {
-            return Err(interrupt::Interrupted).with_context(|| {
-                format!(
-                    "the finished cells are kept in {}; continue with the same command and --resume",
-                    journal_file.display()
-                )
-            });
-        }
-    };
     let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
     for ((name, f, dt, _, _), (verdict, iterations, note)) in cases.iter().zip(results) {
         rows.push((*name, *f, *dt, verdict, iterations, note));

@@ -12,13 +12,13 @@ use std::time::Instant;
 
 use anyhow::Context;
 use cable_fmu::model::CableCabin;
-use master::journal::{self, Journal, JournalError};
+use master::journal::{self, Journal};
 use master::limits::{Footprint, check_memory_of};
+use master::parallel;
 use master::simulate::Run;
 use master::sweep::table::{self, Table};
 use master::sweep::{self, Axis, Grid, Placement, Request, Shard, Surface, map};
 use master::table::Table as TextTable;
-use master::{interrupt, parallel};
 
 use super::output::{OutputId, Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions, positive};
@@ -163,38 +163,23 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     );
     let done = std::sync::atomic::AtomicUsize::new(0);
     let start = Instant::now();
-    let rows =
-        parallel::map_in_order(&points, jobs, |_, &index| -> Result<Option<(usize, Vec<String>)>, JournalError> {
-            if let Some(cells) = journal.done(index) {
-                return Ok(Some((index, cells.to_vec())));
-            }
-            if interrupt::interrupted() {
-                return Ok(None);
-            }
+    let cells = journal::map_journaled(
+        &points,
+        jobs,
+        &journal,
+        |cells: &Vec<String>| cells.clone(),
+        |cells| Ok(cells.to_vec()),
+        |_, &index| {
             let values = grid.point(index);
             let outcome = sweep::evaluate(&scene, scene_file, &placement, &request, index, &values);
-            if interrupt::interrupted() {
-                return Ok(None); // perhaps cut short: done again on --resume
-            }
             let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             if !quiet {
                 eprintln!("[{k}/{}] point {index}: {}", points.len(), brief(&outcome));
             }
-            let cells = sweep::cells(index, &values, &request, &outcome);
-            journal.record(index, &cells)?;
-            Ok(Some((index, cells)))
-        })?;
-    let rows: Vec<(usize, Vec<String>)> = match rows.into_iter().collect::<Result<Option<Vec<_>>, _>>()? {
-        Some(rows) => rows,
-        None => {
-            return Err(interrupt::Interrupted).with_context(|| {
-                format!(
-                    "the finished points are kept in {}; continue with the same command and --resume",
-                    journal::path(&args.out, &csv_name).display()
-                )
-            });
-        }
-    };
+            Ok(sweep::cells(index, &values, &request, &outcome))
+        },
+    )?;
+    let rows: Vec<(usize, Vec<String>)> = points.iter().copied().zip(cells).collect();
     let wall = start.elapsed().as_secs_f64();
     let t = Table { header, columns, rows: rows.into_iter().collect() };
     let summary = finish(&t, &outputs, csv_id, svg_id)?;
