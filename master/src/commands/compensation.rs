@@ -285,14 +285,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             }
         }
     };
-    let results = journal::map_journaled(
-        &cases,
-        jobs,
-        &journal,
-        Verdict::to_cells,
-        |c| Verdict::from_cells(c),
-        |_, c| Ok(case(c)),
-    )?;
+    let results =
+        journal::map_journaled(&cases, jobs, &journal, Verdict::to_cells, Verdict::from_cells, |_, c| Ok(case(c)))?;
 
     // compensation.csv (at the scene's sample interval) and its figure
     let every = ((scene.outputs.sample_interval_s / h).round() as usize).max(1);
