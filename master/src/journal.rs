@@ -80,11 +80,15 @@ impl Journal {
                 done.insert(index, cells);
             }
         }
-        let fresh = done.is_empty();
         let mut file = std::fs::OpenOptions::new().create(true).append(true).open(path).map_err(io)?;
-        if fresh {
+        if done.is_empty() {
             file.set_len(0).map_err(io)?;
             writeln!(file, "{IDENTITY}{identity}").map_err(io)?;
+        } else {
+            // a line cut short goes, so that the next point starts a line of its own
+            let bytes = std::fs::read(path).map_err(io)?;
+            let whole = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+            file.set_len(whole as u64).map_err(io)?;
         }
         Ok(Journal { path: path.to_owned(), file: Mutex::new(file), done })
     }
@@ -100,7 +104,7 @@ impl Journal {
     }
 
     /// Writes point `index` (a line that ends with a record separator, so that a line cut short
-    /// by a kill is recognised).
+    /// by a kill is recognised, and dropped on resume).
     pub fn record(&self, index: usize, cells: &[String]) -> Result<(), JournalError> {
         let mut line = index.to_string();
         for c in cells {
@@ -162,5 +166,43 @@ where
             "the finished points are kept in {}; continue with the same command and --resume",
             journal.path.display()
         ))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Points come back as written; a line cut short by a kill is dropped (and does not swallow
+    /// the next point's line); another identity is refused; without resume an existing journal
+    /// is kept, not overwritten.
+    #[test]
+    fn points_survive_a_cut_line_and_other_work_is_refused() {
+        let dir = std::env::temp_dir().join(format!("master-journal-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = path(&dir, "t.csv");
+        let _ = std::fs::remove_file(&path);
+        let cells = |x: &str| vec![x.to_owned(), "with, comma".to_owned(), "NaN".to_owned()];
+        let j = Journal::open(&path, "work A", false).unwrap();
+        j.record(0, &cells("a")).unwrap();
+        j.record(2, &cells("c")).unwrap();
+        drop(j);
+        // a kill in the middle of point 1's line
+        let mut f = std::fs::OpenOptions::new().append(true).open(&path).unwrap();
+        f.write_all(b"1,b,\"with").unwrap();
+        drop(f);
+        assert!(matches!(Journal::open(&path, "work A", false), Err(JournalError::Exists(_))));
+        assert!(matches!(Journal::open(&path, "work B", true), Err(JournalError::Foreign { .. })));
+        let j = Journal::open(&path, "work A", true).unwrap();
+        assert_eq!((j.resumed(), j.done(0), j.done(1)), (2, Some(cells("a").as_slice()), None));
+        assert_eq!(j.done(2), Some(cells("c").as_slice()));
+        j.record(1, &cells("b")).unwrap();
+        drop(j);
+        let j = Journal::open(&path, "work A", true).unwrap();
+        assert_eq!(j.resumed(), 3);
+        assert_eq!(j.done(1), Some(cells("b").as_slice()));
+        j.finish().unwrap();
+        assert!(!path.exists());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
