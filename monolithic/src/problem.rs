@@ -303,7 +303,6 @@ impl Problem for Step<'_> {
     }
 }
 
-/// Largest |Φ| of the rows; NaN if one is NaN.
 /// `S(t) − S(0)` of the platform and legs (cabin frame) when the model leaves the weight shift
 /// out; zero otherwise.
 fn weight_shift(model: &Model, point: &PathPoint, t: f64) -> Result<Vec3, StewartError> {
@@ -313,6 +312,7 @@ fn weight_shift(model: &Model, point: &PathPoint, t: f64) -> Result<Vec3, Stewar
     }
 }
 
+/// Largest |Φ| of the rows; NaN if one is NaN.
 pub(crate) fn largest_value(rows: &[ConstraintRow]) -> f64 {
     rows.iter().fold(0.0, |m: f64, r| if m.is_nan() || r.value.is_nan() { f64::NAN } else { m.max(r.value.abs()) })
 }

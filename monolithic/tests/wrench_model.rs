@@ -74,17 +74,22 @@ fn without_the_weight_shift_the_cabin_follows_the_inertial_wrench_statically() {
     assert!((m.sample().cabin.position - p0).norm() * 1e3 > 100.0 * peak);
 }
 
-/// With the platform held still the weight does not shift: both wrench models agree bit for bit.
+/// With the platform held still nothing moves the cabin: under either wrench model it rests at
+/// the static equilibrium the form finding put at the target pose (cable 4 nearly slack at B),
+/// to the solver's tolerance, over 1 s.
 #[test]
-fn held_still_the_wrench_models_agree() {
-    let mut s = scene("lt50m_B.toml");
-    s.motion.speed_m_s = 0.0;
-    let mut a = Monolithic::new(&s).unwrap();
-    s.analyses.wrench = WrenchModel::InertialOnly;
-    let mut b = Monolithic::new(&s).unwrap();
-    for _ in 0..100 {
-        a.step(0.01).unwrap();
-        b.step(0.01).unwrap();
+fn held_still_either_wrench_model_rests_at_the_static_equilibrium() {
+    for wrench in [WrenchModel::Full, WrenchModel::InertialOnly] {
+        let mut s = scene("lt50m_B.toml");
+        s.motion.speed_m_s = 0.0;
+        s.analyses.wrench = wrench;
+        let target = s.target_position();
+        let mut m = Monolithic::new(&s).unwrap();
+        let mut drift = 0.0f64;
+        for _ in 0..100 {
+            m.step(0.01).unwrap();
+            drift = drift.max((m.sample().cabin.position - target).norm());
+        }
+        assert!(drift < 1e-9, "{wrench:?}: {drift:e} m");
     }
-    assert_eq!(a.sample().cabin.position, b.sample().cabin.position);
 }

@@ -83,9 +83,10 @@ pub enum JacobianUpdate {
     /// Recomputed at the first iteration of every step.
     EveryStep,
     /// Kept across steps and updated by Broyden's secant from each step's iterates; a unit
-    /// whose block misses the secant by more than 1e-3 is recomputed at every step's first
-    /// iteration from then on, every unit's when Newton contracts by less than 10× (best with
-    /// linear extrapolation: a smaller first residual asks less of a reused Jacobian).
+    /// whose block misses the secant by more than 1e-3 is recomputed at the first iteration of
+    /// each of the next 100 steps, every unit's when Newton contracts by less than 10× or the
+    /// step size changes (best with linear extrapolation: a smaller first residual asks less of
+    /// a reused Jacobian).
     Reuse,
 }
 

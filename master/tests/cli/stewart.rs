@@ -39,6 +39,15 @@ fn stewart_json_matches_the_library() {
         assert_eq!(rows[i], jac.added_mass().row(i).iter().copied().collect::<Vec<_>>());
     }
     assert!((rows[0][0] - 184.8).abs() < 1e-12);
+    // two computations, one body: the locked platform's centre of mass c (from the force–angular
+    // acceleration block of the added mass, −m[c]×) carries the weight, so the static moment
+    // about the cabin centre point is c × F
+    let m = rows[0][0];
+    let c = nalgebra::Vector3::new(-rows[2][4] / m, -rows[0][5] / m, -rows[1][3] / m);
+    let moment = c.cross(&nalgebra::Vector3::new(w[0], w[1], w[2]));
+    for i in 0..3 {
+        assert!((moment[i] - w[3 + i]).abs() < 1e-9 * w[2].abs(), "{moment} against {w}");
+    }
     // ranges over the first revolution
     let range = st.fixed_cabin_range(&x, &q, scene.solver.dt_s).unwrap();
     assert_eq!(v["actuator_force_max_n"].as_f64().unwrap(), range.actuator_force_max());
