@@ -128,7 +128,8 @@ pub fn path(dir: &Path, name: &str) -> PathBuf {
     dir.join(format!("{name}.partial"))
 }
 
-/// `compute(i, &items[i])` for every item on `jobs` threads, results in order: each written to
+/// `compute(i, &items[i])` for every item on `jobs` threads, the costliest first (`cost`: an
+/// estimate of the run time), results in order: each written to
 /// `journal` as it finishes (as `encode` gives its cells) and taken from it (`decode`) where an
 /// earlier run finished it. After Ctrl-C no item starts, a result finished meanwhile is not
 /// kept (it may have been cut short), and the whole is [`Interrupted`](crate::interrupt::Interrupted),
@@ -136,6 +137,7 @@ pub fn path(dir: &Path, name: &str) -> PathBuf {
 pub fn map_journaled<T, R>(
     items: &[T],
     jobs: Option<usize>,
+    cost: impl Fn(&T) -> f64,
     journal: &Journal,
     encode: impl Fn(&R) -> Vec<String> + Sync,
     decode: impl Fn(&[String]) -> anyhow::Result<R> + Sync,
@@ -145,7 +147,7 @@ where
     T: Sync,
     R: Send,
 {
-    let results = crate::parallel::map_in_order(items, jobs, |i, item| -> anyhow::Result<Option<R>> {
+    let results = crate::parallel::map_longest_first(items, jobs, cost, |i, item| -> anyhow::Result<Option<R>> {
         if let Some(cells) = journal.done(i) {
             return decode(cells).map(Some);
         }

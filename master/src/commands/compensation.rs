@@ -285,8 +285,15 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             }
         }
     };
-    let results =
-        journal::map_journaled(&cases, jobs, &journal, Verdict::to_cells, Verdict::from_cells, |_, c| Ok(case(c)))?;
+    let results = journal::map_journaled(
+        &cases,
+        jobs,
+        |c| c.3 as f64,
+        &journal,
+        Verdict::to_cells,
+        Verdict::from_cells,
+        |_, c| Ok(case(c)),
+    )?;
 
     // compensation.csv (at the scene's sample interval) and its figure
     let every = ((scene.outputs.sample_interval_s / h).round() as usize).max(1);

@@ -182,7 +182,11 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             Err(e) => Err(e),
         }
     };
-    let results = journal::map_journaled(&cases, jobs, &journal, to_cells, from_cells, |_, case| {
+    // steps × the scheme's cost per step; an infeasible cell is not run
+    let cost = |(name, _, dt, feasible, _): &(SchemeName, f64, f64, bool, Run)| {
+        if *feasible { args.t_end / dt * name.relative_cost() } else { 0.0 }
+    };
+    let results = journal::map_journaled(&cases, jobs, cost, &journal, to_cells, from_cells, |_, case| {
         cell(case).with_context(|| format!("{}, mass ×{}, h = {} s", case.0.as_str(), case.1, case.2))
     })?;
     let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)

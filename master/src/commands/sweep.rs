@@ -163,9 +163,12 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     );
     let done = std::sync::atomic::AtomicUsize::new(0);
     let start = Instant::now();
+    // a point's run costs in proportion to its steps
+    let cost = |&index: &usize| grid.point(index).iter().find(|(a, _)| *a == Axis::Dt).map_or(1.0, |(_, dt)| 1.0 / dt);
     let cells = journal::map_journaled(
         &points,
         jobs,
+        cost,
         &journal,
         |cells: &Vec<String>| cells.clone(),
         |cells| Ok(cells.to_vec()),
