@@ -44,6 +44,27 @@ pub fn package_model<M: Model>(out_dir: &Path, library: &Path) -> Result<PathBuf
     Ok(path)
 }
 
+/// The `modelDescription.xml` of a description, validated, and only if it reads back (through
+/// the importer's parser) as the description itself: what importers will see.
+pub fn checked_xml(description: &ModelDescription) -> Result<String, PackageError> {
+    let identifier = description.model_identifier.clone();
+    let invalid = |source| PackageError::Description { identifier: identifier.clone(), source };
+    let declared = ModelInfo::new(description.clone()).map_err(invalid)?.description;
+    let xml = model_description_xml(&declared).map_err(invalid)?;
+    let round_trip = |why: String| PackageError::RoundTrip { identifier: identifier.clone(), why };
+    match parse_model_description(&xml) {
+        Ok(read) if read == declared => Ok(xml),
+        Ok(read) => {
+            let differs = read.variables.iter().zip(&declared.variables).find(|(r, d)| r != d);
+            Err(round_trip(match differs {
+                Some((_, d)) => format!("variable `{}` reads back different", d.name),
+                None => "it reads back different".into(),
+            }))
+        }
+        Err(e) => Err(round_trip(e.to_string())),
+    }
+}
+
 /// Write an `.fmu` archive at `out` (written to a temporary name first, then renamed). The
 /// description is validated, and its XML must read back as it (what importers will see).
 pub fn write_fmu(
@@ -53,15 +74,7 @@ pub fn write_fmu(
     resources: &[Resource],
 ) -> Result<(), PackageError> {
     let identifier = description.model_identifier.clone();
-    let invalid = |source| PackageError::Description { identifier: identifier.clone(), source };
-    let declared = ModelInfo::new(description.clone()).map_err(invalid)?.description;
-    let xml = model_description_xml(&declared).map_err(invalid)?;
-    let round_trip = |why: String| PackageError::RoundTrip { identifier: identifier.clone(), why };
-    match parse_model_description(&xml) {
-        Ok(read) if read == declared => {}
-        Ok(_) => return Err(round_trip("it reads back different".into())),
-        Err(e) => return Err(round_trip(e.to_string())),
-    }
+    let xml = checked_xml(description)?;
     let binary = std::fs::read(library).map_err(|source| PackageError::Library { path: library.into(), source })?;
     for r in resources {
         check_resource_name(&r.name)?;
