@@ -224,43 +224,34 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let reference = reference.execute(quiet)?;
     let peak = reference.peak_mm();
     let percent = |m: f64| if peak > 0.0 { 100.0 * m / peak } else { f64::NAN };
+    // a measurement: from the journal where an earlier run took it, else taken and journaled
+    let measure = |i: usize, label: String, count: usize, run: &Run, numbers: &dyn Fn(f64, &Trace) -> Vec<f64>| {
+        if let Some(done) = journal.done(i) {
+            return from_cells(done, count);
+        }
+        eprintln!("{label} …");
+        let taken =
+            repeated(run, args.repeats, quiet).with_context(|| label.clone())?.map(|(wall, t)| numbers(wall, &t));
+        journal.record(i, &to_cells(&taken))?;
+        Ok(taken)
+    };
     let mut cells = Vec::new();
     for (i, (name, dt, run)) in runs.iter().enumerate() {
-        let numbers = match journal.done(i) {
-            Some(done) => from_cells(done, 4)?,
-            None => {
-                eprintln!("{} at h = {dt} s …", name.as_str());
-                let numbers = repeated(run, args.repeats, quiet)
-                    .with_context(|| format!("{} at h = {dt} s", name.as_str()))?
-                    .map(|(wall, t)| {
-                        let (max, rms) = t.error_against(&reference);
-                        vec![wall, max, rms, t.mean_iterations()]
-                    });
-                journal.record(i, &to_cells(&numbers))?;
-                numbers
-            }
-        };
+        let numbers = measure(i, format!("{} at h = {dt} s", name.as_str()), 4, run, &|wall, t| {
+            let (max, rms) = t.error_against(&reference);
+            vec![wall, max, rms, t.mean_iterations()]
+        })?;
         let result = numbers.map(|m| Measured { wall: m[0], max: m[1], rms: m[2], iterations: m[3] });
         cells.push(Cell { scheme: *name, dt: *dt, result });
     }
     let mut adaptive_cells = Vec::new();
     for (k, (name, rtol, run)) in adaptive_runs.iter().enumerate() {
-        let i = runs.len() + k;
-        let numbers = match journal.done(i) {
-            Some(done) => from_cells(done, 6)?,
-            None => {
-                eprintln!("{} adaptive at rtol = {rtol:e} …", name.as_str());
-                let numbers = repeated(run, args.repeats, quiet)
-                    .with_context(|| format!("{} adaptive at rtol {rtol:e}", name.as_str()))?
-                    .map(|(wall, t)| {
-                        let s = &t.summary;
-                        let max = t.error_against(&reference).0;
-                        vec![wall, max, s.steps as f64, s.rejected_steps as f64, s.h_min_used, s.h_max_used]
-                    });
-                journal.record(i, &to_cells(&numbers))?;
-                numbers
-            }
-        };
+        let label = format!("{} adaptive at rtol {rtol:e}", name.as_str());
+        let numbers = measure(runs.len() + k, label, 6, run, &|wall, t| {
+            let s = &t.summary;
+            let max = t.error_against(&reference).0;
+            vec![wall, max, s.steps as f64, s.rejected_steps as f64, s.h_min_used, s.h_max_used]
+        })?;
         let result = numbers.map(|m| AdaptiveMeasured {
             wall: m[0],
             max: m[1],
