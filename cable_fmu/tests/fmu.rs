@@ -1,12 +1,14 @@
 //! The FMU adapter (called in-process through the `fmi2::Model` trait) against the library.
 
-mod common;
-
-use cable_fmu::fmu::{CableFmu, vr};
-use cable_fmu::model::{CableCabin, Payload};
+use cable::model::{CableCabin, Payload};
+use cable_fmu::{CableFmu, vr};
 use fmi2::ModelInfo;
 use fmi2::export::Model;
 use nalgebra::Vector6;
+
+fn load_scene(name: &str) -> feedcore::scene::Scene {
+    feedcore::scene::Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
+}
 
 fn ready(scene: Option<&str>) -> CableFmu {
     let mut m = CableFmu::instantiate(None).unwrap();
@@ -56,7 +58,7 @@ fn alone_with_inputs_at_their_start_values_it_stays_at_rest() {
 
 #[test]
 fn the_fmu_reproduces_the_library_bit_for_bit() {
-    let s = common::scene("lt50m_B.toml");
+    let s = load_scene("lt50m_B.toml");
     let model = CableCabin::from_scene(&s).unwrap();
     let w0 = model.static_payload_wrench();
     let mut lib = model.dynamics(Payload::External, 0.0).unwrap();
@@ -171,7 +173,7 @@ fn derivatives_and_dependencies_follow_the_standard_at_b_and_c() {
     };
     let mut seen_nonzero = std::collections::HashSet::new();
     for scene in ["lt50m_C.toml", "lt50m_B.toml"] {
-        let static_w = CableCabin::from_scene(&common::scene(scene)).unwrap().static_payload_wrench();
+        let static_w = CableCabin::from_scene(&load_scene(scene)).unwrap().static_payload_wrench();
         for initial in [true, false] {
             let mut m = CableFmu::instantiate(None).unwrap();
             m.set_string(vr::SCENE, scene).unwrap();
@@ -240,7 +242,7 @@ fn initialization_keeps_the_inputs_it_was_given() {
     m.set_string(vr::SCENE, "lt50m_B.toml").unwrap();
     let t0 = m.get_real(vr::TENSION_CABIN).unwrap();
     assert_eq!((0..6).map(|k| m.get_real(vr::WRENCH + k).unwrap()).collect::<Vec<_>>(), declared);
-    let b = CableCabin::from_scene(&common::scene("lt50m_B.toml")).unwrap();
+    let b = CableCabin::from_scene(&load_scene("lt50m_B.toml")).unwrap();
     for k in 0..6 {
         m.set_real(vr::WRENCH + k as u32, b.static_payload_wrench()[k]).unwrap();
     }

@@ -40,6 +40,16 @@ pub fn left_jacobian_so3(theta: &Vec3) -> Mat3 {
     Mat3::identity() + k * a + k * k * b
 }
 
+/// The world rotation vector `δθ` that a change `dq` of a quaternion's components `q` makes to
+/// the rotation of `q / |q|` (the components need not be normalized):
+/// `δθ = 2 vec(δn ⊗ n*)` with `n = q / |q|`, `δn = (dq − n (n·dq)) / |q|`.
+pub fn rotation_of_quaternion_change(q: &nalgebra::Quaternion<f64>, dq: &nalgebra::Quaternion<f64>) -> Vec3 {
+    let s = q.norm();
+    let n = q / s;
+    let dn = (dq - n * n.coords.dot(&dq.coords)) / s;
+    (dn * n.conjugate()).imag() * 2.0
+}
+
 /// Mass, centre of mass and inertia (about the centre of mass) of a rigid body or a rigid
 /// assembly, all expressed in one frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,6 +74,14 @@ impl MassProperties {
     /// placed with orientation `rotation` and centre of mass at `com`.
     pub fn body(mass: f64, com: Vec3, rotation: &Mat3, inertia_body: &Mat3) -> Self {
         Self { mass, com, inertia_com: rotation * inertia_body * rotation.transpose() }
+    }
+
+    /// The wrench of the body's weight (force; moment about the frame's origin; world frame) when
+    /// the frame is turned to `orientation` (body to world) under `gravity`.
+    pub fn weight_wrench(&self, orientation: &Quat, gravity: &Vec3) -> nalgebra::Vector6<f64> {
+        let f = gravity * self.mass;
+        let m = (orientation * self.com).cross(&f);
+        nalgebra::Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z)
     }
 
     /// Inertia about `point` (parallel-axis theorem).

@@ -23,9 +23,9 @@ fn library(name: &str) -> PathBuf {
 
 fn main() {
     let dir = std::env::temp_dir().join(format!("master-bench-{}", std::process::id()));
-    let cable = fmi2::package::package_model::<cable_fmu::fmu::CableFmu>(&dir, &library("cable_fmu_cdylib")).unwrap();
+    let cable = fmi2::package::package_model::<cable_fmu::CableFmu>(&dir, &library("cable_fmu_cdylib")).unwrap();
     let stewart =
-        fmi2::package::package_model::<stewart_fmu::fmu::StewartFmu>(&dir, &library("stewart_fmu_cdylib")).unwrap();
+        fmi2::package::package_model::<stewart_fmu::StewartFmu>(&dir, &library("stewart_fmu_cdylib")).unwrap();
     let scene_file = PathBuf::from(format!("{}/../scenes/lt50m_C.toml", env!("CARGO_MANIFEST_DIR")));
     let mut scene = Scene::load(&scene_file).unwrap();
     for f in &mut scene.system.as_mut().unwrap().fmus {

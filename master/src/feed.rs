@@ -12,7 +12,7 @@ use std::io::Write;
 use feedcore::scene::LEGS;
 use feedcore::{Quat, Vec3};
 use serde::Serialize;
-use stewart_fmu::Compensation;
+use stewart::Compensation;
 
 /// The feed and the legs after one step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

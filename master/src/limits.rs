@@ -202,7 +202,7 @@ pub fn memory_needed(scene: &Scene, footprint: Footprint, modes: usize) -> (u64,
     if modes > 0 {
         // unknowns of the free nodes and the cabin
         let n = 3u64.saturating_mul(cables).saturating_mul(elements.saturating_sub(1)).saturating_add(6);
-        let basis = cable_fmu::modes::memory_estimate(n as f64, modes);
+        let basis = cable::modes::memory_estimate(n as f64, modes);
         total = total.saturating_add(basis as u64);
         what.push_str(&format!(", {modes} modes of {n} unknowns"));
     }

@@ -17,7 +17,7 @@ use std::time::Instant;
 
 use feedcore::Vec3;
 use feedcore::scene::{LEGS, Quantity, Scene, SensorKind, StewartMode};
-use stewart_fmu::{Compensation, Stewart};
+use stewart::{Compensation, Stewart};
 
 use cosim::{Coupled, FmuSystem, Options, Scheme, StepError};
 
@@ -26,7 +26,7 @@ use crate::limits::{Footprint, Limits, Plan, PlanError, Schedule, check_memory};
 use crate::monolithic::{Monolithic, MonolithicError};
 use crate::stepping::{Flow, Request, Step, drive};
 use crate::system::{Adaptive, needs, scene_spec};
-use cable_fmu::dynamics::DynamicsError;
+use cable::dynamics::DynamicsError;
 use cosim::error_estimate::ErrorEstimate;
 use feedcore::genalpha::StepError as IntegratorError;
 
@@ -475,7 +475,7 @@ impl<'a> Run<'a> {
             _ => Schedule::Fixed(Plan::new(dt, t_end, limits).map_err(|e| refused(e.to_string()))?),
         };
         let footprint = if matches!(method, Method::CableOnly) { Footprint::CableModel } else { Footprint::Coupled };
-        check_memory(scene, footprint, cable_fmu::model::CableCabin::modes_built(scene, 0), limits)
+        check_memory(scene, footprint, cable::model::CableCabin::modes_built(scene, 0), limits)
             .map_err(|e: PlanError| refused(format!("{}: {e}", scene_file.display())))?;
         let coupled = scene.analyses.stewart == StewartMode::Coupled;
         match method {
@@ -603,13 +603,13 @@ impl<'a> Run<'a> {
         };
         match method {
             Method::CableOnly => {
-                let model = cable_fmu::model::CableCabin::build(scene, 0).map_err(|e| setup(&e))?;
+                let model = cable::model::CableCabin::build(scene, 0).map_err(|e| setup(&e))?;
                 let disturbance =
                     |t: f64| nalgebra::Vector6::from(scene.disturbance.as_ref().map_or([0.0; 6], |d| d.wrench(t)));
                 let mut dy = model
-                    .dynamics_with(cable_fmu::model::Payload::Locked, 0.0, &disturbance(0.0))
+                    .dynamics_with(cable::model::Payload::Locked, 0.0, &disturbance(0.0))
                     .map_err(|e| setup(&e))?;
-                let probe = |dy: &cable_fmu::dynamics::Dynamics, t: f64| {
+                let probe = |dy: &cable::dynamics::Dynamics, t: f64| {
                     let c = dy.cabin();
                     Probe {
                         position: c.position,

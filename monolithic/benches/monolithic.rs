@@ -4,7 +4,7 @@
 //! of the same reduced system (the cabin's condensed block, the 13 Stewart bodies and their 78
 //! constraints: 162 unknowns), which is how the linear algebra was chosen.
 
-use cable_fmu::chain_matrix::ChainMatrix;
+use cable::chain_matrix::ChainMatrix;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::lu::partial_pivoting::{factor, solve};
 use faer::sparse::linalg::lu;
@@ -18,8 +18,8 @@ use feedcore::{Mat3, Vec3};
 use monolithic::Monolithic;
 use monolithic::kkt::Kkt;
 use nalgebra::{Matrix3x6, Matrix6, Matrix6x3};
-use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ConstraintRow, SYSTEM_BODIES};
-use stewart_fmu::{RigidMotion, Stewart};
+use stewart::constraints::{CABIN, CONSTRAINTS, ConstraintRow, SYSTEM_BODIES};
+use stewart::{RigidMotion, Stewart};
 
 fn main() {
     let scene = Scene::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/lt50m_C.toml")).unwrap();

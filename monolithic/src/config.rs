@@ -14,7 +14,7 @@ pub struct Pose {
 
 #[derive(Debug, PartialEq)]
 pub struct Config {
-    pub cable: cable_fmu::system::Config,
+    pub cable: cable::system::Config,
     /// Platform, upper parts 1–6, lower parts 1–6 (the Stewart crate's order).
     pub bodies: [Pose; BODIES],
 }

@@ -18,12 +18,12 @@
 //! Vectors are laid out as the model's unknowns: the cable–cabin model's (nodes, cabin), the
 //! Stewart bodies' 6 each (platform, upper parts, lower parts), then the multipliers.
 
-use cable_fmu::chain_matrix::{ChainElimination, ChainMatrix, FactorError};
+use cable::chain_matrix::{ChainElimination, ChainMatrix, FactorError};
 use faer::Mat;
 use feedcore::Mat3;
 use feedcore::stewart_geometry::BODIES;
 use nalgebra::{Matrix6, Vector6};
-use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ConstraintRow, SYSTEM_BODIES};
+use stewart::constraints::{CABIN, CONSTRAINTS, ConstraintRow, SYSTEM_BODIES};
 
 use crate::schur::Schur;
 

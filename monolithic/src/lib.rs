@@ -4,7 +4,7 @@
 //! Unknowns: the cable–cabin model's own (the free nodes of every cable and the cabin, whose
 //! cable end nodes ride on it exactly), the 13 Stewart bodies (rigid, absolute coordinates,
 //! orientations on SO(3)) and the Lagrange multipliers of the Stewart platform's Hooke,
-//! prismatic, spherical and driving (stroke ℓ_k(t)) constraints ([`stewart_fmu::constraints`]).
+//! prismatic, spherical and driving (stroke ℓ_k(t)) constraints ([`stewart::constraints`]).
 //! Integration: index-3 generalized-α ([`feedcore::genalpha`], the integrator of the cable model
 //! too), the equations of motion and Φ(q, t) = 0 enforced at t_{n+1}.
 //!
@@ -17,7 +17,7 @@
 //! * [`problem`]: residual and iteration matrix, as the integrator asks for them;
 //! * [`run`]: the model in time ([`Monolithic`]): stepping, samples, snapshots.
 //!
-//! The cable–cabin part is assembled by the cable crate itself ([`cable_fmu::system::System`]),
+//! The cable–cabin part is assembled by the cable crate itself ([`cable::system::System`]),
 //! the rigid-body terms by [`feedcore::rigid::BodyTerms`], the joints by the Stewart crate: the
 //! reference shares every physics term with the models it checks and none of their copies.
 //!

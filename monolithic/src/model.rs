@@ -1,15 +1,15 @@
 //! What does not change during a run of the monolithic model: the cable–cabin system, the
 //! Stewart platform, the Stewart bodies' inertia, the integrator, and where each unknown sits.
 
-use cable_fmu::model::{CableCabin, ModelError, Payload};
-use cable_fmu::system::System;
+use cable::model::{CableCabin, ModelError, Payload};
+use cable::system::System;
 use feedcore::genalpha::{Integrator, Newton, OptionsError};
 use feedcore::rigid::MassProperties;
 use feedcore::scene::{Scene, SensorKind, WrenchModel};
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
-use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ROWS_PER_LEG, SYSTEM_BODIES};
-use stewart_fmu::{RigidMotion, Stewart, StewartError};
+use stewart::constraints::{CABIN, CONSTRAINTS, ROWS_PER_LEG, SYSTEM_BODIES};
+use stewart::{RigidMotion, Stewart, StewartError};
 
 use crate::config::{Config, Pose};
 use crate::kkt::BODY_NAMES;
@@ -66,7 +66,7 @@ impl Model {
         let system = cc.system(Payload::External);
         let cable = cc.equilibrium_config();
         // at rest, or moving as a momentum-consistent start asks (`CableCabin::start_twist`)
-        let twist = cc.start_twist()?;
+        let twist = cc.start_twist(&stewart.start_momentum()?)?;
         let cabin = RigidMotion {
             velocity: twist.fixed_rows::<3>(0).into(),
             angular_velocity: twist.fixed_rows::<3>(3).into(),

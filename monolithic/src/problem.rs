@@ -5,16 +5,16 @@
 //! Stewart joints' reactions on the cabin as its external wrench; the Stewart bodies' Newton–Euler
 //! equations with their joint reactions `Φ_qᵀ λ`; the joint constraints `s·Φ(q, t)`.
 
-use cable_fmu::chain_matrix::ChainMatrix;
-use cable_fmu::system::Coefficients as CableCoefficients;
+use cable::chain_matrix::ChainMatrix;
+use cable::system::Coefficients as CableCoefficients;
 use feedcore::genalpha::{Iterate, IterationMatrix, Problem};
 use feedcore::rigid::{BodyTerms, RigidMotion};
 use feedcore::scene::LEGS;
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
 use nalgebra::{Matrix6, Vector6};
-use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ConstraintRow, SYSTEM_BODIES};
-use stewart_fmu::{CommandState, PathPoint, StewartError, Stroke};
+use stewart::constraints::{CABIN, CONSTRAINTS, ConstraintRow, SYSTEM_BODIES};
+use stewart::{CommandState, PathPoint, StewartError, Stroke};
 
 use crate::config::Config;
 use crate::kkt::{Kkt, KktError};

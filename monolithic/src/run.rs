@@ -5,8 +5,8 @@ use feedcore::genalpha::{self, Iterate, StepError, StepReport};
 use feedcore::rigid::RigidMotion;
 use feedcore::scene::{LEGS, Scene, SensorKind};
 use nalgebra::Vector6;
-use stewart_fmu::CommandState;
-use stewart_fmu::constraints::{CABIN, DRIVING, ROWS_PER_LEG};
+use stewart::CommandState;
+use stewart::constraints::{CABIN, DRIVING, ROWS_PER_LEG};
 
 use crate::config::Config;
 use crate::model::{BuildError, Model};
@@ -93,7 +93,7 @@ impl Monolithic {
             model.stewart.compensation().filter(|c| c.sensor() == SensorKind::Sampled).map(|c| c.start_state());
         let point = command_point(&model, command.as_ref(), 0.0);
         let scratch = Scratch::new(&model, &start.config, &point, 0.0).map_err(|e| fail(e.into()))?;
-        let (n, m) = (model.motion_dim(), stewart_fmu::CONSTRAINTS);
+        let (n, m) = (model.motion_dim(), stewart::CONSTRAINTS);
         let state = genalpha::State::new(0.0, start.config, start.velocity, vec![0.0; n], vec![0.0; m]);
         let mut mono = Monolithic { work: genalpha::Workspace::new(&state), model, state, scratch, command };
         mono.initial_acceleration().map_err(fail)?;
@@ -102,7 +102,7 @@ impl Monolithic {
 
     /// Consistent accelerations and multipliers: `[M Φ_qᵀ; Φ_q 0] [v̇; λ] = [f − g; γ]`.
     fn initial_acceleration(&mut self) -> Result<(), Fault> {
-        let (n, m) = (self.model.motion_dim(), stewart_fmu::CONSTRAINTS);
+        let (n, m) = (self.model.motion_dim(), stewart::CONSTRAINTS);
         let st = &self.state;
         let zero_motion = vec![0.0; n];
         let zero_lambda = vec![0.0; m];
@@ -138,12 +138,12 @@ impl Monolithic {
     }
 
     /// The cable–cabin system (its cables, for element forces).
-    pub fn cable_system(&self) -> &cable_fmu::system::System {
+    pub fn cable_system(&self) -> &cable::system::System {
         &self.model.system
     }
 
     /// The cable–cabin part of the configuration now: free nodes and the cabin pose.
-    pub fn cable_config(&self) -> &cable_fmu::system::Config {
+    pub fn cable_config(&self) -> &cable::system::Config {
         &self.state.config.cable
     }
 

@@ -13,7 +13,7 @@ use faer::linalg::lu::partial_pivoting::factor;
 use faer::{Mat, Par};
 use feedcore::scene::LEGS;
 use nalgebra::{Matrix6, SMatrix, SVector, Vector6};
-use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ConstraintRow, PLATFORM};
+use stewart::constraints::{CABIN, CONSTRAINTS, ConstraintRow, PLATFORM};
 
 /// Rows of one leg that touch neither the cabin nor the platform, and of those that do.
 const INTERNAL: usize = 6;

@@ -2,15 +2,15 @@
 //! cabin, rigid bodies eliminated, dense constraint Schur complement) against a dense LU of the
 //! same matrix written out in full.
 
-use cable_fmu::chain_matrix::ChainMatrix;
+use cable::chain_matrix::ChainMatrix;
 use feedcore::rigid::left_jacobian_so3;
 use feedcore::scene::Scene;
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
 use monolithic::kkt::Kkt;
 use nalgebra::{DMatrix, DVector, Matrix3x6, Matrix6, Matrix6x3};
-use stewart_fmu::constraints::{CABIN, CONSTRAINTS, ConstraintRow, SYSTEM_BODIES};
-use stewart_fmu::{RigidMotion, Stewart};
+use stewart::constraints::{CABIN, CONSTRAINTS, ConstraintRow, SYSTEM_BODIES};
+use stewart::{RigidMotion, Stewart};
 
 fn random() -> impl FnMut() -> f64 {
     let mut seed = 11u64;

@@ -6,7 +6,7 @@ use feedcore::scene::{Scene, Start};
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
 use monolithic::model::Model;
-use stewart_fmu::CABIN;
+use stewart::CABIN;
 
 fn scene(name: &str, start: Start) -> Scene {
     let mut s = Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap();

@@ -3,14 +3,14 @@
 //! the platform on a fixed cabin (the Stewart model with gravity off) through the cable net's
 //! condensed static stiffness, `K_c δ = W_inertial(t)`.
 
-use cable_fmu::model::{CableCabin, Payload};
-use cable_fmu::modes::tangent;
+use cable::model::{CableCabin, Payload};
+use cable::modes::tangent;
 use feedcore::Vec3;
 use feedcore::rigid::RigidMotion;
 use feedcore::scene::{Scene, Start, WrenchModel};
 use monolithic::Monolithic;
 use nalgebra::{DMatrix, Vector6};
-use stewart_fmu::Stewart;
+use stewart::Stewart;
 
 fn scene(name: &str) -> Scene {
     Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()

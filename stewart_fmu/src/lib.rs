@@ -1,479 +1,775 @@
-//! The Stewart platform hanging in the feed cabin as a multibody system (paper eqs. 3–7): the
-//! moving platform and six legs of two parts each (Hooke joint to the cabin, prismatic actuator,
-//! spherical joint to the platform), driven so that the platform translates on a circle relative
-//! to the cabin, while the cabin moves as given from outside.
+//! The Stewart platform as an FMI 2.0 Co-Simulation FMU (`stewart_fmu`).
 //!
-//! * [`path`]: the prescribed circle motion of the platform centre;
-//! * [`relative`]: every body's motion relative to the cabin, a function of time alone;
-//! * [`wrench`]: the wrench on the cabin in momentum form and its exact Jacobians;
-//! * [`constraints`]: Φ, Φ_q, Φ_t and γ of all joints, the cabin included as a body;
-//! * [`reactions`]: the Lagrange multipliers: joint reactions and actuator forces;
-//! * [`kinematics`]: inverse and forward kinematics of the platform pose.
+//! Inputs: the cabin's motion (centre point position, orientation quaternion body to world,
+//! velocity, angular velocity, acceleration, angular acceleration; world frame). Their start
+//! values are scene C's static pose at rest (an importer running another scene sets them).
+//! Outputs at the current time: the wrench the
+//! platform exerts on the cabin (force; moment about the cabin centre point), the six actuator
+//! forces (tension positive) and the moving platform's pose. The model has no state but time:
+//! `fmi2DoStep` advances the clock and the outputs follow from the inputs at the end of the step
+//! (held, or extrapolated with their first derivatives).
 //!
-//! Conventions: world frame Z up, gravity (0, 0, −g); cabin motion and the wrench in the world
-//! frame; the wrench is what the platform exerts on the cabin (moment about the cabin centre
-//! point); actuator forces are tensions (positive when pulling the platform towards the cabin).
-//! Before t = 0 the platform rests at its start point, so any negative time gives the static state.
+//! Every output is a function of the inputs at the same instant (direct feedthrough), so the
+//! standard directional derivative and the step map (extension `feedsimGetStepMapDerivative`)
+//! coincide. Dependencies, exactly: the wrench and the actuator forces on the orientation, the
+//! angular velocity, the acceleration and the angular acceleration (not on the position, nor on
+//! the velocity: uniform gravity and Galilean invariance) — the force component k only on a_k and
+//! α_j (j ≠ k), the moment component k only on a_j (j ≠ k) and α, as the cross products of the
+//! Newton–Euler equations have it; the platform's position component i
+//! on the cabin's position component i and the orientation; its orientation on the cabin's.
+//!
+//! Directional derivatives are exact: the wrench's from the analytic Jacobians; the actuator
+//! forces' from the linearity of the Newton–Euler equations in the cabin's accelerations
+//! (uniform gravity acts like an acceleration −g) and their quadratic dependence on the angular
+//! velocity (polarization); an orientation change acts through the cabin-frame components of
+//! gravity, acceleration and angular velocity.
 
-pub mod compensation;
-pub mod constraints;
-mod error;
-pub mod fmu;
-pub mod kinematics;
-pub mod path;
-pub mod reactions;
-pub mod relative;
-pub mod wrench;
+use std::path::Path;
 
-use feedcore::scene::{LEGS, Motion, Scene};
-use feedcore::stewart_geometry::{BODIES, StewartGeometry};
-use feedcore::{Mat3, Quat, Vec3};
-use nalgebra::{Rotation3, Vector6};
-pub use path::PathPoint;
+use feedcore::rigid::rotation_of_quaternion_change;
+use feedcore::scene::{LEGS, Scene, SceneError, Start};
+use feedcore::{Quat, Vec3};
+use fmi2::description::indexed_names;
+use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
+use fmi2::resources::{FileKind, FileParameter, SavedFile};
+use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
+use nalgebra::Vector6;
+use serde::{Deserialize, Serialize};
 
-pub use compensation::{CommandState, Compensation};
-pub use constraints::{CABIN, CONSTRAINTS, ConstraintRow, Joints, SYSTEM_BODIES};
-pub use error::StewartError;
-pub use path::CirclePath;
-pub use reactions::LegReactions;
-pub use relative::{RelativeState, Stroke};
-pub use wrench::{CabinMotion, RigidMotion, Wrench, WrenchJacobians};
+use feedcore::scene::SensorKind;
+use stewart::sensitivity::carried_pose_change;
+use stewart::{
+    ActuatorRates, CabinChange, CabinMotion, CommandState, Evaluation, PathPoint, Stewart, Wrench, WrenchJacobians,
+};
 
-/// A leg this close to its first Hooke axis (sine of the angle) locks the Hooke joint.
-const HOOKE_SINGULAR_SINE: f64 = 1e-6;
-/// Poses whose leg force Jacobian has a larger condition number are treated as singular.
-const SINGULAR_CONDITION: f64 = 1e8;
-/// Samples of the first revolution checked when the model is built.
-const PATH_CHECKS: usize = 720;
+/// The scene used unless the `scene` parameter names another one.
+pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
+/// Identifies the variable table: change it whenever the table changes.
+pub const GUID: &str = "{3c1e9f27-84b5-4a6d-9e02-5f7d1b8c6a43}";
+/// Number of Real inputs: r 3, q 4, v 3, ω 3, a 3, α 3.
+pub const INPUTS: usize = 19;
 
-/// Mass and inertia about the centre of mass (body frame) of one body.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BodyInertia {
-    pub mass: f64,
-    pub inertia: Mat3,
-}
+/// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
+static SCENES: FileKind<Scene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
 
-/// Everything computed by one [`Stewart::evaluate`].
-#[derive(Clone, Debug, PartialEq)]
-pub struct Evaluation {
-    pub time: f64,
-    /// Wrench on the cabin from the Hooke joint reactions.
-    pub wrench: Wrench,
-    /// Actuator tensions, N (positive: the actuator pulls the platform towards the cabin).
-    pub actuator_forces: [f64; LEGS],
-    /// The platform (centre of mass = centre), world frame.
-    pub platform: RigidMotion,
-    pub legs: [LegReactions; LEGS],
-    /// All multipliers λ of eq. (5), in the row order of [`constraints`].
-    pub multipliers: [f64; CONSTRAINTS],
-    /// Leg lengths (joint centre to joint centre), m.
-    pub leg_lengths: [f64; LEGS],
-}
+/// Value references (separate spaces per type).
+pub mod vr {
+    use feedcore::scene::LEGS;
 
-/// Extremes over the first revolution of the platform with the cabin held at rest.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FixedCabinRange {
-    /// Time of the first revolution (0 if the platform does not move), s.
-    pub duration: f64,
-    pub samples: usize,
-    /// Componentwise extremes of the wrench 6-vector (force, moment).
-    pub wrench_min: Vector6<f64>,
-    pub wrench_max: Vector6<f64>,
-    /// Extremes of each actuator's tension.
-    pub actuator_min: [f64; LEGS],
-    pub actuator_max: [f64; LEGS],
-}
-
-impl FixedCabinRange {
-    /// The largest actuator force in magnitude (tension or compression).
-    pub fn actuator_force_max(&self) -> f64 {
-        self.actuator_min.iter().chain(&self.actuator_max).fold(0.0, |m, f| m.max(f.abs()))
+    fmi2::value_references! {
+        /// Real inputs, the cabin's motion: position, orientation (w, x, y, z), velocity,
+        /// angular velocity, acceleration, angular acceleration.
+        R: 3, Q: 4, V: 3, W: 3, A: 3, ALPHA: 3,
+        /// Real outputs: the wrench on the cabin (force, moment), the actuator forces, the
+        /// moving platform's position and orientation.
+        FORCE: 3, MOMENT: 3, ACTUATOR: LEGS, PLATFORM_R: 3, PLATFORM_Q: 4,
+        /// Real outputs: leg lengths, the feed's position error and its rotation from the start
+        /// attitude (world rotation vector; its length is the feed's tilt error).
+        LEG: LEGS, FEED_ERR: 3, FEED_ROT: 3,
+        /// Real parameters.
+        RADIUS: 1, SPEED: 1, RAMP_TIME: 1,
     }
+    /// Integer `start`.
+    pub const START: u32 = 0;
+    /// String `scene`.
+    pub const SCENE: u32 = 0;
 }
 
-/// The Stewart platform model of one scene.
-#[derive(Clone, Debug)]
-pub struct Stewart {
-    geometry: StewartGeometry,
-    path: CirclePath,
-    gravity: Vec3,
-    hooke_axes: [Vec3; LEGS],
-    joints: Joints,
-    bodies: [BodyInertia; BODIES],
-    length_range: (f64, f64),
-    /// The scene's `[control]`: the platform's motion comes from the measured cabin pose.
-    compensation: Option<Compensation>,
+/// The scalar parameters that modify the scene's motion.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+struct Settings {
+    /// Negative: the scene's value.
+    radius: f64,
+    speed: f64,
+    ramp_time: f64,
+    /// 0: the scene's, 1: abrupt, 2: ramp.
+    start: i32,
 }
 
-impl Stewart {
-    /// The model of a scene; with a `[control]` section the platform rests at its start point
-    /// relative to the cabin unless the compensation moves it (`[motion]` is not used).
-    pub fn from_scene(scene: &Scene) -> Result<Stewart, StewartError> {
-        let mut motion = scene.motion.clone();
-        if scene.control.is_some() {
-            motion.speed_m_s = 0.0;
+/// Outputs at the current time and inputs, computed when first asked for.
+#[derive(Default)]
+struct Cache {
+    wrench: Option<(Wrench, WrenchJacobians)>,
+    evaluation: Option<Evaluation>,
+    actuator_rates: Option<ActuatorRates>,
+}
+
+pub struct StewartFmu {
+    scene: FileParameter<Scene, SceneError>,
+    /// The settings, inputs and time, saved as they are.
+    data: Data,
+    model: Option<Stewart>,
+    /// The settings the model was built for, and whether in step mode (in initialization mode
+    /// the platform rests at its start pose).
+    built_for: Option<(Settings, bool)>,
+    cache: Cache,
+}
+
+/// Everything but the scene file: time, and with a sampled sensor its state.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct Data {
+    settings: Settings,
+    initialized: bool,
+    time: f64,
+    inputs: [f64; INPUTS],
+    rates: [f64; INPUTS],
+    /// The cabin pose inputs (r, q) at `time` as last stepped to: what a sample measures (the
+    /// inputs may meanwhile hold an importer's guess for the end of the next step).
+    accepted: [f64; 7],
+    /// A sampled sensor's state (scene `[control]`, sensor = "sampled").
+    command: Option<CommandState>,
+}
+
+/// A saved state: the scene file's name and the rest.
+#[derive(Serialize, Deserialize)]
+pub struct SavedStewart<'a> {
+    #[serde(borrow)]
+    scene: SavedFile<'a>,
+    data: Data,
+}
+
+/// The scene's static pose at rest, as input values.
+fn rest_inputs(scene: &Scene) -> [f64; INPUTS] {
+    let mut u = [0.0; INPUTS];
+    let (p, q) = (scene.target_position(), scene.target_orientation());
+    u[0..3].copy_from_slice(p.as_slice());
+    u[3..7].copy_from_slice(&[q.w, q.i, q.j, q.k]);
+    u
+}
+
+/// How far the cabin inputs may lie from the scene's pose (m, rad) before leaving initialization
+/// mode warns: far above rounding and a pose printed to nine digits, far below any pose a
+/// mistaken importer would hand over.
+const POSE_WARNING_TOLERANCE: f64 = 1e-6;
+
+/// Why the cabin pose held at the start does not look like the scene's: an importer that left
+/// the cabin inputs at their declared start values (scene C's) while running another scene
+/// computes the platform on a cabin where the scene does not put it.
+fn pose_mismatch(scene_name: &str, scene: &Scene, u: &[f64; INPUTS]) -> Option<String> {
+    let rest = rest_inputs(scene);
+    let held = cabin_motion(u).ok()?;
+    let target = cabin_motion(&rest).ok()?;
+    let offset = (held.position - target.position).norm();
+    let angle = held.orientation.angle_to(&target.orientation);
+    (offset > POSE_WARNING_TOLERANCE || angle > POSE_WARNING_TOLERANCE).then(|| {
+        format!(
+            "the cabin inputs hold the pose cabin.r = {:?}, cabin.q = {:?}, {:.1} mm and {:.2} mrad from the pose of \
+             scene `{scene_name}` (cabin.r = {:?}, cabin.q = {:?}); the platform is computed on the pose held. \
+             Inputs never set keep their declared start values, scene C's pose: an importer running another \
+             scene sets cabin.* in initialization mode, from the cable FMU's outputs or the scene's pose \
+             (docs/fmus.md)",
+            &u[0..3],
+            &u[3..7],
+            offset * 1e3,
+            angle * 1e3,
+            &rest[0..3],
+            &rest[3..7],
+        )
+    })
+}
+
+/// The output variables in value-reference order from [`vr::FORCE`]: (name, unit, description).
+fn outputs() -> Vec<(String, &'static str, String)> {
+    let mut v = Vec::new();
+    let mut block = |prefix: &str, unit: &'static str, texts: Vec<String>| {
+        v.extend(indexed_names(prefix, texts.len()).zip(texts).map(|(name, text)| (name, unit, text)));
+    };
+    block("wrench.f", "N", vec!["force the platform exerts on the cabin, world frame".into(); 3]);
+    block("wrench.m", "N.m", vec!["moment on the cabin about its centre point, world frame".into(); 3]);
+    let tension = |k| format!("tension of actuator {k} (positive: pulls the platform up)");
+    block("actuator.force", "N", (1..=LEGS).map(tension).collect());
+    block("platform.r", "m", vec!["position of the moving platform's centre, world frame".into(); 3]);
+    let component = |c| format!("orientation of the moving platform ({c}), body to world");
+    block("platform.q", "", ["w", "x", "y", "z"].map(component).to_vec());
+    let leg = |k| format!("length of leg {k}, joint centre to joint centre");
+    block("leg.length", "m", (1..=LEGS).map(leg).collect());
+    block(
+        "feed.err",
+        "m",
+        vec![
+            "feed point minus its target, world frame ([control]; else the platform centre minus its start)".into();
+            3
+        ],
+    );
+    block(
+        "feed.rot",
+        "rad",
+        vec!["rotation of the feed (the platform) from its start attitude, world rotation vector".into(); 3],
+    );
+    v
+}
+
+/// The names of the outputs, in value-reference order.
+pub fn output_names() -> Vec<String> {
+    outputs().into_iter().map(|(name, _, _)| name).collect()
+}
+
+/// The names of the inputs, in value-reference order from 0.
+pub fn input_names() -> Vec<String> {
+    let parts = [("cabin.r", 3), ("cabin.q", 4), ("cabin.v", 3), ("cabin.w", 3), ("cabin.a", 3), ("cabin.alpha", 3)];
+    parts.into_iter().flat_map(|(p, n)| indexed_names(p, n)).collect()
+}
+
+/// The cabin's motion the input values `u` give (the orientation normalized); refused when
+/// `cabin.q` is far from a rotation.
+pub fn cabin_motion(u: &[f64; INPUTS]) -> Result<CabinMotion, ModelError> {
+    let q = nalgebra::Quaternion::new(u[3], u[4], u[5], u[6]);
+    if q.norm() < 0.5 {
+        return Err(format!("cabin.q = {:?} is not a rotation (norm {:.3}, expected 1)", &u[3..7], q.norm()).into());
+    }
+    let v3 = |i: usize| Vec3::new(u[i], u[i + 1], u[i + 2]);
+    Ok(CabinMotion {
+        position: v3(vr::R as usize),
+        orientation: Quat::from_quaternion(q),
+        velocity: v3(vr::V as usize),
+        angular_velocity: v3(vr::W as usize),
+        acceleration: v3(vr::A as usize),
+        angular_acceleration: v3(vr::ALPHA as usize),
+    })
+}
+
+/// The (output, input) value-reference pairs <ModelStructure> declares for step mode.
+fn step_dependencies() -> Result<&'static std::collections::HashSet<(u32, u32)>, ModelError> {
+    static PAIRS: std::sync::OnceLock<std::collections::HashSet<(u32, u32)>> = std::sync::OnceLock::new();
+    if let Some(p) = PAIRS.get() {
+        return Ok(p);
+    }
+    let d = StewartFmu::description()?;
+    let inputs = input_names();
+    let mut pairs = std::collections::HashSet::new();
+    for v in &d.variables {
+        for name in v.depends_on.iter().flatten() {
+            if let Some(k) = inputs.iter().position(|n| n == name) {
+                pairs.insert((v.value_reference, k as u32));
+            }
         }
-        let mut stewart = Self::new(scene.stewart_geometry(), &motion, scene.gravity_m_s2)?;
-        let rest = stewart.path.at_rest();
-        let legs = stewart.strokes_at(&rest, 0.0)?.map(|s| s.length);
-        let control = scene.control.clone().unwrap_or_else(Compensation::uncontrolled);
-        stewart.compensation = Some(Compensation::new(scene, &control, rest.position, legs));
-        Ok(stewart)
     }
+    Ok(PAIRS.get_or_init(|| pairs))
+}
 
-    /// The compensation of the scene's `[control]` (a model built from a scene without one has an
-    /// `off` compensation: the feed point is the platform centre, its target its start position).
-    pub fn compensation(&self) -> Option<&Compensation> {
-        self.compensation.as_ref()
-    }
-
-    /// The model for a geometry, a platform motion and the magnitude of gravity. Checks the whole
-    /// prescribed motion (rest pose and first revolution) for leg lengths and singular poses.
-    pub fn new(geometry: StewartGeometry, motion: &Motion, gravity: f64) -> Result<Stewart, StewartError> {
-        if !gravity.is_finite() {
-            return Err(StewartError::Input { what: "gravity".into(), value: gravity.to_string() });
-        }
-        let path = CirclePath::new(geometry.nominal_center, motion);
-        let hooke_axes = std::array::from_fn(|k| geometry.hooke_first_axis(k));
-        let leg_inertia = |p: &feedcore::scene::LegPart| BodyInertia {
-            mass: p.mass_kg,
-            inertia: Mat3::from_diagonal(&Vec3::new(
-                p.inertia_transverse_kg_m2,
-                p.inertia_transverse_kg_m2,
-                p.inertia_axial_kg_m2,
-            )),
+impl StewartFmu {
+    fn model(&mut self) -> Result<&Stewart, ModelError> {
+        let key = (self.data.settings, self.data.initialized);
+        let model = match self.model.take() {
+            Some(m) if self.built_for == Some(key) => m,
+            _ => {
+                let mut s = self.scene.value().clone();
+                let st = &self.data.settings;
+                for (value, target) in [(st.radius, &mut s.motion.radius_m), (st.speed, &mut s.motion.speed_m_s)] {
+                    if value >= 0.0 {
+                        *target = value;
+                    }
+                }
+                if st.ramp_time > 0.0 {
+                    s.motion.ramp_time_s = st.ramp_time;
+                }
+                match st.start {
+                    1 => s.motion.start = Start::Abrupt,
+                    2 => s.motion.start = Start::Ramp,
+                    _ => {}
+                }
+                s.validate(self.scene.name())?;
+                // Before the start the platform rests at its start pose: the motion (and an
+                // abrupt start's jump) begins at the start time, so that a consistent
+                // initialization puts the cable net in its static equilibrium under the
+                // platform's weight.
+                let mut held = s.clone();
+                held.motion.speed_m_s = 0.0;
+                let model = Stewart::from_scene(if self.data.initialized { &s } else { &held })?;
+                self.built_for = Some(key);
+                self.cache = Cache::default();
+                model
+            }
         };
-        let mut bodies = [leg_inertia(&geometry.upper); BODIES];
-        bodies[0] = BodyInertia { mass: geometry.platform_mass, inertia: geometry.platform_inertia };
-        bodies[1 + LEGS..].fill(leg_inertia(&geometry.lower));
-        let stewart = Stewart {
-            joints: Joints::new(&geometry),
-            length_range: geometry.leg_length_range(),
-            gravity: Vec3::new(0.0, 0.0, -gravity),
-            path,
-            hooke_axes,
-            bodies,
-            geometry,
-            compensation: None,
-        };
-        stewart.check_path()?;
-        Ok(stewart)
+        Ok(self.model.insert(model))
     }
 
-    fn check_path(&self) -> Result<(), StewartError> {
-        let mut times = vec![0.0];
-        if let Some(end) = self.path.revolution_time() {
-            times.extend((1..=PATH_CHECKS).map(|i| end * i as f64 / PATH_CHECKS as f64));
-        }
-        for t in times {
-            let rel = self.relative(t)?;
-            let j = kinematics::leg_jacobian(&self.geometry, &rel.bodies[0].position, &Mat3::identity());
-            let condition = kinematics::condition_number(&j);
-            if condition.is_nan() || condition >= SINGULAR_CONDITION {
-                return Err(StewartError::SingularPose { time: t, condition });
-            }
-        }
-        Ok(())
+    fn cabin(&self) -> Result<CabinMotion, ModelError> {
+        cabin_motion(&self.data.inputs)
     }
 
-    pub fn geometry(&self) -> &StewartGeometry {
-        &self.geometry
+    /// Whether the platform's motion follows the current cabin inputs (an ideal sensor, in
+    /// step mode): then every output depends on every input and derivatives are differences.
+    fn follows_inputs(&mut self) -> Result<bool, ModelError> {
+        let initialized = self.data.initialized;
+        Ok(initialized && self.model()?.compensation().is_some_and(|c| c.sensor() == SensorKind::Ideal))
     }
 
-    pub fn path(&self) -> &CirclePath {
-        &self.path
-    }
-
-    pub fn joints(&self) -> &Joints {
-        &self.joints
-    }
-
-    /// Gravity vector, world frame.
-    pub fn gravity(&self) -> Vec3 {
-        self.gravity
-    }
-
-    pub fn total_mass(&self) -> f64 {
-        self.bodies.iter().map(|b| b.mass).sum()
-    }
-
-    /// Mass and body-frame inertia of the 13 bodies (platform, upper 1–6, lower 1–6). The
-    /// platform frame is parallel to the cabin's; a leg part's z axis is the leg axis.
-    pub fn body_inertias(&self) -> &[BodyInertia; BODIES] {
-        &self.bodies
-    }
-
-    /// The motion of all bodies relative to the cabin at time `t`; fails if a leg leaves its
-    /// stroke or lies along its Hooke axis.
-    pub fn relative(&self, t: f64) -> Result<RelativeState, StewartError> {
-        if !t.is_finite() {
-            return Err(StewartError::Input { what: "time".into(), value: t.to_string() });
-        }
-        self.relative_at(&self.path.at(t), t)
-    }
-
-    /// The motion of all bodies relative to the cabin with the platform centre at `point`
-    /// (cabin frame) at time `t`.
-    pub fn relative_at(&self, point: &PathPoint, t: f64) -> Result<RelativeState, StewartError> {
-        if !t.is_finite() {
-            return Err(StewartError::Input { what: "time".into(), value: t.to_string() });
-        }
-        let finite = |v: &Vec3| v.iter().all(|x| x.is_finite());
-        if !(finite(&point.position) && finite(&point.velocity) && finite(&point.acceleration)) {
-            return Err(StewartError::Input {
-                what: format!("platform command at t = {t} s"),
-                value: format!("{point:?}"),
-            });
-        }
-        self.checked(RelativeState::new(&self.leg_geometry(), point, t))
-    }
-
-    /// The relative state with the platform at rest at its start point.
-    pub fn relative_at_rest(&self) -> Result<RelativeState, StewartError> {
-        self.checked(RelativeState::new(&self.leg_geometry(), &self.path.at_rest(), 0.0))
-    }
-
-    /// Momentum of the platform's motion relative to the cabin at t = 0, cabin frame: linear
-    /// `Σ m v` and angular about the cabin centre point `Σ (ρ × m v + I ω)`. Zero at rest and
-    /// with a ramped start; with the abrupt path it is what the cabin must take up for a
-    /// momentum-consistent start ([`feedcore::scene::Start::Consistent`]).
-    pub fn start_momentum(&self) -> Result<Vector6<f64>, StewartError> {
-        let rel = self.relative(0.0)?;
-        let mut h = Vector6::zeros();
-        for (body, inertia) in rel.bodies.iter().zip(&self.bodies) {
-            let p = body.velocity * inertia.mass;
-            let l = body.position.cross(&p) + body.inertia * body.angular_velocity;
-            h += Vector6::new(p.x, p.y, p.z, l.x, l.y, l.z);
-        }
-        Ok(h)
-    }
-
-    fn checked(&self, rel: RelativeState) -> Result<RelativeState, StewartError> {
-        self.check_legs(&rel.strokes, &rel.hooke_sine, rel.time)?;
-        Ok(rel)
-    }
-
-    /// Every leg within its stroke and off its Hooke axis.
-    fn check_legs(&self, strokes: &[Stroke; LEGS], hooke_sine: &[f64; LEGS], time: f64) -> Result<(), StewartError> {
-        let (shortest, longest) = self.length_range;
-        for k in 0..LEGS {
-            let length = strokes[k].length;
-            if !(shortest..=longest).contains(&length) {
-                return Err(StewartError::LegLength { leg: k + 1, time, length, shortest, longest });
-            }
-            if hooke_sine[k].is_nan() || hooke_sine[k] <= HOOKE_SINGULAR_SINE {
-                return Err(StewartError::HookeSingular { leg: k + 1, time, sin_angle: hooke_sine[k] });
-            }
-        }
-        Ok(())
-    }
-
-    fn leg_geometry(&self) -> relative::LegGeometry<'_> {
-        let g = &self.geometry;
-        let part = |p: &feedcore::scene::LegPart| {
-            [p.mass_kg, p.com_from_joint_m, p.inertia_transverse_kg_m2, p.inertia_axial_kg_m2]
-        };
-        relative::LegGeometry {
-            base_joints: &g.base_joints,
-            platform_joints: &g.platform_joints,
-            hooke_axes: &self.hooke_axes,
-            platform_mass: g.platform_mass,
-            platform_inertia: &g.platform_inertia,
-            upper: part(&g.upper),
-            lower: part(&g.lower),
-        }
-    }
-
-    fn check_cabin(cabin: &CabinMotion) -> Result<(), StewartError> {
-        match cabin.non_finite() {
-            Some((name, value)) => Err(StewartError::Input { what: format!("cabin {name}"), value }),
-            None => Ok(()),
-        }
-    }
-
-    /// Wrench on the cabin at time `t` for the given cabin motion (momentum form; equal to the
-    /// sum of the Hooke joint reactions of [`Stewart::evaluate`]).
-    pub fn wrench(&self, cabin: &CabinMotion, t: f64) -> Result<Wrench, StewartError> {
-        Self::check_cabin(cabin)?;
-        Ok(self.relative(t)?.wrench(cabin, &self.gravity))
-    }
-
-    /// Wrench plus its exact Jacobians with respect to the cabin motion.
-    pub fn wrench_with_jacobians(
-        &self,
-        cabin: &CabinMotion,
-        t: f64,
-    ) -> Result<(Wrench, WrenchJacobians), StewartError> {
-        self.wrench_with_jacobians_at(cabin, &self.path.at(t), t)
-    }
-
-    /// [`Stewart::wrench_with_jacobians`] with the platform centre at `point` (cabin frame); the
-    /// Jacobians are at fixed relative motion.
-    pub(crate) fn wrench_with_jacobians_at(
-        &self,
-        cabin: &CabinMotion,
-        point: &PathPoint,
-        t: f64,
-    ) -> Result<(Wrench, WrenchJacobians), StewartError> {
-        Self::check_cabin(cabin)?;
-        Ok(self.relative_at(point, t)?.wrench_with_jacobians(cabin, &self.gravity))
-    }
-
-    /// Wrench on a cabin at rest at the given pose with the platform at rest at its start point.
-    pub fn static_wrench(&self, position: &Vec3, orientation: &Quat) -> Result<Wrench, StewartError> {
-        let cabin = CabinMotion::at_rest(*position, *orientation);
-        Self::check_cabin(&cabin)?;
-        Ok(self.relative_at_rest()?.wrench(&cabin, &self.gravity))
-    }
-
-    /// World-frame motion of the 13 bodies (platform, upper 1–6, lower 1–6; positions are
-    /// centres of mass) for the given cabin motion and relative state.
-    pub fn place_bodies(&self, cabin: &CabinMotion, rel: &RelativeState) -> [RigidMotion; BODIES] {
-        let rc = cabin.orientation.to_rotation_matrix().into_inner();
-        let (w, al) = (cabin.angular_velocity, cabin.angular_acceleration);
-        std::array::from_fn(|i| {
-            let b = &rel.bodies[i];
-            let (s, ds, dds) = (rc * b.position, rc * b.velocity, rc * b.acceleration);
-            let (wr, dwr) = (rc * b.angular_velocity, rc * b.angular_acceleration);
-            let orientation = Quat::from_rotation_matrix(&Rotation3::from_matrix_unchecked(rc * b.orientation));
-            RigidMotion {
-                position: cabin.position + s,
-                orientation,
-                velocity: cabin.velocity + w.cross(&s) + ds,
-                angular_velocity: w + wr,
-                acceleration: cabin.acceleration + al.cross(&s) + w.cross(&w.cross(&s)) + w.cross(&ds) * 2.0 + dds,
-                angular_acceleration: al + w.cross(&wr) + dwr,
-            }
-        })
-    }
-
-    /// The cabin and the 13 bodies placed consistently at time `t`, in the order of
-    /// [`constraints`] (cabin at index [`CABIN`]).
-    pub fn system_motion(&self, cabin: &CabinMotion, t: f64) -> Result<[RigidMotion; SYSTEM_BODIES], StewartError> {
-        self.system_motion_at(cabin, &self.path.at(t), t)
-    }
-
-    /// [`Stewart::system_motion`] with the platform centre at `point` (cabin frame).
-    pub(crate) fn system_motion_at(
-        &self,
-        cabin: &CabinMotion,
-        point: &PathPoint,
-        t: f64,
-    ) -> Result<[RigidMotion; SYSTEM_BODIES], StewartError> {
-        Self::check_cabin(cabin)?;
-        let rel = self.relative_at(point, t)?;
-        let bodies = self.place_bodies(cabin, &rel);
-        Ok(std::array::from_fn(|i| if i == CABIN { *cabin } else { bodies[i] }))
-    }
-
-    /// Actuator strokes ℓ_k(t) (joint centre to joint centre) and their rates.
-    pub fn strokes(&self, t: f64) -> Result<[Stroke; LEGS], StewartError> {
-        if !t.is_finite() {
-            return Err(StewartError::Input { what: "time".into(), value: t.to_string() });
-        }
-        self.strokes_at(&self.path.at(t), t)
-    }
-
-    /// Actuator strokes with the platform centre at `point` (cabin frame).
-    pub fn strokes_at(&self, point: &PathPoint, t: f64) -> Result<[Stroke; LEGS], StewartError> {
-        let (strokes, hooke_sine) = relative::strokes(&self.leg_geometry(), point);
-        self.check_legs(&strokes, &hooke_sine, t)?;
-        Ok(strokes)
-    }
-
-    /// All constraint equations at time `t` for the given system motion (see [`constraints`]).
-    pub fn constraints(
-        &self,
-        bodies: &[RigidMotion; SYSTEM_BODIES],
-        t: f64,
-        rows: &mut [ConstraintRow; CONSTRAINTS],
-    ) -> Result<(), StewartError> {
-        let strokes = self.strokes(t)?;
-        self.joints.evaluate(bodies, &strokes, rows);
-        Ok(())
-    }
-
-    /// Joint reactions, actuator forces and platform motion at time `t` for the given cabin
-    /// motion: Newton–Euler equations of the 13 bodies with Lagrange multipliers.
-    pub fn evaluate(&self, cabin: &CabinMotion, t: f64) -> Result<Evaluation, StewartError> {
-        self.evaluate_at(cabin, &self.path.at(t), t)
-    }
-
-    /// [`Stewart::evaluate`] with the platform centre at `point` (cabin frame).
-    pub(crate) fn evaluate_at(
-        &self,
-        cabin: &CabinMotion,
-        point: &PathPoint,
-        t: f64,
-    ) -> Result<Evaluation, StewartError> {
-        let system = self.system_motion_at(cabin, point, t)?;
-        let mut rows = [ConstraintRow::EMPTY; CONSTRAINTS];
-        let strokes = self.strokes_at(point, t)?;
-        self.joints.evaluate(&system, &strokes, &mut rows);
-        let forces = std::array::from_fn(|i| {
-            reactions::net_force(&system[i], self.bodies[i].mass, &self.bodies[i].inertia, &self.gravity)
+    /// Where the platform centre is commanded (cabin frame) at the current time.
+    fn point(&mut self) -> Result<PathPoint, ModelError> {
+        let (t, initialized) = (self.data.time, self.data.initialized);
+        let cabin = self.cabin()?;
+        // the sensor's state lent out while the model is borrowed (moved, not copied: this runs
+        // at every evaluation), and put back whatever happens
+        let command = self.data.command.take();
+        let point = self.model().map(|model| match model.compensation() {
+            Some(c) if initialized => match (c.sensor(), &command) {
+                (SensorKind::Ideal, _) => c.ideal(&cabin, t),
+                (SensorKind::Sampled, Some(state)) => state.at(c, t),
+                _ => model.path().at(t),
+            },
+            _ => model.path().at(t),
         });
-        let singular = || StewartError::SingularPose { time: t, condition: f64::INFINITY };
-        let lambda = reactions::multipliers(&self.joints, &rows, &system, &forces).ok_or_else(singular)?;
-        if lambda.iter().any(|l| !l.is_finite()) {
-            return Err(singular());
+        self.data.command = command;
+        point
+    }
+
+    fn wrench(&mut self) -> Result<(Wrench, WrenchJacobians), ModelError> {
+        if let Some(w) = self.cache.wrench {
+            return Ok(w);
         }
-        Ok(Evaluation {
-            time: t,
-            wrench: reactions::cabin_wrench(&rows, &lambda),
-            actuator_forces: std::array::from_fn(|k| lambda[constraints::ROWS_PER_LEG * k + constraints::DRIVING]),
-            platform: system[constraints::PLATFORM],
-            legs: std::array::from_fn(|k| reactions::leg_reactions(&self.joints, k, &rows, &lambda, &system)),
-            multipliers: lambda,
-            leg_lengths: strokes.map(|s| s.length),
+        let (t, cabin, point) = (self.data.time, self.cabin()?, self.point()?);
+        let w = self.model()?.wrench_with_jacobians_at(&cabin, &point, t).map_err(|e| e.to_string())?;
+        Ok(*self.cache.wrench.insert(w))
+    }
+
+    fn evaluation(&mut self) -> Result<&Evaluation, ModelError> {
+        let e = match self.cache.evaluation.take() {
+            Some(e) => e,
+            None => {
+                let (t, cabin, point) = (self.data.time, self.cabin()?, self.point()?);
+                self.model()?.evaluate_at(&cabin, &point, t).map_err(|e| e.to_string())?
+            }
+        };
+        Ok(self.cache.evaluation.insert(e))
+    }
+
+    fn actuator_rates(&mut self) -> Result<ActuatorRates, ModelError> {
+        if let Some(r) = self.cache.actuator_rates {
+            return Ok(r);
+        }
+        let (t, cabin, point) = (self.data.time, self.cabin()?, self.point()?);
+        let r = self.model()?.actuator_rates_at(&cabin, &point, t).map_err(|e| e.to_string())?;
+        Ok(*self.cache.actuator_rates.insert(r))
+    }
+
+    /// Directional derivatives by central differences of the outputs (an ideal sensor: the
+    /// platform's motion is a function of the cabin inputs, and the outputs of its relative
+    /// motion; the analytic derivative of that chain is not written out).
+    fn differences(&mut self, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
+        let Seeds { unknowns, knowns, seed } = at;
+        let mut du = [0.0; INPUTS];
+        for (k, s) in knowns.iter().zip(seed) {
+            let slot = du.get_mut(*k as usize).ok_or_else(|| {
+                format!("derivatives with respect to value reference {k} are not provided (only the cabin inputs)")
+            })?;
+            *slot += s;
+        }
+        // each input apart, kept only where <ModelStructure> declares the dependence (elsewhere
+        // the output is independent of it and the difference is rounding)
+        let declared = step_dependencies()?;
+        let (inputs, cache) = (self.data.inputs, std::mem::take(&mut self.cache));
+        out.iter_mut().for_each(|o| *o = 0.0);
+        let mut result = Ok(());
+        for (k, &d) in du.iter().enumerate().filter(|(_, d)| **d != 0.0) {
+            // fourth-order central differences: exact for the quadratic dependence on ω, error
+            // O(ε⁴) elsewhere
+            let eps = 1e-4 * inputs[k].abs().max(1.0);
+            let mut at = |x: f64| -> Result<Vec<f64>, ModelError> {
+                self.data.inputs[k] = x;
+                self.cache = Cache::default();
+                unknowns.iter().map(|&u| self.get_real(u)).collect()
+            };
+            let values: Result<Vec<Vec<f64>>, ModelError> =
+                [1.0, -1.0, 2.0, -2.0].iter().map(|s| at(inputs[k] + s * eps)).collect();
+            self.data.inputs = inputs;
+            let values = match values {
+                Ok(v) => v,
+                Err(e) => {
+                    result = Err(e);
+                    break;
+                }
+            };
+            for (j, o) in out.iter_mut().enumerate() {
+                if declared.contains(&(unknowns[j], k as u32)) {
+                    let (p1, m1, p2, m2) = (values[0][j], values[1][j], values[2][j], values[3][j]);
+                    *o += d * (8.0 * (p1 - m1) - (p2 - m2)) / (12.0 * eps);
+                }
+            }
+        }
+        self.cache = cache;
+        result
+    }
+
+    fn settings_changed(&mut self) {
+        self.model = None;
+        self.built_for = None;
+        self.cache = Cache::default();
+    }
+}
+
+impl Model for StewartFmu {
+    type State<'a> = SavedStewart<'a>;
+
+    fn description() -> Result<ModelDescription, ModelError> {
+        let inputs = input_names();
+        let rest = rest_inputs(SCENES.open(None, DEFAULT_SCENE)?.value());
+        let units = |i: usize| match i {
+            0..3 => "m",
+            3..7 => "",
+            7..10 => "m/s",
+            10..13 => "rad/s",
+            13..16 => "m/s2",
+            _ => "rad/s2",
+        };
+        let what = |i: usize| match i {
+            0..3 => "position of the cabin centre point, world frame",
+            3..7 => "orientation of the cabin, quaternion (w, x, y, z) body to world (normalized)",
+            7..10 => "velocity of the cabin centre point, world frame",
+            10..13 => "angular velocity of the cabin, world frame",
+            13..16 => "acceleration of the cabin centre point, world frame",
+            _ => "angular acceleration of the cabin, world frame",
+        };
+        // Far beyond any cabin on cables (FAST's reflector is 500 m across), so that only a
+        // mistaken or hostile value is refused: positions within 10 km, speeds 1 km/s, 1e5 in
+        // the accelerations' units; quaternion components within ±1.5 (normalized here).
+        let bound = |i: usize| match i {
+            0..3 => 1e4,
+            3..7 => 1.5,
+            7..13 => 1e3,
+            _ => 1e5,
+        };
+        let mut variables: Vec<Variable> = inputs
+            .iter()
+            .enumerate()
+            .map(|(i, n)| {
+                Variable::real_input(n.clone(), i as u32, rest[i], units(i))
+                    .range(-bound(i), bound(i))
+                    .describe(what(i))
+            })
+            .collect();
+        // Direct feedthrough, exactly (see the module documentation); in initialization mode
+        // the parameters that shape the platform's motion at the start count as well.
+        let name = |i: usize| inputs[i].as_str();
+        let orientation: Vec<&str> = (3..7).map(name).collect();
+        // q and ω always; the force component k on a_k and on α_j (j ≠ k) (the inertial force
+        // is linear in a + α × ρ), the moment component k on a_j (j ≠ k) (ρ × a) and on α.
+        let (a, alpha) = (13, 16);
+        let rotating: Vec<&str> = (3..7).chain(10..13).map(name).collect();
+        let force = |k: usize| -> Vec<&str> {
+            let mut d = rotating.clone();
+            d.push(name(a + k));
+            d.extend((0..3).filter(|&j| j != k).map(|j| name(alpha + j)));
+            d
+        };
+        let moment = |k: usize| -> Vec<&str> {
+            let mut d = rotating.clone();
+            d.extend((0..3).filter(|&j| j != k).map(|j| name(a + j)));
+            d.extend((0..3).map(|j| name(alpha + j)));
+            d
+        };
+        let all_but_position: Vec<&str> = (3..7).chain(10..19).map(name).collect();
+        let pose: Vec<&str> = (0..7).map(name).collect();
+        let all: Vec<&str> = (0..INPUTS).map(name).collect();
+        // in initialization mode the platform rests at its start pose: speed and start do not count
+        let params = ["scene", "radius"];
+        // The platform's own motion: with an ideal sensor ([control], step mode) it follows the
+        // cabin's pose, velocity and acceleration, so the wrench and the actuator forces depend
+        // on every input, the platform's position, the leg lengths and the feed on the pose.
+        let deps = |vr: u32, initial: bool| -> Vec<&str> {
+            match vr {
+                vr::FORCE..vr::ACTUATOR if !initial => all.clone(),
+                vr::FORCE..vr::MOMENT => force((vr - vr::FORCE) as usize),
+                vr::MOMENT..vr::ACTUATOR => moment((vr - vr::MOMENT) as usize),
+                vr::ACTUATOR..vr::PLATFORM_R if !initial => all.clone(),
+                vr::ACTUATOR..vr::PLATFORM_R => all_but_position.clone(),
+                vr::PLATFORM_R..vr::PLATFORM_Q => {
+                    let mut d = vec![inputs[(vr - vr::PLATFORM_R) as usize].as_str()];
+                    d.extend(&orientation);
+                    d
+                }
+                vr::LEG..vr::FEED_ERR if initial => vec![],
+                vr::LEG..vr::FEED_ERR => pose.clone(),
+                vr::FEED_ERR..vr::FEED_ROT => {
+                    let mut d = vec![inputs[(vr - vr::FEED_ERR) as usize].as_str()];
+                    d.extend(&orientation);
+                    d
+                }
+                _ => orientation.clone(),
+            }
+        };
+        let mut out = |name: String, vr: u32, unit: &str, text: String| {
+            let d = deps(vr, false);
+            let initially: Vec<&str> = deps(vr, true).into_iter().chain(params).collect();
+            variables.push(
+                Variable::real_output(name, vr, unit).describe(text).depends_on(&d).initially_depends_on(&initially),
+            );
+        };
+        for (k, (name, unit, text)) in outputs().into_iter().enumerate() {
+            out(name, vr::FORCE + k as u32, unit, text);
+        }
+        variables.push(
+            Variable::parameter("radius", vr::RADIUS, -1.0, false)
+                .unit("m")
+                .range(-1.0, 10.0)
+                .describe("radius of the platform's circle; negative: the scene's value"),
+        );
+        variables.push(
+            Variable::parameter("speed", vr::SPEED, -1.0, false)
+                .unit("m/s")
+                .range(-1.0, 10.0)
+                .describe("speed of the platform on the circle (0: held still); negative: the scene's value"),
+        );
+        variables.push(
+            Variable::parameter("ramp_time", vr::RAMP_TIME, -1.0, false)
+                .unit("s")
+                .range(-1.0, 1e4)
+                .describe("duration of the smooth start (with start = 2); non-positive: the scene's value"),
+        );
+        variables.push(
+            Variable::parameter("start", vr::START, 0, false)
+                .describe("0: the scene's start, 1: abrupt (full speed at t = 0), 2: smooth ramp"),
+        );
+        variables.push(Variable::parameter("scene", vr::SCENE, DEFAULT_SCENE, false).describe(
+            "scene file (TOML); relative paths resolve against resources/, which holds lt50m_B.toml and lt50m_C.toml",
+        ));
+        Ok(ModelDescription::co_simulation(
+            "stewart_fmu",
+            GUID,
+            "Stewart platform (13 rigid bodies) hanging in the feed cabin, platform on a circle; output: its wrench on the cabin",
+            env!("CARGO_PKG_VERSION"),
+            CoSimulationFlags::EXPORTED_WITH_DERIVATIVES,
+            variables,
+        ))
+    }
+
+    fn resources() -> Vec<Resource> {
+        SCENES.resources()
+    }
+
+    fn instantiate(resources: Option<&Path>) -> Result<Self, ModelError> {
+        let scene = SCENES.open(resources, DEFAULT_SCENE)?;
+        // Inputs start at their declared start values (FMI 2.0): scene C's pose at rest.
+        let inputs = rest_inputs(scene.value());
+        let settings = Settings { radius: -1.0, speed: -1.0, ramp_time: -1.0, start: 0 };
+        let accepted = std::array::from_fn(|k| inputs[k]);
+        Ok(StewartFmu {
+            data: Data {
+                settings,
+                initialized: false,
+                time: 0.0,
+                inputs,
+                rates: [0.0; INPUTS],
+                accepted,
+                command: None,
+            },
+            scene,
+            model: None,
+            built_for: None,
+            cache: Cache::default(),
         })
     }
 
-    /// Fixed-cabin mode (the paper's refs. [2, 3]): evaluations at the given times with the
-    /// cabin held at rest at the given pose.
-    pub fn fixed_cabin(
-        &self,
-        position: &Vec3,
-        orientation: &Quat,
-        times: impl IntoIterator<Item = f64>,
-    ) -> Result<Vec<Evaluation>, StewartError> {
-        let cabin = CabinMotion::at_rest(*position, *orientation);
-        times.into_iter().map(|t| self.evaluate(&cabin, t)).collect()
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
+        match vr {
+            0..19 => {
+                self.data.inputs[vr as usize] = value;
+                self.cache = Cache::default();
+                return Ok(());
+            }
+            vr::RADIUS => self.data.settings.radius = value,
+            vr::SPEED => self.data.settings.speed = value,
+            vr::RAMP_TIME => self.data.settings.ramp_time = value,
+            _ => return Err(format!("value reference {vr} is not a settable Real").into()),
+        }
+        self.settings_changed();
+        Ok(())
     }
 
-    /// Fixed-cabin mode over the platform's first revolution, from t = 0 (start included),
-    /// sampled at most `dt` apart: the extremes of the wrench and of the actuator forces.
-    pub fn fixed_cabin_range(
-        &self,
-        position: &Vec3,
-        orientation: &Quat,
-        dt: f64,
-    ) -> Result<FixedCabinRange, StewartError> {
-        if !(dt > 0.0 && dt.is_finite()) {
-            return Err(StewartError::Input { what: "sampling interval".into(), value: dt.to_string() });
-        }
-        let duration = self.path.revolution_time().unwrap_or(0.0);
-        let steps = (duration / dt).ceil() as usize;
-        let cabin = CabinMotion::at_rest(*position, *orientation);
-        let mut range = FixedCabinRange {
-            duration,
-            samples: steps + 1,
-            wrench_min: Vector6::repeat(f64::INFINITY),
-            wrench_max: Vector6::repeat(f64::NEG_INFINITY),
-            actuator_min: [f64::INFINITY; LEGS],
-            actuator_max: [f64::NEG_INFINITY; LEGS],
-        };
-        for i in 0..=steps {
-            let t = if steps == 0 { 0.0 } else { duration * i as f64 / steps as f64 };
-            let e = self.evaluate(&cabin, t)?;
-            let w = e.wrench.to_vector();
-            range.wrench_min = range.wrench_min.inf(&w);
-            range.wrench_max = range.wrench_max.sup(&w);
-            for k in 0..LEGS {
-                range.actuator_min[k] = range.actuator_min[k].min(e.actuator_forces[k]);
-                range.actuator_max[k] = range.actuator_max[k].max(e.actuator_forces[k]);
+    fn get_real(&mut self, vr: u32) -> Result<f64, ModelError> {
+        match vr {
+            0..19 => Ok(self.data.inputs[vr as usize]),
+            vr::LEG..vr::FEED_ERR => Ok(self.evaluation()?.leg_lengths[(vr - vr::LEG) as usize]),
+            vr::FEED_ERR..vr::RADIUS => {
+                let t = self.data.time;
+                let p = self.evaluation()?.platform;
+                let c = self.model()?.compensation().ok_or("the model has no feed point")?;
+                let (err, rot) = c.feed_error(&p.position, &p.orientation, t);
+                Ok(if vr < vr::FEED_ROT {
+                    err[(vr - vr::FEED_ERR) as usize]
+                } else {
+                    rot[(vr - vr::FEED_ROT) as usize]
+                })
             }
+            vr::FORCE..vr::ACTUATOR => {
+                let (w, _) = self.wrench()?;
+                Ok(w.to_vector()[(vr - vr::FORCE) as usize])
+            }
+            vr::ACTUATOR..vr::PLATFORM_R => Ok(self.evaluation()?.actuator_forces[(vr - vr::ACTUATOR) as usize]),
+            vr::PLATFORM_R..vr::PLATFORM_Q => Ok(self.evaluation()?.platform.position[(vr - vr::PLATFORM_R) as usize]),
+            vr::PLATFORM_Q..vr::LEG => {
+                let q = self.evaluation()?.platform.orientation;
+                Ok([q.w, q.i, q.j, q.k][(vr - vr::PLATFORM_Q) as usize])
+            }
+            vr::RADIUS => Ok(self.data.settings.radius),
+            vr::SPEED => Ok(self.data.settings.speed),
+            vr::RAMP_TIME => Ok(self.data.settings.ramp_time),
+            _ => Err(format!("value reference {vr} is not a Real of this model").into()),
         }
-        Ok(range)
+    }
+
+    /// `start`, the only Integer (the layer has checked the value reference).
+    fn set_integer(&mut self, _vr: u32, value: i32) -> Result<(), ModelError> {
+        if !(0..=2).contains(&value) {
+            return Err(format!("start = {value}: must be 0 (the scene's), 1 (abrupt) or 2 (ramp)").into());
+        }
+        self.data.settings.start = value;
+        self.settings_changed();
+        Ok(())
+    }
+
+    fn get_integer(&mut self, _vr: u32) -> Result<i32, ModelError> {
+        Ok(self.data.settings.start)
+    }
+
+    /// `scene`, the only String.
+    fn set_string(&mut self, _vr: u32, value: &str) -> Result<(), ModelError> {
+        self.scene.set(value)?;
+        self.settings_changed();
+        Ok(())
+    }
+
+    fn get_string(&mut self, _vr: u32) -> Result<String, ModelError> {
+        Ok(self.scene.name().to_owned())
+    }
+
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
+        self.data.initialized = true;
+        let model = self.model()?;
+        let command = model.compensation().filter(|c| c.sensor() == SensorKind::Sampled).map(|c| c.start_state());
+        self.data.command = command;
+        self.data.accepted = std::array::from_fn(|k| self.data.inputs[k]);
+        self.data.time = start_time;
+        self.cache = Cache::default();
+        Ok(())
+    }
+
+    fn initialization_warning(&mut self) -> Option<String> {
+        pose_mismatch(self.scene.name(), self.scene.value(), &self.data.inputs)
+    }
+
+    fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {
+        self.model()?;
+        if let Some(mut state) = self.data.command.take() {
+            // the sample at the start of the step measures the pose stepped to last
+            let a = self.data.accepted;
+            let pose = cabin_motion(&std::array::from_fn(|k| if k < 7 { a[k] } else { 0.0 }))?;
+            let c = self.model()?.compensation().expect("a command state comes with a compensation");
+            if h > c.max_step() * (1.0 + 1e-9) {
+                let (period, most) = (c.sample_period(), c.max_step());
+                self.data.command = Some(state);
+                return Err(format!(
+                    "communication step {h} s at t = {t} s is longer than a quarter of the sensor's sample period \
+                     {period} s ([control] sample_rate_hz): a sample is taken at the first communication point \
+                     after its instant; take steps of at most {most} s or lower the sample rate"
+                )
+                .into());
+            }
+            state.sample(c, t, &pose.position, &pose.orientation);
+            self.data.command = Some(state);
+        }
+        for k in 0..INPUTS {
+            self.data.inputs[k] += self.data.rates[k] * h;
+        }
+        self.data.rates = [0.0; INPUTS]; // input derivatives apply to one step
+        self.data.time = t + h;
+        self.cache = Cache::default();
+        // evaluate now, so that a leg leaving its stroke, or a non-finite result, is reported
+        // by this step
+        self.data.accepted = std::array::from_fn(|k| self.data.inputs[k]);
+        let (w, _) = self.wrench()?;
+        let w = w.to_vector();
+        if let Some(k) = w.iter().position(|x| !x.is_finite()) {
+            let name = if k < 3 { format!("wrench.f[{}]", k + 1) } else { format!("wrench.m[{}]", k - 2) };
+            return Err(
+                format!("`{name}` = {} at t = {}: the cabin inputs are {:?}", w[k], t + h, self.data.inputs).into()
+            );
+        }
+        Ok(StepOutcome::Complete)
+    }
+
+    fn set_real_input_derivative(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
+        let rate = self.data.rates.get_mut(vr as usize);
+        *rate.ok_or_else(|| format!("value reference {vr} is not an input"))? = value;
+        Ok(())
+    }
+
+    /// Every output follows the inputs at the same instant, and after a step the inputs at its
+    /// end: the step map's derivative is the instantaneous one at the current time.
+    fn derivative(&mut self, _kind: Derivative, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
+        if self.follows_inputs()? {
+            return self.differences(at, out);
+        }
+        let Seeds { unknowns, knowns, seed } = at;
+        let mut du = [0.0; INPUTS];
+        for (k, s) in knowns.iter().zip(seed) {
+            if *k as usize >= INPUTS {
+                return Err(format!(
+                    "derivatives with respect to value reference {k} are not provided (only the cabin inputs)"
+                )
+                .into());
+            }
+            du[*k as usize] += s;
+        }
+        let v3 = |i: usize| Vec3::new(du[i], du[i + 1], du[i + 2]);
+        let quaternion = |v: &[f64]| nalgebra::Quaternion::new(v[0], v[1], v[2], v[3]);
+        let d = CabinChange {
+            position: v3(vr::R as usize),
+            rotation: rotation_of_quaternion_change(&quaternion(&self.data.inputs[3..7]), &quaternion(&du[3..7])),
+            velocity: v3(vr::V as usize),
+            angular_velocity: v3(vr::W as usize),
+            acceleration: v3(vr::A as usize),
+            angular_acceleration: v3(vr::ALPHA as usize),
+        };
+        let cabin_r = Vec3::new(self.data.inputs[0], self.data.inputs[1], self.data.inputs[2]);
+        let needs = |outputs: std::ops::Range<u32>| unknowns.iter().any(|u| outputs.contains(u));
+        let (df, dtilt) = if needs(vr::FEED_ERR..vr::RADIUS) {
+            let t = self.data.time;
+            let p = self.evaluation()?.platform;
+            let c = self.model()?.compensation().ok_or("the model has no feed point")?;
+            c.feed_error_change(&cabin_r, &p, t, &d).map_err(|e| e.to_string())?
+        } else {
+            (Vec3::zeros(), Vec3::zeros())
+        };
+        let dwrench = if needs(vr::FORCE..vr::ACTUATOR) { self.wrench()?.1.change(&d) } else { Vector6::zeros() };
+        let dact = if needs(vr::ACTUATOR..vr::PLATFORM_R) {
+            let (r, c) = (self.actuator_rates()?, self.cabin()?);
+            r.change(&c, &self.model()?.gravity(), &d)
+        } else {
+            Vector6::zeros()
+        };
+        let (dp, dq) = if needs(vr::PLATFORM_R..vr::RADIUS) {
+            carried_pose_change(&cabin_r, &self.evaluation()?.platform, &d)
+        } else {
+            (Vec3::zeros(), nalgebra::Quaternion::identity())
+        };
+        for (o, u) in out.iter_mut().zip(unknowns) {
+            *o = match *u {
+                vr::FORCE..vr::ACTUATOR => dwrench[(*u - vr::FORCE) as usize],
+                vr::ACTUATOR..vr::PLATFORM_R => dact[(*u - vr::ACTUATOR) as usize],
+                vr::PLATFORM_R..vr::PLATFORM_Q => dp[(*u - vr::PLATFORM_R) as usize],
+                vr::PLATFORM_Q..vr::LEG => [dq.w, dq.i, dq.j, dq.k][(*u - vr::PLATFORM_Q) as usize],
+                // the legs follow the commanded relative motion, fixed within a step
+                vr::LEG..vr::FEED_ERR => 0.0,
+                vr::FEED_ERR..vr::FEED_ROT => df[(*u - vr::FEED_ERR) as usize],
+                vr::FEED_ROT..vr::RADIUS => dtilt[(*u - vr::FEED_ROT) as usize],
+                other => return Err(format!("value reference {other} is not an output").into()),
+            };
+        }
+        Ok(())
+    }
+
+    fn save(&mut self) -> Result<SavedStewart<'_>, ModelError> {
+        Ok(SavedStewart { scene: self.scene.saved(), data: self.data.clone() })
+    }
+
+    fn restore(&mut self, saved: SavedStewart<'_>) -> Result<(), ModelError> {
+        if self.scene.restore(saved.scene)? || saved.data.settings != self.data.settings {
+            self.settings_changed();
+        }
+        self.data = saved.data;
+        self.model()?;
+        self.cache = Cache::default();
+        Ok(())
     }
 }

@@ -4,8 +4,8 @@
 use feedcore::scene::Scene;
 use fmi2::ModelInfo;
 use fmi2::export::Model;
-use stewart_fmu::fmu::{INPUTS, StewartFmu, vr};
-use stewart_fmu::{CabinMotion, Stewart};
+use stewart::{CabinMotion, Stewart};
+use stewart_fmu::{INPUTS, StewartFmu, vr};
 
 fn scene(name: &str) -> Scene {
     if std::path::Path::new(name).is_absolute() {

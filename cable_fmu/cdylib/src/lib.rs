@@ -1,3 +1,3 @@
 //! The cable–cabin model exported as the FMI 2.0 Co-Simulation FMU `cable_fmu`.
 
-fmi2::export_fmu!(cable_fmu::fmu::CableFmu);
+fmi2::export_fmu!(cable_fmu::CableFmu);

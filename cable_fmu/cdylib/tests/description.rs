@@ -5,7 +5,7 @@ use fmi2::export::Model;
 
 #[test]
 fn the_model_description_reads_back_equal() {
-    let declared = fmi2::ModelInfo::new(cable_fmu::fmu::CableFmu::description().unwrap()).unwrap().description;
+    let declared = fmi2::ModelInfo::new(cable_fmu::CableFmu::description().unwrap()).unwrap().description;
     let text = fmi2::xml::model_description_xml(&declared).unwrap();
     assert_eq!(fmi2::xml::parse_model_description(&text).unwrap(), declared);
     assert_eq!(declared.variables.len(), 6 + 31 + 5, "inputs, outputs, parameters");

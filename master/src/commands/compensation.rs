@@ -24,7 +24,7 @@ use master::monolithic::Monolithic;
 use master::plot::{Line, PALETTE, Panel, stacked};
 use master::table::Table;
 use plotters::prelude::*;
-use stewart_fmu::{Compensation, Stewart};
+use stewart::{Compensation, Stewart};
 
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::positive;

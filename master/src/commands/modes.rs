@@ -4,8 +4,8 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use cable_fmu::model::CableCabin;
-use cable_fmu::modes::{Dropped, modes_dropping, straight_cable_frequencies};
+use cable::model::CableCabin;
+use cable::modes::{Dropped, modes_dropping, straight_cable_frequencies};
 use feedcore::scene::{Scene, StewartMode};
 use master::limits::{Footprint, check_memory, memory_needed, peak_memory};
 use master::table::Table;
@@ -113,7 +113,7 @@ pub(crate) fn case_frequencies(
     bare.damping.fit_modes = None;
     bare.damping.fit_frequencies_hz = Some([1.0, 2.0]);
     let model = CableCabin::build(&bare, 0)?;
-    let sys = model.system(cable_fmu::model::Payload::Locked);
+    let sys = model.system(cable::model::Payload::Locked);
     let cfg = model.equilibrium_config();
     let dropped = |cable_end_rotation, weight_rotation| Dropped { cable_end_rotation, weight_rotation };
     let f = match hypothesis {
@@ -188,7 +188,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let setup_s = start.elapsed().as_secs_f64();
     let peak = peak_memory();
     let modes = model.modes.as_ref().expect("modes were asked for");
-    let sys = model.system(cable_fmu::model::Payload::Locked);
+    let sys = model.system(cable::model::Payload::Locked);
     let cabin_mass = sys
         .body
         .transformed(&model.equilibrium.orientation.to_rotation_matrix().into_inner(), &model.equilibrium.position)

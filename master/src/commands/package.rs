@@ -34,8 +34,8 @@ impl Exportable {
 /// Every FMU of the workspace: one line per model (its `Model` type and its cdylib package).
 pub(crate) const EXPORTABLE: &[Exportable] = &[
     Exportable::of::<fmi2_testmodel::Oscillator>("fmi2_testmodel"),
-    Exportable::of::<cable_fmu::fmu::CableFmu>("cable_fmu_cdylib"),
-    Exportable::of::<stewart_fmu::fmu::StewartFmu>("stewart_fmu_cdylib"),
+    Exportable::of::<cable_fmu::CableFmu>("cable_fmu_cdylib"),
+    Exportable::of::<stewart_fmu::StewartFmu>("stewart_fmu_cdylib"),
     // The zoo: small FMUs that know nothing of the LT50m system (testfmus/, docs/systems.md).
     Exportable::of::<zoo_fmus::dahlquist::DahlquistFmu>("zoo_dahlquist"),
     Exportable::of::<zoo_fmus::van_der_pol::VanDerPolFmu>("zoo_van_der_pol"),

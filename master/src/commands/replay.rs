@@ -5,7 +5,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use cable_fmu::model::{CableCabin, Payload};
+use cable::model::{CableCabin, Payload};
 use feedcore::scene::Scene;
 use nalgebra::Vector6;
 
@@ -97,16 +97,16 @@ fn head(outputs: Vec<String>) -> String {
 }
 
 fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], f: &mut dyn Write) -> CmdResult {
-    let cols = columns(header, &cable_fmu::fmu::input_names())?;
+    let cols = columns(header, &cable_fmu::input_names())?;
     let wrench = |r: &[f64]| Vector6::from_iterator(cols.iter().map(|&c| r[c]));
     let model = CableCabin::from_scene(scene)?;
     // As the FMU: at rest at the target pose under the first wrench (form-found for it).
     let w0 = wrench(&rows[0]);
     let under = if w0 == model.static_payload_wrench() { None } else { Some(model.under_wrench(&w0)?) };
     let mut dy = under.as_ref().unwrap_or(&model).dynamics_with(Payload::External, rows[0][0], &w0)?;
-    writeln!(f, "{}", head(cable_fmu::fmu::output_names()))?;
+    writeln!(f, "{}", head(cable_fmu::output_names()))?;
     let mut tensions = vec![(0.0, 0.0); dy.system().cables()];
-    let mut write_row = |dy: &cable_fmu::dynamics::Dynamics, f: &mut dyn Write| -> std::io::Result<()> {
+    let mut write_row = |dy: &cable::dynamics::Dynamics, f: &mut dyn Write| -> std::io::Result<()> {
         let c = dy.cabin();
         let q = c.orientation.quaternion();
         dy.end_tensions(&mut tensions);
@@ -129,12 +129,12 @@ fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], f: &mut dyn
 }
 
 fn replay_stewart(scene: &Scene, header: &[String], rows: &[Vec<f64>], f: &mut dyn Write) -> CmdResult {
-    let cols = columns(header, &stewart_fmu::fmu::input_names())?;
-    let model = stewart_fmu::Stewart::from_scene(scene)?;
-    writeln!(f, "{}", head(stewart_fmu::fmu::output_names()))?;
+    let cols = columns(header, &stewart_fmu::input_names())?;
+    let model = stewart::Stewart::from_scene(scene)?;
+    writeln!(f, "{}", head(stewart_fmu::output_names()))?;
     for r in rows {
-        let u: [f64; stewart_fmu::fmu::INPUTS] = std::array::from_fn(|i| r[cols[i]]);
-        let cabin = stewart_fmu::fmu::cabin_motion(&u).map_err(|e| e.to_string())?;
+        let u: [f64; stewart_fmu::INPUTS] = std::array::from_fn(|i| r[cols[i]]);
+        let cabin = stewart_fmu::cabin_motion(&u).map_err(|e| e.to_string())?;
         let t = r[0];
         let w = model.wrench(&cabin, t)?.to_vector();
         let e = model.evaluate(&cabin, t)?;

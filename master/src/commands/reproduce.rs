@@ -14,15 +14,15 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use cable_fmu::model::{CableCabin, Payload};
-use cable_fmu::modes::tangent;
+use cable::model::{CableCabin, Payload};
+use cable::modes::tangent;
 use feedcore::Vec3;
 use feedcore::rigid::RigidMotion;
 use feedcore::scene::{Scene, Start, WrenchModel};
 use master::simulate::{Method, Trace};
 use nalgebra::{DMatrix, Matrix6, Vector6};
 use plotters::prelude::*;
-use stewart_fmu::Stewart;
+use stewart::Stewart;
 
 use super::modes::{Hypothesis, Platform, case_frequencies};
 use super::output::Outputs;

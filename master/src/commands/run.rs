@@ -99,8 +99,8 @@ fn static_utilisation(scene: &Scene) -> anyhow::Result<Option<Vec<f64>>> {
     if scene.cables.breaking_load_n.is_none() {
         return Ok(None);
     }
-    let net = cable_fmu::net::CableNet::from_scene(scene);
-    let eq = cable_fmu::statics::form_find(&net, scene.target_position(), scene.target_orientation())?;
+    let net = cable::net::CableNet::from_scene(scene);
+    let eq = cable::statics::form_find(&net, scene.target_position(), scene.target_orientation())?;
     Ok(Some(eq.cables.iter().filter_map(|c| scene.cables.utilisation(c.largest_tension())).collect()))
 }
 

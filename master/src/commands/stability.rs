@@ -6,8 +6,8 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use anyhow::Context;
-use cable_fmu::net::CableNet;
-use cable_fmu::statics::{StaticsError, form_find};
+use cable::net::CableNet;
+use cable::statics::{StaticsError, form_find};
 use master::journal::{self, Journal};
 use master::plot::{CATEGORY_COLORS, Cell, MapPanel, stability_map};
 use master::simulate::{Run, RunError, write_variant};

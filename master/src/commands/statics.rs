@@ -4,8 +4,8 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use cable_fmu::net::CableNet;
-use cable_fmu::statics::{CableState, form_find};
+use cable::net::CableNet;
+use cable::statics::{CableState, form_find};
 use feedcore::scene::ELASTIC_STRAIN_LIMIT;
 use master::limits::{Footprint, check_memory};
 use master::table::Table;
@@ -35,7 +35,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let net = CableNet::from_scene(&scene);
     let eq = form_find(&net, scene.target_position(), scene.target_orientation())?;
     let q = eq.orientation;
-    let utilisation = |c: &cable_fmu::statics::CableReport| scene.cables.utilisation(c.largest_tension());
+    let utilisation = |c: &cable::statics::CableReport| scene.cables.utilisation(c.largest_tension());
     let overloaded: Vec<usize> =
         (0..eq.cables.len()).filter(|&i| utilisation(&eq.cables[i]).is_some_and(|u| u > 1.0)).collect();
     if args.json {

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use master::table::Table;
 use nalgebra::Vector6;
 use serde_json::json;
-use stewart_fmu::{CabinMotion, Stewart};
+use stewart::{CabinMotion, Stewart};
 
 use super::{CmdResult, load_scene};
 

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context;
-use cable_fmu::model::CableCabin;
+use cable::model::CableCabin;
 use master::journal::{self, Journal};
 use master::limits::{Footprint, check_memory_of};
 use master::parallel;

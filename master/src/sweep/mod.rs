@@ -15,9 +15,9 @@ use std::fmt;
 use std::path::Path;
 use std::time::Instant;
 
-use cable_fmu::model::CableCabin;
-use cable_fmu::net::CableNet;
-use cable_fmu::statics::{CableState, StaticsError, form_find};
+use cable::model::CableCabin;
+use cable::net::CableNet;
+use cable::statics::{CableState, StaticsError, form_find};
 use feedcore::Vec3;
 use feedcore::scene::Scene;
 use thiserror::Error;

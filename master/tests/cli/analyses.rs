@@ -2,7 +2,7 @@
 
 use std::process::Command;
 
-use cable_fmu::model::CableCabin;
+use cable::model::CableCabin;
 use feedcore::scene::Scene;
 
 fn scene_path(name: &str) -> String {

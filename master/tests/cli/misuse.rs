@@ -314,9 +314,9 @@ fn the_adaptive_step_is_checked_too() {
 fn a_failed_replay_leaves_no_output() {
     let dir = scratch("replay");
     let (inputs, out) = (dir.join("in.csv"), dir.join("out.csv"));
-    let names: Vec<String> = cable_fmu::fmu::input_names();
+    let names: Vec<String> = cable_fmu::input_names();
     let scene = common::scene_path("lt50m_C.toml");
-    let model = cable_fmu::model::CableCabin::from_scene(&feedcore::scene::Scene::load(&scene).unwrap()).unwrap();
+    let model = cable::model::CableCabin::from_scene(&feedcore::scene::Scene::load(&scene).unwrap()).unwrap();
     let w0 = model.static_payload_wrench();
     let row = |t: f64, w: &[f64]| format!("{t},{}", w.iter().map(f64::to_string).collect::<Vec<_>>().join(","));
     let mut table = format!("time,{}\n{}\n{}\n", names.join(","), row(0.0, w0.as_slice()), row(0.01, w0.as_slice()));

@@ -52,7 +52,7 @@ fn modes_json(args: &[&str]) -> Vec<f64> {
 }
 
 fn library_modes(scene: &feedcore::scene::Scene, count: usize) -> Vec<f64> {
-    let m = cable_fmu::model::CableCabin::build(scene, count).unwrap();
+    let m = cable::model::CableCabin::build(scene, count).unwrap();
     m.modes.unwrap().frequencies_hz[..count].to_vec()
 }
 

@@ -122,7 +122,7 @@ fn a_cable_only_scene_loads_and_computes_only_the_cable_model() {
     let path = common::scene_path("lt50m_C_cable_only.toml");
     let scene = feedcore::scene::Scene::load(&path).unwrap();
     assert!(scene.system.is_none());
-    assert!(cable_fmu::model::CableCabin::build(&scene, 0).unwrap().modes.is_none(), "no eigen solve");
+    assert!(cable::model::CableCabin::build(&scene, 0).unwrap().modes.is_none(), "no eigen solve");
     let csv = common::fmu_dir().join("cable-only.csv");
     let out = master(&[
         "run",

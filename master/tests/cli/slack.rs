@@ -16,7 +16,7 @@
 //! (2) the slack episodes do not widen it — the gap while cable 5 is slack is no larger than the
 //! largest gap while it is taut.
 
-use cable_fmu::element::Bar;
+use cable::element::Bar;
 use feedcore::scene::Scene;
 use master::cosim::{Options, Scheme};
 use master::simulate::{Method, simulate};

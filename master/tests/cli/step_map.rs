@@ -13,11 +13,11 @@ fn ijcsa_with_the_extension_and_with_finite_differences_agree() {
     // standard importer's view, so the master must difference with rollback.
     let fmu = fmi2::import::Fmu::load(&common::fmu_dir().join("cable_fmu.fmu")).unwrap();
     assert!(fmu.description().flags.provides_step_map_derivative);
-    let mut description = <cable_fmu::fmu::CableFmu as fmi2::export::Model>::description().unwrap();
+    let mut description = <cable_fmu::CableFmu as fmi2::export::Model>::description().unwrap();
     description.flags.provides_step_map_derivative = false;
     let plain = common::fmu_dir().join("plain").join("cable_fmu.fmu");
     let library = fmu.root().join("binaries/linux64/cable_fmu.so");
-    let resources = <cable_fmu::fmu::CableFmu as fmi2::export::Model>::resources();
+    let resources = <cable_fmu::CableFmu as fmi2::export::Model>::resources();
     fmi2::package::write_fmu(&plain, &description, &library, &resources).unwrap();
     assert!(!fmi2::import::Fmu::load(&plain).unwrap().description().flags.provides_step_map_derivative);
     let plain_file = file.with_file_name("stepmap-plain.toml");

@@ -3,7 +3,7 @@
 use std::process::Command;
 
 use feedcore::scene::Scene;
-use stewart_fmu::{CabinMotion, Stewart};
+use stewart::{CabinMotion, Stewart};
 
 fn scene_path(name: &str) -> String {
     format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))

@@ -4,9 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use cable_fmu::model::CableCabin;
-use cable_fmu::net::CableNet;
-use cable_fmu::statics::form_find;
+use cable::model::CableCabin;
+use cable::net::CableNet;
+use cable::statics::form_find;
 use feedcore::scene::Scene;
 use master::simulate::{Method, simulate};
 use master::sweep::table::Table;

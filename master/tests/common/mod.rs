@@ -26,8 +26,8 @@ pub(crate) fn fmu_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("master-tests-{}", std::process::id()));
-        fmi2::package::package_model::<cable_fmu::fmu::CableFmu>(&dir, &library("cable_fmu_cdylib")).unwrap();
-        fmi2::package::package_model::<stewart_fmu::fmu::StewartFmu>(&dir, &library("stewart_fmu_cdylib")).unwrap();
+        fmi2::package::package_model::<cable_fmu::CableFmu>(&dir, &library("cable_fmu_cdylib")).unwrap();
+        fmi2::package::package_model::<stewart_fmu::StewartFmu>(&dir, &library("stewart_fmu_cdylib")).unwrap();
         dir
     })
 }

@@ -1,3 +1,3 @@
 //! The Stewart platform model exported as the FMI 2.0 Co-Simulation FMU `stewart_fmu`.
 
-fmi2::export_fmu!(stewart_fmu::fmu::StewartFmu);
+fmi2::export_fmu!(stewart_fmu::StewartFmu);

@@ -5,7 +5,7 @@ use fmi2::export::Model;
 
 #[test]
 fn the_model_description_reads_back_equal() {
-    let declared = fmi2::ModelInfo::new(stewart_fmu::fmu::StewartFmu::description().unwrap()).unwrap();
+    let declared = fmi2::ModelInfo::new(stewart_fmu::StewartFmu::description().unwrap()).unwrap();
     let text = fmi2::xml::model_description_xml(&declared.description).unwrap();
     let read = fmi2::xml::parse_model_description(&text).unwrap();
     assert_eq!(read, declared.description);

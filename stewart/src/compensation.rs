@@ -1,0 +1,589 @@
+//! The second level: the platform puts a feed point on a target in the world frame, from the
+//! measured cabin pose (scene `[control]`).
+//!
+//! The platform only translates relative to the cabin (its frame stays parallel to the cabin's),
+//! so the compensation is of position: the platform centre, cabin frame, is commanded to
+//!
+//! ```text
+//! c = Rᵀ (x(t) − p) − f
+//! ```
+//!
+//! (`p, R` the measured cabin pose, `x` the target, `f` the feed point in the platform frame),
+//! which puts the feed `p + R (c + f)` on `x` when the measurement is true. The feed's tilt is the
+//! cabin's and is not compensated: it is reported as the feed's tilt error.
+//!
+//! Sensors: `ideal` (the true pose, continuously: `c` and its first two derivatives follow from
+//! the cabin's motion, exactly), `off` (the platform holds its start pose: the uncompensated
+//! reference) and `sampled`: at the first communication point at or after each instant k·T the
+//! cabin pose is measured (uniform noise, seeded), the command computed for the target at the
+//! time it will apply, and applied `delay` later. A new command is reached smoothly, with
+//! continuous position and velocity (the bodies' accelerations, hence forces, stay finite):
+//! with `bandwidth_hz`, through two first-order stages of that bandwidth (critically damped);
+//! without, along a quintic smooth step over half a sample period. Between samples the relative
+//! motion is thus a known function of time: it depends on the cabin inputs of earlier steps only
+//! (kept in [`CommandState`], part of the FMU state), not on those of the step being taken.
+
+use std::collections::VecDeque;
+
+use feedcore::random::SplitMix64;
+use feedcore::scene::{Control, LEGS, Scene, SensorKind, TargetKind};
+use feedcore::{Quat, Vec3};
+use serde::{Deserialize, Serialize};
+
+use crate::path::PathPoint;
+use crate::wrench::CabinMotion;
+
+/// Two instants closer than this are the same instant, s (communication points are sums of steps).
+const SAME_INSTANT: f64 = 1e-9;
+
+/// The target of the feed point, world frame.
+#[derive(Clone, Debug, PartialEq)]
+enum Target {
+    Hold,
+    /// Centre, radius, start angle, angular speed.
+    Circle {
+        center: Vec3,
+        radius: f64,
+        phase: f64,
+        omega: f64,
+    },
+    /// Times and displacements from the start position.
+    Samples {
+        times: Vec<f64>,
+        displacements: Vec<Vec3>,
+    },
+}
+
+/// Position, velocity and acceleration of the target, world frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TargetPoint {
+    pub position: Vec3,
+    pub velocity: Vec3,
+    pub acceleration: Vec3,
+}
+
+/// The compensation of one scene (immutable).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Compensation {
+    /// Feed point, platform frame.
+    feed_point: Vec3,
+    /// The platform centre at rest, cabin frame.
+    rest: Vec3,
+    /// The cabin's reference (static) pose: the platform's start attitude and the feed's start.
+    reference: (Vec3, Quat),
+    feed_start: Vec3,
+    target: Target,
+    sensor: SensorKind,
+    period: f64,
+    delay: f64,
+    noise_m: f64,
+    noise_rad: f64,
+    seed: u64,
+    /// Time constant of each filter stage, s; `None`: the smooth step.
+    tau: Option<f64>,
+    leg_limits: Option<[(f64, f64); LEGS]>,
+    force_limit: Option<f64>,
+}
+
+impl Compensation {
+    /// The compensation of `control` for the platform resting at `rest` (cabin frame), with
+    /// `rest_legs` the leg lengths there; the reference pose is the scene's target pose.
+    pub fn new(scene: &Scene, control: &Control, rest: Vec3, rest_legs: [f64; LEGS]) -> Compensation {
+        let reference = (scene.target_position(), scene.target_orientation());
+        let feed_point = Vec3::from(control.feed_point_m);
+        let feed_start = reference.0 + reference.1 * (rest + feed_point);
+        let target = match control.target {
+            TargetKind::Hold => Target::Hold,
+            TargetKind::Circle => {
+                let offset = Vec3::from(control.circle_center_offset_m.expect("validated scene"));
+                let radius = offset.norm();
+                let speed = control.circle_speed_m_s.expect("validated scene");
+                Target::Circle {
+                    center: feed_start + offset,
+                    radius,
+                    phase: (-offset.y).atan2(-offset.x),
+                    omega: speed / radius,
+                }
+            }
+            TargetKind::Samples => {
+                let v = |x: &Option<Vec<f64>>| x.clone().expect("validated scene");
+                let (x, y, z) = (v(&control.samples_x_m), v(&control.samples_y_m), v(&control.samples_z_m));
+                let displacements = (0..x.len()).map(|i| Vec3::new(x[i], y[i], z[i])).collect();
+                Target::Samples { times: v(&control.samples_time_s), displacements }
+            }
+        };
+        let leg_limits = match (control.stroke_m, control.min_leg_m, control.max_leg_m) {
+            (Some(s), _, _) => Some(rest_legs.map(|l| (l - s, l + s))),
+            (None, None, None) => None,
+            (None, lo, hi) => Some([(lo.unwrap_or(0.0), hi.unwrap_or(f64::INFINITY)); LEGS]),
+        };
+        Compensation {
+            feed_point,
+            rest,
+            reference,
+            feed_start,
+            target,
+            sensor: control.sensor,
+            period: control.sample_period().unwrap_or(f64::INFINITY),
+            delay: control.delay_s,
+            noise_m: control.noise_m,
+            noise_rad: control.noise_rad,
+            seed: control.seed.unwrap_or(0),
+            tau: control.bandwidth_hz.map(|b| 1.0 / (std::f64::consts::TAU * b)),
+            leg_limits,
+            force_limit: control.force_limit_n,
+        }
+    }
+
+    /// What a scene without `[control]` reports: no compensation, the feed point at the platform
+    /// centre, held at its start position.
+    pub(crate) fn uncontrolled() -> Control {
+        Control {
+            feed_point_m: [0.0; 3],
+            target: TargetKind::Hold,
+            circle_center_offset_m: None,
+            circle_speed_m_s: None,
+            samples_time_s: None,
+            samples_x_m: None,
+            samples_y_m: None,
+            samples_z_m: None,
+            sensor: SensorKind::Off,
+            sample_rate_hz: None,
+            delay_s: 0.0,
+            noise_m: 0.0,
+            noise_rad: 0.0,
+            seed: None,
+            bandwidth_hz: None,
+            min_leg_m: None,
+            max_leg_m: None,
+            stroke_m: None,
+            force_limit_n: None,
+        }
+    }
+
+    pub fn sensor(&self) -> SensorKind {
+        self.sensor
+    }
+
+    /// Sample period of a sampled sensor (infinite otherwise), s.
+    pub fn sample_period(&self) -> f64 {
+        self.period
+    }
+
+    /// Largest macro step a sampled sensor allows: a sample is taken at the first communication
+    /// point at or after its instant, so a step of at most a quarter period keeps that jitter
+    /// below a quarter period and every smooth step complete before the next command.
+    pub fn max_step(&self) -> f64 {
+        0.25 * self.period
+    }
+
+    /// Leg length limits (shortest, longest) per leg, m.
+    pub fn leg_limits(&self) -> Option<[(f64, f64); LEGS]> {
+        self.leg_limits
+    }
+
+    pub fn force_limit(&self) -> Option<f64> {
+        self.force_limit
+    }
+
+    /// The feed's start position, world frame.
+    pub fn feed_start(&self) -> Vec3 {
+        self.feed_start
+    }
+
+    /// The feed point in the platform frame, m.
+    pub fn feed_point(&self) -> Vec3 {
+        self.feed_point
+    }
+
+    /// The target at time `t` (before t = 0: at its start).
+    pub fn target(&self, t: f64) -> TargetPoint {
+        let still = |p: Vec3| TargetPoint { position: p, velocity: Vec3::zeros(), acceleration: Vec3::zeros() };
+        match &self.target {
+            Target::Hold => still(self.feed_start),
+            Target::Circle { center, radius, phase, omega } => {
+                let w = if t > 0.0 { *omega } else { 0.0 };
+                let (s, c) = (phase + w * t.max(0.0)).sin_cos();
+                let (radial, tangent) = (Vec3::new(c, s, 0.0), Vec3::new(-s, c, 0.0));
+                TargetPoint {
+                    position: center + radial * *radius,
+                    velocity: tangent * (radius * w),
+                    acceleration: -radial * (radius * w * w),
+                }
+            }
+            Target::Samples { times, displacements } => {
+                let n = times.len();
+                let j = times.partition_point(|&s| s <= t);
+                if j == 0 || j == n {
+                    return still(self.feed_start + displacements[if j == 0 { 0 } else { n - 1 }]);
+                }
+                let (t0, t1) = (times[j - 1], times[j]);
+                let slope = (displacements[j] - displacements[j - 1]) / (t1 - t0);
+                TargetPoint {
+                    position: self.feed_start + displacements[j - 1] + slope * (t - t0),
+                    velocity: slope,
+                    acceleration: Vec3::zeros(),
+                }
+            }
+        }
+    }
+
+    /// The command that puts the feed on the target at time `t` for a cabin at (p, R).
+    fn command(&self, position: &Vec3, orientation: &Quat, t: f64) -> Vec3 {
+        orientation.inverse_transform_vector(&(self.target(t).position - position)) - self.feed_point
+    }
+
+    /// The ideal sensor's command: platform centre, cabin frame, with its derivatives, for the
+    /// true cabin motion.
+    pub fn ideal(&self, cabin: &CabinMotion, t: f64) -> PathPoint {
+        let x = self.target(t);
+        let r = &cabin.orientation;
+        let (d, dd, ddd) =
+            (x.position - cabin.position, x.velocity - cabin.velocity, x.acceleration - cabin.acceleration);
+        let (w, al) = (
+            r.inverse_transform_vector(&cabin.angular_velocity),
+            r.inverse_transform_vector(&cabin.angular_acceleration),
+        );
+        let e = r.inverse_transform_vector(&d);
+        let de = r.inverse_transform_vector(&dd);
+        // e = Rᵀd: ė = Rᵀḋ − ω×e, ë = Rᵀd̈ − 2ω×Rᵀḋ − α×e + ω×(ω×e) (body-frame ω, α)
+        PathPoint {
+            position: e - self.feed_point,
+            velocity: de - w.cross(&e),
+            acceleration: r.inverse_transform_vector(&ddd) - w.cross(&de) * 2.0 - al.cross(&e) + w.cross(&w.cross(&e)),
+        }
+    }
+
+    /// The platform centre at rest, cabin frame.
+    pub fn rest(&self) -> PathPoint {
+        PathPoint { position: self.rest, velocity: Vec3::zeros(), acceleration: Vec3::zeros() }
+    }
+
+    /// The feed's position error (world frame, m) and its rotation from the start attitude
+    /// (world rotation vector, rad; its length is the tilt error) at time `t` for the platform
+    /// (centre) at this world pose.
+    pub fn feed_error(&self, platform_position: &Vec3, platform_orientation: &Quat, t: f64) -> (Vec3, Vec3) {
+        let feed = platform_position + platform_orientation * self.feed_point;
+        (feed - self.target(t).position, (platform_orientation * self.reference.1.inverse()).scaled_axis())
+    }
+
+    /// The state of a sampled sensor and its command at the start.
+    pub fn start_state(&self) -> CommandState {
+        let rest = self.rest.into();
+        CommandState {
+            segment: Segment { start: 0.0, from: rest, velocity: [0.0; 3], to: rest },
+            pending: VecDeque::new(),
+            next_sample: 0,
+            rng: SplitMix64::new(self.seed),
+        }
+    }
+}
+
+/// The motion from one command to the next: starts at `start` at `from` with `velocity`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+struct Segment {
+    start: f64,
+    from: [f64; 3],
+    velocity: [f64; 3],
+    to: [f64; 3],
+}
+
+impl Segment {
+    fn at(&self, c: &Compensation, t: f64) -> PathPoint {
+        let (from, v0, to) = (Vec3::from(self.from), Vec3::from(self.velocity), Vec3::from(self.to));
+        let s = (t - self.start).max(0.0);
+        match c.tau {
+            Some(tau) => {
+                // critically damped: c = u + (A + B s) e^{−s/τ}, A = c₀ − u, B = ċ₀ + A/τ
+                let a = from - to;
+                let b = v0 + a / tau;
+                let e = (-s / tau).exp();
+                let ab = a + b * s;
+                PathPoint {
+                    position: to + ab * e,
+                    velocity: (b - ab / tau) * e,
+                    acceleration: (ab / (tau * tau) - b * (2.0 / tau)) * e,
+                }
+            }
+            None => {
+                let d = 0.5 * c.period;
+                let x = (s / d).min(1.0);
+                let x2 = x * x;
+                let step = x2 * x * (10.0 - 15.0 * x + 6.0 * x2);
+                let rate = 30.0 * x2 * (1.0 - x) * (1.0 - x) / d;
+                let curve = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x) / (d * d);
+                let jump = to - from;
+                PathPoint { position: from + jump * step, velocity: jump * rate, acceleration: jump * curve }
+            }
+        }
+    }
+}
+
+/// What a sampled sensor carries from step to step: the command being followed, the commands
+/// measured but not yet applied (the delay), the next sample and the noise generator.
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
+pub struct CommandState {
+    segment: Segment,
+    /// (time it applies, command), in time order.
+    pending: VecDeque<(f64, [f64; 3])>,
+    /// Index k of the next sample, taken at the first communication point ≥ k·T.
+    next_sample: u64,
+    rng: SplitMix64,
+}
+
+impl Clone for CommandState {
+    fn clone(&self) -> Self {
+        CommandState {
+            segment: self.segment,
+            pending: self.pending.clone(),
+            next_sample: self.next_sample,
+            rng: self.rng,
+        }
+    }
+
+    /// Reuses the pending queue's storage (snapshots taken every step allocate nothing).
+    fn clone_from(&mut self, source: &Self) {
+        self.segment = source.segment;
+        self.pending.clone_from(&source.pending);
+        self.next_sample = source.next_sample;
+        self.rng = source.rng;
+    }
+}
+
+impl CommandState {
+    /// Starts a new segment at `time` for every pending command applying before `until`.
+    fn apply(segment: &mut Segment, pending: impl Iterator<Item = (f64, [f64; 3])>, c: &Compensation) {
+        for (time, to) in pending {
+            let now = segment.at(c, time);
+            *segment = Segment { start: time, from: now.position.into(), velocity: now.velocity.into(), to };
+        }
+    }
+
+    fn due(pending: &VecDeque<(f64, [f64; 3])>, until: f64) -> usize {
+        pending.iter().take_while(|(time, _)| *time < until - SAME_INSTANT).count()
+    }
+
+    /// The commanded platform centre (cabin frame) at time `t`, for `t` after the last sample.
+    pub fn at(&self, c: &Compensation, t: f64) -> PathPoint {
+        let mut segment = self.segment;
+        Self::apply(&mut segment, self.pending.iter().take(Self::due(&self.pending, t)).copied(), c);
+        segment.at(c, t)
+    }
+
+    /// At communication point `t` with the cabin at (position, orientation): applies the
+    /// commands due, and takes a sample if one is due.
+    pub fn sample(&mut self, c: &Compensation, t: f64, position: &Vec3, orientation: &Quat) {
+        let due = Self::due(&self.pending, t);
+        Self::apply(&mut self.segment, self.pending.drain(..due), c);
+        if (self.next_sample as f64) * c.period > t + SAME_INSTANT {
+            return;
+        }
+        let mut noise = || Vec3::new(self.rng.symmetric(), self.rng.symmetric(), self.rng.symmetric());
+        let measured_p = position + noise() * c.noise_m;
+        let measured_q = Quat::from_scaled_axis(noise() * c.noise_rad) * orientation;
+        let apply = t + c.delay;
+        let command = c.command(&measured_p, &measured_q, apply);
+        self.pending.push_back((apply, command.into()));
+        self.next_sample = ((t + SAME_INSTANT) / c.period).floor() as u64 + 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(extra: &str) -> Scene {
+        let text = feedcore::shipped::embedded("lt50m_C.toml").unwrap().to_string() + extra;
+        Scene::from_toml(&text, "test.toml").unwrap()
+    }
+
+    fn compensation(extra: &str) -> Compensation {
+        let s = scene(extra);
+        Compensation::new(&s, s.control.as_ref().unwrap(), Vec3::new(0.1, 0.0, -1.8), [1.5; LEGS])
+    }
+
+    const SAMPLED: &str = "\n[control]\nfeed_point_m = [0.0, 0.0, -0.3]\ntarget = \"hold\"\nsensor = \"sampled\"\nsample_rate_hz = 20.0\n";
+
+    /// Fourth-order central difference.
+    fn derivative(f: impl Fn(f64) -> Vec3, t: f64, h: f64) -> Vec3 {
+        (f(t - 2.0 * h) - f(t - h) * 8.0 + f(t + h) * 8.0 - f(t + 2.0 * h)) / (12.0 * h)
+    }
+
+    #[test]
+    fn ideal_command_derivatives_match_finite_differences_of_a_moving_cabin() {
+        let c = compensation(
+            "\n[control]\nfeed_point_m = [0.0, 0.0, -0.3]\ntarget = \"circle\"\ncircle_center_offset_m = [-0.1, 0.05, 0.0]\ncircle_speed_m_s = 0.02\nsensor = \"ideal\"\n",
+        );
+        // a cabin on a smooth path with a varying attitude
+        let cabin = |t: f64| {
+            let p = Vec3::new(0.01 * t.sin(), 0.02 * (0.7 * t).cos(), 9.8 + 0.003 * t * t);
+            let v = Vec3::new(0.01 * t.cos(), -0.014 * (0.7 * t).sin(), 0.006 * t);
+            let a = Vec3::new(-0.01 * t.sin(), -0.0098 * (0.7 * t).cos(), 0.006);
+            (p, v, a, Quat::from_scaled_axis(Vec3::new(0.02 * t, 0.01 * t * t, 0.0)))
+        };
+        let motion = |t: f64| {
+            let (p, v, a, q) = cabin(t);
+            let h = 1e-5;
+            let rot = |s: f64| cabin(s).3;
+            // world angular velocity and acceleration by differences of the attitude
+            let w_at = |s: f64| ((rot(s + h) * rot(s - h).inverse()).scaled_axis()) / (2.0 * h);
+            let w = w_at(t);
+            let al = (w_at(t + 1e-3) - w_at(t - 1e-3)) / 2e-3;
+            CabinMotion {
+                position: p,
+                orientation: q,
+                velocity: v,
+                angular_velocity: w,
+                acceleration: a,
+                angular_acceleration: al,
+            }
+        };
+        for t in [0.5, 1.3, 2.0] {
+            let at = c.ideal(&motion(t), t);
+            let fd_v = derivative(|s| c.ideal(&motion(s), s).position, t, 1e-3);
+            let fd_a = derivative(|s| c.ideal(&motion(s), s).velocity, t, 1e-3);
+            assert!((at.velocity - fd_v).norm() < 1e-8, "t {t}: velocity {at:?} vs {fd_v:?}");
+            assert!((at.acceleration - fd_a).norm() < 1e-6, "t {t}: acceleration {at:?} vs {fd_a:?}");
+            // the feed is on the target
+            let m = motion(t);
+            let platform = m.position + m.orientation * at.position;
+            let (err, _) = c.feed_error(&platform, &m.orientation, t);
+            assert!(err.norm() < 1e-14, "{err:?}");
+        }
+    }
+
+    #[test]
+    fn sampled_command_is_smooth_and_reaches_the_measured_command() {
+        for filter in ["", "bandwidth_hz = 2.0\n"] {
+            let c = compensation(&format!("{SAMPLED}delay_s = 0.03\n{filter}"));
+            let mut s = c.start_state();
+            let (p0, q0) = (Vec3::new(0.0, 0.0, 9.8), Quat::identity());
+            let moved = p0 + Vec3::new(0.004, -0.002, 0.001);
+            let h = 0.0125;
+            for n in 0..400 {
+                let t = n as f64 * h;
+                let before = s.at(&c, t);
+                s.sample(&c, t, if t < 0.1 { &p0 } else { &moved }, &q0);
+                assert_eq!(before, s.at(&c, t), "{filter}: sampling at t {t} moves the command");
+                // position and velocity continuous where a command applies (t + delay)
+                let (a, b) = (s.at(&c, t + 0.03 - 1e-7), s.at(&c, t + 0.03 + 1e-7));
+                assert!((a.position - b.position).norm() < 1e-6, "{filter} t {t}");
+                assert!((a.velocity - b.velocity).norm() < 1e-4, "{filter} t {t}");
+            }
+            // the commands reach c = Rᵀ(x − p) − f for the moved cabin
+            let expected = c.command(&moved, &q0, 0.0);
+            assert!((s.at(&c, 5.0).position - expected).norm() < 1e-9, "{filter}");
+            // the motion is exactly the commanded one: velocity is the derivative of position
+            let mut s = c.start_state();
+            s.sample(&c, 0.0, &moved, &q0);
+            for t in [0.031, 0.04, 0.05, 0.07] {
+                let fd = derivative(|x| s.at(&c, x).position, t, 1e-5);
+                assert!((s.at(&c, t).velocity - fd).norm() < 1e-7, "{filter} t {t}");
+                let fd = derivative(|x| s.at(&c, x).velocity, t, 1e-5);
+                assert!((s.at(&c, t).acceleration - fd).norm() < 1e-5, "{filter} t {t}");
+            }
+            // nothing moves before the delay has passed
+            assert_eq!(s.at(&c, 0.03).position, c.rest().position);
+        }
+    }
+
+    #[test]
+    fn noise_is_seeded_and_bounded() {
+        let run = |seed: u64| {
+            let c = compensation(&format!("{SAMPLED}noise_m = 0.001\nseed = {seed}\n"));
+            let mut s = c.start_state();
+            s.sample(&c, 0.0, &Vec3::new(0.0, 0.0, 9.8), &Quat::identity());
+            s.at(&c, 1.0).position - c.rest().position
+        };
+        assert_eq!(run(3), run(3));
+        assert_ne!(run(3), run(4));
+        assert!(run(3).amax() <= 0.001 && run(3).norm() > 0.0);
+    }
+
+    /// The compensation's wrench on the cabin against inverse dynamics done independently: the
+    /// bodies placed along the compensating motion (positions and attitudes only), their momentum
+    /// and angular momentum about the moving cabin centre point differentiated numerically, plus
+    /// their weight, against `Stewart::evaluate_at` (the joint multipliers of eq. 5, what the FMU
+    /// outputs). A cabin swaying by 4 cm and rocking by 10 mrad at 3 rad/s (a dynamic part of
+    /// 16–35 N and N·m on ~1800 N of weight); the feed on a circle, ideal sensor.
+    #[test]
+    fn the_compensating_wrench_is_the_bodies_rate_of_momentum_and_their_weight() {
+        let s = scene(
+            "\n[control]\nfeed_point_m = [0.0, 0.0, -0.3]\ntarget = \"circle\"\ncircle_center_offset_m = [-0.05, 0.0, 0.0]\ncircle_speed_m_s = 0.05\nsensor = \"ideal\"\n",
+        );
+        let st = crate::Stewart::from_scene(&s).unwrap();
+        let c = st.compensation().unwrap();
+        let (w0, amp, tilt) = (3.0, 0.04, 0.01);
+        let axis = Vec3::new(1.0, 0.5, 0.2).normalize();
+        let p0 = s.target_position();
+        // an analytic cabin motion: translation and a rotation about a fixed world axis
+        let cabin = |t: f64| {
+            let (sn, cs) = (w0 * t).sin_cos();
+            let (s2, c2) = (1.3 * w0 * t).sin_cos();
+            let theta = tilt * sn;
+            CabinMotion {
+                position: p0 + Vec3::new(sn, c2 - 1.0, 0.5 * sn) * amp,
+                velocity: Vec3::new(cs, -1.3 * s2, 0.5 * cs) * (amp * w0),
+                acceleration: Vec3::new(-sn, -1.69 * c2, -0.5 * sn) * (amp * w0 * w0),
+                orientation: Quat::from_scaled_axis(axis * theta),
+                angular_velocity: axis * (tilt * w0 * cs),
+                angular_acceleration: axis * (-tilt * w0 * w0 * sn),
+            }
+        };
+        let bodies = |t: f64| {
+            let m = cabin(t);
+            let rel = st.relative_at(&c.ideal(&m, t), t).unwrap();
+            st.place_bodies(&m, &rel)
+        };
+        let inertias = st.body_inertias();
+        let g = st.gravity();
+        // linear momentum and angular momentum about the cabin centre point, by differences of
+        // the bodies' placements (angular velocity from neighbouring attitudes)
+        let momenta = |t: f64| {
+            let (e, b0, b1, bm) = (1e-5, bodies(t), bodies(t + 1e-5), bodies(t - 1e-5));
+            let centre = cabin(t).position;
+            let (mut lin, mut ang) = (Vec3::zeros(), Vec3::zeros());
+            for k in 0..b0.len() {
+                let m = inertias[k].mass;
+                let v = (b1[k].position - bm[k].position) / (2.0 * e);
+                let w = (b1[k].orientation * bm[k].orientation.inverse()).scaled_axis() / (2.0 * e);
+                let r = b0[k].orientation.to_rotation_matrix();
+                let i_world = r.matrix() * inertias[k].inertia * r.matrix().transpose();
+                lin += v * m;
+                ang += (b0[k].position - centre).cross(&(v * m)) + i_world * w;
+            }
+            (lin, ang)
+        };
+        let dt = 1e-3;
+        for t in [0.4, 1.1, 2.3] {
+            let d = |k: usize| {
+                let f = |x: f64| if k == 0 { momenta(x).0 } else { momenta(x).1 };
+                (f(t - 2.0 * dt) - f(t - dt) * 8.0 + f(t + dt) * 8.0 - f(t + 2.0 * dt)) / (12.0 * dt)
+            };
+            let (dp, dh) = (d(0), d(1));
+            let (p, _) = momenta(t);
+            let m = cabin(t);
+            let b = bodies(t);
+            let mass: f64 = inertias.iter().map(|i| i.mass).sum();
+            let weight_moment = b
+                .iter()
+                .zip(inertias)
+                .fold(Vec3::zeros(), |acc, (x, i)| acc + (x.position - m.position).cross(&(g * i.mass)));
+            // the cabin's force and moment (about its centre point) on the bodies, then minus
+            let force = -(dp - g * mass);
+            let moment = -(dh + m.velocity.cross(&p) - weight_moment);
+            let w = st.evaluate_at(&m, &c.ideal(&m, t), t).unwrap().wrench;
+            let dynamic = (dp.norm(), dh.norm());
+            eprintln!(
+                "t {t}: force gap {:.2e} N of {:.1} N dynamic, moment gap {:.2e} N·m of {:.1}",
+                (w.force - force).norm(),
+                dynamic.0,
+                (w.moment - moment).norm(),
+                dynamic.1
+            );
+            assert!(dynamic.0 > 5.0, "the motion must be dynamic: {dynamic:?} N, N·m");
+            assert!((w.force - force).norm() < 1e-5 * dynamic.0, "t {t}: {:?} vs {force:?}", w.force);
+            assert!((w.moment - moment).norm() < 1e-5 * dynamic.1.max(1.0), "t {t}: {:?} vs {moment:?}", w.moment);
+        }
+    }
+}
