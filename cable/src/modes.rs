@@ -17,7 +17,7 @@
 //! (world-frame rotation increments, at rest) K is therefore symmetric; the asymmetry left
 //! measures how well the equilibrium was found and is reported, then removed.
 
-use feedcore::rigid::skew;
+use feedcore::rigid::{skew, turning_arm_stiffness};
 use nalgebra::{Matrix3, Matrix6, Vector6};
 use thiserror::Error;
 
@@ -83,7 +83,8 @@ pub struct Dropped {
 }
 
 /// The cabin's rotation–rotation stiffness from the cable-end forces turning with their arms,
-/// `Σ [pᵢ]×[dᵢ]×` (as `System::assemble` adds it), and from the weight, `−[m g]×[c]×`.
+/// `Σ [pᵢ]×[dᵢ]×` (as `System::assemble` adds it), and from the weight, `−[m g]×[c]×` (as its
+/// `BodyTerms` has it), for the hypotheses that drop them.
 pub(crate) fn rotational_load_stiffness(sys: &System, cfg: &Config) -> (Matrix3<f64>, Matrix3<f64>) {
     let (m, ea) = (sys.free_nodes(), sys.net.spec.ea);
     let mut cables = Matrix3::zeros();
@@ -91,11 +92,11 @@ pub(crate) fn rotational_load_stiffness(sys: &System, cfg: &Config) -> (Matrix3<
         let (attach, d) = sys.attachment(cfg, i);
         let last = if m > 0 { cfg.nodes[i * m + m - 1] } else { sys.net.anchors[i] };
         let pull = Bar::pull(&(attach - last), ea, sys.element_length[i]);
-        cables += skew(&pull) * skew(&d);
+        cables += turning_arm_stiffness(&pull, &d);
     }
     let rot = cfg.orientation.to_rotation_matrix().into_inner();
     let world = sys.body.transformed(&rot, &cfg.position);
-    let weight = -skew(&(sys.net.spec.gravity * world.mass)) * skew(&(world.com - cfg.position));
+    let weight = turning_arm_stiffness(&-(sys.net.spec.gravity * world.mass), &(world.com - cfg.position));
     (cables, weight)
 }
 

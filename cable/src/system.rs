@@ -12,7 +12,7 @@
 //! inertia about its centre point (its centre of mass need not be there), gyroscopic terms,
 //! element forces, gravity, Rayleigh damping, and the external wrench on the cabin.
 
-use feedcore::rigid::{BodyTerms, MassProperties, skew};
+use feedcore::rigid::{BodyTerms, MassProperties, skew, turning_arm_stiffness};
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{Matrix3x6, Matrix6, Vector6};
 
@@ -394,7 +394,7 @@ impl System {
                 *cabin_k += b.transpose() * kb;
                 // the arm rotates: ∂(d × F)/∂θ = [F]×[d]×
                 let mut block = cabin_k.fixed_view_mut::<3, 3>(3, 3);
-                block += skew(&pull) * skew(&d);
+                block += turning_arm_stiffness(&pull, &d);
                 if m > 0 {
                     let mut nc = -kb;
                     let rotation_cols = nc.fixed_view::<3, 3>(0, 3) * coef.rotation_tangent;

@@ -25,7 +25,7 @@ use std::path::Path;
 
 use feedcore::Vec3;
 use feedcore::scene::{Scene, SceneError};
-use fmi2::description::indexed_names;
+use fmi2::description::Causality;
 use fmi2::export::{Derivative, Model, ModelError, Reals, Seeds, StepOutcome};
 use fmi2::resources::{FileKind, FileParameter, SavedFile};
 use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
@@ -41,26 +41,48 @@ pub(crate) const CABLES: usize = 6;
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
 /// Identifies the variable table: change it whenever the table changes.
 pub const GUID: &str = "{3c0b5e9a-7d41-4f8e-b2a6-1e9d4c7f6a03}";
-/// Outputs: r 3, q 4, v 3, ω 3, a 3, α 3, tensions 2 × 6.
-const OUTPUTS: usize = 31;
+/// Number of Real outputs.
+const OUTPUTS: usize = fmi2::table::count(vr::TABLE, Causality::Output);
 
-/// Value references (separate spaces per type).
+/// The variables: value references (separate spaces per type) and, for the Real ones, the table
+/// the description and the names come from.
 pub mod vr {
     use super::CABLES;
+    use fmi2::table::Block;
 
-    fmi2::value_references! {
-        /// Real inputs: the wrench on the cabin, force x, y, z, then moment x, y, z.
-        WRENCH: 6,
-        /// Real outputs: the cabin's position, orientation (w, x, y, z), velocity, angular
-        /// velocity, acceleration and angular acceleration; the tensions next to the anchors
-        /// and next to the cabin.
-        POSITION: 3, ORIENTATION: 4, VELOCITY: 3, ANGULAR_VELOCITY: 3, ACCELERATION: 3, ANGULAR_ACCELERATION: 3,
-        TENSION_ANCHOR: CABLES, TENSION_CABIN: CABLES,
+    const XYZ: &[&str] = &["x", "y", "z"];
+    const WXYZ: &[&str] = &["w", "x", "y", "z"];
+    /// 1e7 N (N·m): thirty times the weight of FAST's 30 t cabin; only a mistaken or hostile
+    /// value lies beyond.
+    const WRENCH_BOUND: f64 = 1e7;
+
+    fmi2::variable_table! {
+        /// Real inputs: the wrench on the cabin, force then moment.
+        FORCE = Block::input("wrench.f", 3, "N",
+            "force the Stewart platform exerts on the cabin, world frame (start: scene C's static value)")
+            .range(-WRENCH_BOUND, WRENCH_BOUND),
+        MOMENT = Block::input("wrench.m", 3, "N.m",
+            "moment about the cabin centre point the Stewart platform exerts on the cabin, world frame (start: scene C's static value)")
+            .range(-WRENCH_BOUND, WRENCH_BOUND),
+        /// Real outputs: the cabin's motion; the tensions next to the anchors and next to the cabin.
+        POSITION = Block::output("cabin.r", 3, "m", "position of the cabin centre point, world {k}").labels(XYZ),
+        ORIENTATION = Block::output("cabin.q", 4, "", "orientation of the cabin, unit quaternion body to world ({k}), world frame").labels(WXYZ),
+        VELOCITY = Block::output("cabin.v", 3, "m/s", "velocity of the cabin centre point, world {k}").labels(XYZ),
+        ANGULAR_VELOCITY = Block::output("cabin.w", 3, "rad/s", "angular velocity of the cabin, world {k}").labels(XYZ),
+        ACCELERATION = Block::output("cabin.a", 3, "m/s2", "acceleration of the cabin centre point, world {k}").labels(XYZ),
+        ANGULAR_ACCELERATION = Block::output("cabin.alpha", 3, "rad/s2", "angular acceleration of the cabin, world {k}").labels(XYZ),
+        TENSION_ANCHOR = Block::output("cable.tension_anchor", CABLES as u32, "N", "axial force of the element next to the tower, cable {k}"),
+        TENSION_CABIN = Block::output("cable.tension_cabin", CABLES as u32, "N", "axial force of the element next to the cabin, cable {k}"),
         /// Real parameters.
-        DAMPING_RATIO: 1, RHO_INF: 1, NEWTON_TOL: 1,
-        /// Number of Real value references.
-        REALS: 0,
+        DAMPING_RATIO = Block::parameter("damping_ratio", -1.0, "",
+            "Rayleigh damping ratio of the cable structure; negative: the scene's value"),
+        RHO_INF = Block::parameter("rho_inf", -1.0, "",
+            "spectral radius at infinity of the generalized-alpha integrator, in [0, 1]; negative: the scene's value"),
+        NEWTON_TOL = Block::parameter("newton_tol", -1.0, "m",
+            "Newton tolerance on the largest position correction (rad for rotations); non-positive: the scene's value"),
     }
+    /// The wrench inputs, force then moment, as one 6-vector.
+    pub const WRENCH: u32 = FORCE;
     /// Integer `elements_per_cable`.
     pub const ELEMENTS: u32 = 0;
     /// String `scene`.
@@ -143,45 +165,14 @@ fn static_wrench(scene: &Scene) -> Vector6<f64> {
     net.payload.weight_wrench(&scene.target_orientation(), &net.spec.gravity)
 }
 
-/// Output variables in value-reference order: (name, unit, description).
-fn outputs() -> Vec<(String, &'static str, String)> {
-    let mut v = Vec::new();
-    let axes = ["x", "y", "z"];
-    for (prefix, unit, what) in [
-        ("cabin.r", "m", "position of the cabin centre point"),
-        ("cabin.q", "", "orientation of the cabin, unit quaternion body to world"),
-        ("cabin.v", "m/s", "velocity of the cabin centre point"),
-        ("cabin.w", "rad/s", "angular velocity of the cabin"),
-        ("cabin.a", "m/s2", "acceleration of the cabin centre point"),
-        ("cabin.alpha", "rad/s2", "angular acceleration of the cabin"),
-    ] {
-        if prefix == "cabin.q" {
-            for (n, c) in indexed_names(prefix, 4).zip(["w", "x", "y", "z"]) {
-                v.push((n, unit, format!("{what} ({c}), world frame")));
-            }
-        } else {
-            for (n, axis) in indexed_names(prefix, 3).zip(axes) {
-                v.push((n, unit, format!("{what}, world {axis}")));
-            }
-        }
-    }
-    for (prefix, what) in [("cable.tension_anchor", "next to the tower"), ("cable.tension_cabin", "next to the cabin")]
-    {
-        for (i, n) in indexed_names(prefix, CABLES).enumerate() {
-            v.push((n, "N", format!("axial force of the element {what}, cable {i}")));
-        }
-    }
-    v
-}
-
 /// The names of the inputs, in value-reference order from 0.
 pub fn input_names() -> Vec<String> {
-    indexed_names("wrench.f", 3).chain(indexed_names("wrench.m", 3)).collect()
+    fmi2::table::names(vr::TABLE, Causality::Input)
 }
 
 /// The names of the outputs, in value-reference order from [`vr::POSITION`].
 pub fn output_names() -> Vec<String> {
-    outputs().into_iter().map(|(name, _, _)| name).collect()
+    fmi2::table::names(vr::TABLE, Causality::Output)
 }
 
 fn is_tension(vr: u32) -> bool {
@@ -362,53 +353,23 @@ impl CableFmu {
     }
 }
 
-/// The variable table, inputs starting at the wrench `w0`.
+/// The variables, inputs starting at the wrench `w0`.
 fn variables(w0: &Vector6<f64>) -> Vec<Variable> {
-    let inputs = input_names();
-    let mut variables: Vec<Variable> = inputs
-        .iter()
-        .enumerate()
-        .map(|(k, name)| {
-            let unit = if k < 3 { "N" } else { "N.m" };
-            let what = if k < 3 { "force" } else { "moment about the cabin centre point" };
-            // 1e7 N (N·m): thirty times the weight of FAST's 30 t cabin; only a mistaken or
-            // hostile value lies beyond
-            Variable::real_input(name.clone(), vr::WRENCH + k as u32, w0[k], unit).range(-1e7, 1e7).describe(format!(
-                "{what} the Stewart platform exerts on the cabin, world frame (start: scene C's static value)"
-            ))
-        })
-        .collect();
-    // The start pose depends on the scene only; the equilibrium's tensions also on the
-    // wrench and the discretisation.
-    let pose_knowns = ["scene"];
+    let mut variables = fmi2::table::variables(vr::TABLE, |v| w0[(v - vr::WRENCH) as usize]);
+    // No output responds to the wrench at a communication point. The start pose depends on the
+    // scene only; the equilibrium's tensions also on the wrench and the discretisation.
     let tension_knowns: Vec<String> =
-        inputs.iter().cloned().chain(["scene", "elements_per_cable"].map(String::from)).collect();
-    for (k, (name, unit, what)) in outputs().into_iter().enumerate() {
-        let vr = vr::POSITION + k as u32;
-        let initially: Vec<String> = if is_tension(vr) {
+        input_names().into_iter().chain(["scene", "elements_per_cable"].map(String::from)).collect();
+    for v in variables.iter_mut().filter(|v| v.causality == Causality::Output) {
+        let initially = if is_tension(v.value_reference) {
             tension_knowns.clone()
-        } else if vr < vr::VELOCITY {
-            pose_knowns.map(String::from).to_vec()
+        } else if v.value_reference < vr::VELOCITY {
+            vec!["scene".to_owned()]
         } else {
             vec![]
         };
-        variables.push(
-            Variable::real_output(name, vr, unit)
-                .describe(what)
-                .depends_on::<&str>(&[])
-                .initially_depends_on(&initially),
-        );
+        (v.depends_on, v.initial_depends_on) = (Some(vec![]), Some(initially));
     }
-    variables.push(
-        Variable::parameter("damping_ratio", vr::DAMPING_RATIO, -1.0, false)
-            .describe("Rayleigh damping ratio of the cable structure; negative: the scene's value"),
-    );
-    variables.push(Variable::parameter("rho_inf", vr::RHO_INF, -1.0, false).describe(
-        "spectral radius at infinity of the generalized-alpha integrator, in [0, 1]; negative: the scene's value",
-    ));
-    variables.push(Variable::parameter("newton_tol", vr::NEWTON_TOL, -1.0, false).unit("m").describe(
-        "Newton tolerance on the largest position correction (rad for rotations); non-positive: the scene's value",
-    ));
     variables.push(
         Variable::parameter("elements_per_cable", vr::ELEMENTS, 0, false)
             .describe("finite elements per cable; 0: the scene's value"),
@@ -563,7 +524,7 @@ impl Model for CableFmu {
         // A non-finite state must not be reported as a successful step.
         let y = self.output_values()?;
         if let Some(k) = y.iter().position(|x| !x.is_finite()) {
-            let name = &outputs()[k].0;
+            let name = &output_names()[k];
             return Err(format!(
                 "`{name}` = {} at t = {}: the motion diverged (wrench {:?})",
                 y[k],

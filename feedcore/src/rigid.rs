@@ -40,6 +40,13 @@ pub fn left_jacobian_so3(theta: &Vec3) -> Mat3 {
     Mat3::identity() + k * a + k * k * b
 }
 
+/// `∂(a × F)/∂θ` for a force `F` fixed in the world acting at an arm `a` that turns with the
+/// body (`δa = δθ × a`): `[F]× [a]×`. The rotational stiffness of every load on a turning arm
+/// (the cable ends on the cabin, a weight about a point other than its centre of mass).
+pub fn turning_arm_stiffness(force: &Vec3, arm: &Vec3) -> Mat3 {
+    skew(force) * skew(arm)
+}
+
 /// The world rotation vector `δθ` that a change `dq` of a quaternion's components `q` makes to
 /// the rotation of `q / |q|` (the components need not be normalized):
 /// `δθ = 2 vec(δn ⊗ n*)` with `n = q / |q|`, `δn = (dq − n (n·dq)) / |q|`.
@@ -181,7 +188,11 @@ impl BodyTerms {
         // a rotation δθ turns c into c + δθ × c and J_O into J_O + [δθ]× J_O − J_O [δθ]×
         let mut stiffness = nalgebra::Matrix6::zeros();
         stiffness.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-(sal + sw * sw) * sc * m));
-        let krr = -skew(&(jo * alpha)) + jo * sal + sa * sc * m + sw * (jo * sw - skew(&jw)) - skew(&mg) * sc;
+        let krr = -skew(&(jo * alpha))
+            + jo * sal
+            + sa * sc * m
+            + sw * (jo * sw - skew(&jw))
+            + turning_arm_stiffness(&-mg, &c);
         stiffness.fixed_view_mut::<3, 3>(3, 3).copy_from(&krr);
         BodyTerms { residual, mass, gyroscopic, stiffness }
     }

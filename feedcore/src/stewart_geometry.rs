@@ -76,6 +76,19 @@ impl StewartGeometry {
         bodies
     }
 
+    /// Mass properties of the 13 bodies in their own frames (centre of mass at the origin), in
+    /// the order of [`BODIES`]: the platform's frame is parallel to the cabin's, a leg part's z
+    /// axis is the leg axis.
+    pub fn body_frame_mass_properties(&self) -> [MassProperties; BODIES] {
+        let own = |mass: f64, inertia_com: Mat3| MassProperties { mass, com: Vec3::zeros(), inertia_com };
+        let upper = own(self.upper.mass_kg, self.upper.inertia_along(&Vec3::z()));
+        let lower = own(self.lower.mass_kg, self.lower.inertia_along(&Vec3::z()));
+        let mut bodies = [upper; BODIES];
+        bodies[0] = own(self.platform_mass, self.platform_inertia);
+        bodies[1 + LEGS..].fill(lower);
+        bodies
+    }
+
     /// The platform with its legs, frozen with the platform centre at `platform_center`.
     pub fn locked_mass_properties(&self, platform_center: &Vec3) -> MassProperties {
         self.body_mass_properties(platform_center).into_iter().sum()
@@ -86,11 +99,18 @@ impl StewartGeometry {
     }
 }
 
-/// A slender leg part with its axis along `u`: inertia transverse about any axis ⊥ u.
+impl LegPart {
+    /// Inertia about the centre of mass of the slender part with its axis along the unit vector
+    /// `axis`: transverse about every axis ⊥ `axis`, axial about `axis`.
+    pub fn inertia_along(&self, axis: &Vec3) -> Mat3 {
+        let uu = axis * axis.transpose();
+        (Mat3::identity() - uu) * self.inertia_transverse_kg_m2 + uu * self.inertia_axial_kg_m2
+    }
+}
+
+/// A leg part with its centre of mass at `com` and its axis along `u`.
 fn leg_part(part: &LegPart, com: Vec3, u: &Vec3) -> MassProperties {
-    let uu = u * u.transpose();
-    let inertia = (Mat3::identity() - uu) * part.inertia_transverse_kg_m2 + uu * part.inertia_axial_kg_m2;
-    MassProperties { mass: part.mass_kg, com, inertia_com: inertia }
+    MassProperties { mass: part.mass_kg, com, inertia_com: part.inertia_along(u) }
 }
 
 fn to_array(points: Vec<Vec3>) -> [Vec3; LEGS] {

@@ -9,6 +9,7 @@
 //! * [`package`]: writes `.fmu` archives.
 //! * [`import`]: loads any FMI 2.0 Co-Simulation FMU and calls it through a safe API.
 //! * [`resources`]: files a model reads through a String parameter, inside `resources/`.
+//! * [`table`]: a model's Real variables declared once, as a table of blocks.
 //! * [`ffi`]: the C types of the standard; [`uri`]: resource-location URIs.
 //! * [`archive`]: single entries of a zip archive unpacked within a budget; [`digest`]: FNV-1a.
 
@@ -25,6 +26,7 @@ pub mod ffi;
 pub mod import;
 pub mod package;
 pub mod resources;
+pub mod table;
 pub mod uri;
 pub mod xml;
 

@@ -73,12 +73,7 @@ impl Model {
             ..RigidMotion::at_rest(cable.position, cable.orientation)
         };
         let placed = stewart.system_motion(&cabin, 0.0)?;
-        let inertias = stewart.body_inertias();
-        let bodies = std::array::from_fn(|b| MassProperties {
-            mass: inertias[b].mass,
-            com: Vec3::zeros(),
-            inertia_com: inertias[b].inertia,
-        });
+        let bodies = *stewart.body_inertias();
         let poses = std::array::from_fn(|b| Pose { position: placed[b].position, orientation: placed[b].orientation });
         // The tolerance must be small against the shortest length of the model: a cable
         // element, or the distance from a leg part's joint to its centre of mass.

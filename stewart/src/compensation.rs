@@ -548,7 +548,7 @@ mod tests {
                 let v = (b1[k].position - bm[k].position) / (2.0 * e);
                 let w = (b1[k].orientation * bm[k].orientation.inverse()).scaled_axis() / (2.0 * e);
                 let r = b0[k].orientation.to_rotation_matrix();
-                let i_world = r.matrix() * inertias[k].inertia * r.matrix().transpose();
+                let i_world = r.matrix() * inertias[k].inertia_com * r.matrix().transpose();
                 lin += v * m;
                 ang += (b0[k].position - centre).cross(&(v * m)) + i_world * w;
             }

@@ -26,6 +26,7 @@ pub mod relative;
 pub mod sensitivity;
 pub mod wrench;
 
+use feedcore::rigid::MassProperties;
 use feedcore::scene::{LEGS, Motion, Scene};
 use feedcore::stewart_geometry::{BODIES, StewartGeometry};
 use feedcore::{Mat3, Quat, Vec3};
@@ -47,13 +48,6 @@ const HOOKE_SINGULAR_SINE: f64 = 1e-6;
 const SINGULAR_CONDITION: f64 = 1e8;
 /// Samples of the first revolution checked when the model is built.
 const PATH_CHECKS: usize = 720;
-
-/// Mass and inertia about the centre of mass (body frame) of one body.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BodyInertia {
-    pub mass: f64,
-    pub inertia: Mat3,
-}
 
 /// Everything computed by one [`Stewart::evaluate`].
 #[derive(Clone, Debug, PartialEq)]
@@ -101,7 +95,8 @@ pub struct Stewart {
     gravity: Vec3,
     hooke_axes: [Vec3; LEGS],
     joints: Joints,
-    bodies: [BodyInertia; BODIES],
+    /// The 13 bodies in their own frames ([`StewartGeometry::body_frame_mass_properties`]).
+    bodies: [MassProperties; BODIES],
     length_range: (f64, f64),
     /// The scene's `[control]`: the platform's motion comes from the measured cabin pose.
     compensation: Option<Compensation>,
@@ -115,7 +110,7 @@ impl Stewart {
         if scene.control.is_some() {
             motion.speed_m_s = 0.0;
         }
-        let mut stewart = Self::new(scene.stewart_geometry(), &motion, scene.gravity_m_s2)?;
+        let mut stewart = Self::new(scene.stewart_geometry(), &motion, scene.gravity())?;
         let rest = stewart.path.at_rest();
         let legs = stewart.strokes_at(&rest, 0.0)?.map(|s| s.length);
         let control = scene.control.clone().unwrap_or_else(Compensation::uncontrolled);
@@ -129,29 +124,20 @@ impl Stewart {
         self.compensation.as_ref()
     }
 
-    /// The model for a geometry, a platform motion and the magnitude of gravity. Checks the whole
-    /// prescribed motion (rest pose and first revolution) for leg lengths and singular poses.
-    pub fn new(geometry: StewartGeometry, motion: &Motion, gravity: f64) -> Result<Stewart, StewartError> {
-        if !gravity.is_finite() {
-            return Err(StewartError::Input { what: "gravity".into(), value: gravity.to_string() });
+    /// The model for a geometry, a platform motion and gravity (world frame, the scene's
+    /// [`Scene::gravity`]). Checks the whole prescribed motion (rest pose and first revolution)
+    /// for leg lengths and singular poses.
+    pub fn new(geometry: StewartGeometry, motion: &Motion, gravity: Vec3) -> Result<Stewart, StewartError> {
+        if !gravity.iter().all(|g| g.is_finite()) {
+            return Err(StewartError::Input { what: "gravity".into(), value: format!("{:?}", gravity.as_slice()) });
         }
         let path = CirclePath::new(geometry.nominal_center, motion);
         let hooke_axes = std::array::from_fn(|k| geometry.hooke_first_axis(k));
-        let leg_inertia = |p: &feedcore::scene::LegPart| BodyInertia {
-            mass: p.mass_kg,
-            inertia: Mat3::from_diagonal(&Vec3::new(
-                p.inertia_transverse_kg_m2,
-                p.inertia_transverse_kg_m2,
-                p.inertia_axial_kg_m2,
-            )),
-        };
-        let mut bodies = [leg_inertia(&geometry.upper); BODIES];
-        bodies[0] = BodyInertia { mass: geometry.platform_mass, inertia: geometry.platform_inertia };
-        bodies[1 + LEGS..].fill(leg_inertia(&geometry.lower));
+        let bodies = geometry.body_frame_mass_properties();
         let stewart = Stewart {
             joints: Joints::new(&geometry),
             length_range: geometry.leg_length_range(),
-            gravity: Vec3::new(0.0, 0.0, -gravity),
+            gravity,
             path,
             hooke_axes,
             bodies,
@@ -199,9 +185,10 @@ impl Stewart {
         self.bodies.iter().map(|b| b.mass).sum()
     }
 
-    /// Mass and body-frame inertia of the 13 bodies (platform, upper 1–6, lower 1–6). The
-    /// platform frame is parallel to the cabin's; a leg part's z axis is the leg axis.
-    pub fn body_inertias(&self) -> &[BodyInertia; BODIES] {
+    /// Mass and inertia of the 13 bodies (platform, upper 1–6, lower 1–6) in their own frames,
+    /// centre of mass at the origin. The platform frame is parallel to the cabin's; a leg part's z
+    /// axis is the leg axis.
+    pub fn body_inertias(&self) -> &[MassProperties; BODIES] {
         &self.bodies
     }
 
@@ -272,17 +259,13 @@ impl Stewart {
 
     fn leg_geometry(&self) -> relative::LegGeometry<'_> {
         let g = &self.geometry;
-        let part = |p: &feedcore::scene::LegPart| {
-            [p.mass_kg, p.com_from_joint_m, p.inertia_transverse_kg_m2, p.inertia_axial_kg_m2]
-        };
         relative::LegGeometry {
             base_joints: &g.base_joints,
             platform_joints: &g.platform_joints,
             hooke_axes: &self.hooke_axes,
-            platform_mass: g.platform_mass,
-            platform_inertia: &g.platform_inertia,
-            upper: part(&g.upper),
-            lower: part(&g.lower),
+            bodies: &self.bodies,
+            upper: &g.upper,
+            lower: &g.lower,
         }
     }
 
@@ -408,7 +391,7 @@ impl Stewart {
         let strokes = self.strokes_at(point, t)?;
         self.joints.evaluate(&system, &strokes, &mut rows);
         let forces = std::array::from_fn(|i| {
-            reactions::net_force(&system[i], self.bodies[i].mass, &self.bodies[i].inertia, &self.gravity)
+            reactions::net_force(&system[i], self.bodies[i].mass, &self.bodies[i].inertia_com, &self.gravity)
         });
         let singular = || StewartError::SingularPose { time: t, condition: f64::INFINITY };
         let lambda = reactions::multipliers(&self.joints, &rows, &system, &forces).ok_or_else(singular)?;

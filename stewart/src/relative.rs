@@ -10,8 +10,8 @@
 //! [`crate::wrench`]): mass, first moment, inertia about the cabin centre point, and the parts of
 //! the inertia forces that are linear in the cabin's angular velocity or independent of it.
 
-use feedcore::rigid::skew;
-use feedcore::scene::LEGS;
+use feedcore::rigid::{MassProperties, skew};
+use feedcore::scene::{LEGS, LegPart};
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
 
@@ -66,12 +66,11 @@ pub(crate) struct LegGeometry<'a> {
     pub base_joints: &'a [Vec3; LEGS],
     pub platform_joints: &'a [Vec3; LEGS],
     pub hooke_axes: &'a [Vec3; LEGS],
-    /// Mass and inertia about the centre of mass of the platform (cabin frame, it does not rotate).
-    pub platform_mass: f64,
-    pub platform_inertia: &'a Mat3,
-    /// Upper and lower part: mass, centre of mass from its own joint, transverse and axial inertia.
-    pub upper: [f64; 4],
-    pub lower: [f64; 4],
+    /// The 13 bodies in their own frames (the platform's is parallel to the cabin's).
+    pub bodies: &'a [MassProperties; BODIES],
+    /// The upper and lower part of every leg.
+    pub upper: &'a LegPart,
+    pub lower: &'a LegPart,
 }
 
 impl RelativeState {
@@ -94,12 +93,11 @@ impl RelativeState {
             position: path.position,
             velocity: path.velocity,
             acceleration: path.acceleration,
-            inertia: *geometry.platform_inertia,
+            inertia: geometry.bodies[0].inertia_com,
             ..zero
         };
         let (v, acc) = (path.velocity, path.acceleration);
-        let [m_up, c_up, it_up, ia_up] = geometry.upper;
-        let [m_lo, c_lo, it_lo, ia_lo] = geometry.lower;
+        let (c_up, c_lo) = (geometry.upper.com_from_joint_m, geometry.lower.com_from_joint_m);
         for k in 0..LEGS {
             let Leg { d, u, du, ddu, stroke, uxa, sine } = Leg::new(geometry, k, path);
             strokes[k] = stroke;
@@ -117,8 +115,6 @@ impl RelativeState {
             let dw = partial + u * dspin;
 
             let orientation = Mat3::from_columns(&[b.cross(&u), b, u]);
-            let uu = u * u.transpose();
-            let transverse = Mat3::identity() - uu;
             let base_joint = geometry.base_joints[k];
             bodies[1 + k] = RelativeBody {
                 position: base_joint + u * c_up,
@@ -127,7 +123,7 @@ impl RelativeState {
                 orientation,
                 angular_velocity: w,
                 angular_acceleration: dw,
-                inertia: transverse * it_up + uu * ia_up,
+                inertia: geometry.upper.inertia_along(&u),
             };
             bodies[1 + LEGS + k] = RelativeBody {
                 position: base_joint + d - u * c_lo,
@@ -136,17 +132,16 @@ impl RelativeState {
                 orientation,
                 angular_velocity: w,
                 angular_acceleration: dw,
-                inertia: transverse * it_lo + uu * ia_lo,
+                inertia: geometry.lower.inertia_along(&u),
             };
         }
 
-        let masses = body_masses(geometry.platform_mass, m_up, m_lo);
         let mut mass = 0.0;
         let mut first_moment = [Vec3::zeros(); 3];
         let mut inertia = Mat3::zeros();
         let mut coriolis = Mat3::zeros();
         let mut momentum_rate = Vec3::zeros();
-        for (body, &m) in bodies.iter().zip(&masses) {
+        for (body, m) in bodies.iter().zip(geometry.bodies.iter().map(|b| b.mass)) {
             let (r, dr, ddr) = (body.position, body.velocity, body.acceleration);
             mass += m;
             first_moment[0] += r * m;
@@ -211,12 +206,4 @@ impl Leg {
 pub(crate) fn strokes(geometry: &LegGeometry, path: &PathPoint) -> ([Stroke; LEGS], [f64; LEGS]) {
     let legs: [Leg; LEGS] = std::array::from_fn(|k| Leg::new(geometry, k, path));
     (legs.each_ref().map(|l| l.stroke), legs.each_ref().map(|l| l.sine))
-}
-
-/// Masses in body order: platform, six upper parts, six lower parts.
-pub(crate) fn body_masses(platform: f64, upper: f64, lower: f64) -> [f64; BODIES] {
-    let mut m = [upper; BODIES];
-    m[0] = platform;
-    m[1 + LEGS..].fill(lower);
-    m
 }

@@ -50,7 +50,7 @@ fn a_leg_along_its_hooke_axis_is_singular() {
     // put leg 3's platform joint so that the leg runs along its first Hooke axis at the start
     let k = 2;
     g.platform_joints[k] = g.base_joints[k] + g.hooke_first_axis(k) * 1.2 - g.start_center;
-    let err = Stewart::new(g, &scene.motion, scene.gravity_m_s2).unwrap_err();
+    let err = Stewart::new(g, &scene.motion, scene.gravity()).unwrap_err();
     assert!(matches!(err, StewartError::HookeSingular { leg: 3, time: 0.0, .. }), "{err}");
     assert!(err.to_string().contains("leg 3 at t = 0 s"));
 }
@@ -77,6 +77,6 @@ fn non_finite_inputs_are_named() {
     for err in [st.wrench(&bad, 1.0).unwrap_err(), st.evaluate(&bad, 1.0).unwrap_err()] {
         assert!(err.to_string().contains("cabin angular_velocity"), "{err}");
     }
-    let err = Stewart::new(scene.stewart_geometry(), &scene.motion, f64::NAN).unwrap_err();
+    let err = Stewart::new(scene.stewart_geometry(), &scene.motion, Vec3::new(0.0, 0.0, f64::NAN)).unwrap_err();
     assert!(err.to_string().contains("gravity"));
 }

@@ -45,7 +45,7 @@ fn net_forces(st: &Stewart, cabin: &CabinMotion, t: f64) -> DVector<f64> {
     let mut q = DVector::zeros(6 * BODIES);
     for (i, (b, inertia)) in bodies.iter().zip(st.body_inertias()).enumerate() {
         let r = b.orientation.to_rotation_matrix().into_inner();
-        let j = r * inertia.inertia * r.transpose();
+        let j = r * inertia.inertia_com * r.transpose();
         let f = (st.gravity() - b.acceleration) * inertia.mass;
         let m = -(j * b.angular_acceleration + b.angular_velocity.cross(&(j * b.angular_velocity)));
         q.rows_mut(6 * i, 3).copy_from(&f);

@@ -63,7 +63,7 @@ fn momenta(st: &Stewart, cabin: &CabinMotion, t: f64, origin: &Vec3) -> Vector6<
     for (b, inertia) in bodies.iter().zip(st.body_inertias()) {
         let r = b.orientation.to_rotation_matrix().into_inner();
         let p = b.velocity * inertia.mass;
-        let l = (b.position - origin).cross(&p) + r * inertia.inertia * r.transpose() * b.angular_velocity;
+        let l = (b.position - origin).cross(&p) + r * inertia.inertia_com * r.transpose() * b.angular_velocity;
         h += Vector6::new(p.x, p.y, p.z, l.x, l.y, l.z);
     }
     h

@@ -27,9 +27,9 @@
 use std::path::Path;
 
 use feedcore::rigid::rotation_of_quaternion_change;
-use feedcore::scene::{LEGS, Scene, SceneError, Start};
+use feedcore::scene::{Scene, SceneError, Start};
 use feedcore::{Quat, Vec3};
-use fmi2::description::indexed_names;
+use fmi2::description::Causality;
 use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
 use fmi2::resources::{FileKind, FileParameter, SavedFile};
 use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
@@ -46,28 +46,53 @@ use stewart::{
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
 /// Identifies the variable table: change it whenever the table changes.
 pub const GUID: &str = "{3c1e9f27-84b5-4a6d-9e02-5f7d1b8c6a43}";
-/// Number of Real inputs: r 3, q 4, v 3, ω 3, a 3, α 3.
-pub const INPUTS: usize = 19;
+/// Number of Real inputs: the cabin's motion.
+pub const INPUTS: usize = fmi2::table::count(vr::TABLE, Causality::Input);
 
 /// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
 static SCENES: FileKind<Scene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
 
-/// Value references (separate spaces per type).
+/// The variables: value references (separate spaces per type) and, for the Real ones, the table
+/// the description and the names come from.
 pub mod vr {
     use feedcore::scene::LEGS;
+    use fmi2::table::Block;
 
-    fmi2::value_references! {
-        /// Real inputs, the cabin's motion: position, orientation (w, x, y, z), velocity,
-        /// angular velocity, acceleration, angular acceleration.
-        R: 3, Q: 4, V: 3, W: 3, A: 3, ALPHA: 3,
+    const WXYZ: &[&str] = &["w", "x", "y", "z"];
+
+    // The inputs' ranges lie far beyond any cabin on cables (FAST's reflector is 500 m across),
+    // so that only a mistaken or hostile value is refused: positions within 10 km, speeds
+    // 1 km/s, 1e5 in the accelerations' units; quaternion components within ±1.5 (normalized).
+    fmi2::variable_table! {
+        /// Real inputs, the cabin's motion.
+        R = Block::input("cabin.r", 3, "m", "position of the cabin centre point, world frame").range(-1e4, 1e4),
+        Q = Block::input("cabin.q", 4, "",
+            "orientation of the cabin, quaternion (w, x, y, z) body to world (normalized)").range(-1.5, 1.5),
+        V = Block::input("cabin.v", 3, "m/s", "velocity of the cabin centre point, world frame").range(-1e3, 1e3),
+        W = Block::input("cabin.w", 3, "rad/s", "angular velocity of the cabin, world frame").range(-1e3, 1e3),
+        A = Block::input("cabin.a", 3, "m/s2", "acceleration of the cabin centre point, world frame").range(-1e5, 1e5),
+        ALPHA = Block::input("cabin.alpha", 3, "rad/s2", "angular acceleration of the cabin, world frame").range(-1e5, 1e5),
         /// Real outputs: the wrench on the cabin (force, moment), the actuator forces, the
         /// moving platform's position and orientation.
-        FORCE: 3, MOMENT: 3, ACTUATOR: LEGS, PLATFORM_R: 3, PLATFORM_Q: 4,
+        FORCE = Block::output("wrench.f", 3, "N", "force the platform exerts on the cabin, world frame"),
+        MOMENT = Block::output("wrench.m", 3, "N.m", "moment on the cabin about its centre point, world frame"),
+        ACTUATOR = Block::output("actuator.force", LEGS as u32, "N", "tension of actuator {k} (positive: pulls the platform up)"),
+        PLATFORM_R = Block::output("platform.r", 3, "m", "position of the moving platform's centre, world frame"),
+        PLATFORM_Q = Block::output("platform.q", 4, "", "orientation of the moving platform ({k}), body to world").labels(WXYZ),
         /// Real outputs: leg lengths, the feed's position error and its rotation from the start
         /// attitude (world rotation vector; its length is the feed's tilt error).
-        LEG: LEGS, FEED_ERR: 3, FEED_ROT: 3,
+        LEG = Block::output("leg.length", LEGS as u32, "m", "length of leg {k}, joint centre to joint centre"),
+        FEED_ERR = Block::output("feed.err", 3, "m",
+            "feed point minus its target, world frame ([control]; else the platform centre minus its start)"),
+        FEED_ROT = Block::output("feed.rot", 3, "rad",
+            "rotation of the feed (the platform) from its start attitude, world rotation vector"),
         /// Real parameters.
-        RADIUS: 1, SPEED: 1, RAMP_TIME: 1,
+        RADIUS = Block::parameter("radius", -1.0, "m", "radius of the platform's circle; negative: the scene's value")
+            .range(-1.0, 10.0),
+        SPEED = Block::parameter("speed", -1.0, "m/s",
+            "speed of the platform on the circle (0: held still); negative: the scene's value").range(-1.0, 10.0),
+        RAMP_TIME = Block::parameter("ramp_time", -1.0, "s",
+            "duration of the smooth start (with start = 2); non-positive: the scene's value").range(-1.0, 1e4),
     }
     /// Integer `start`.
     pub const START: u32 = 0;
@@ -168,46 +193,14 @@ fn pose_mismatch(scene_name: &str, scene: &Scene, u: &[f64; INPUTS]) -> Option<S
     })
 }
 
-/// The output variables in value-reference order from [`vr::FORCE`]: (name, unit, description).
-fn outputs() -> Vec<(String, &'static str, String)> {
-    let mut v = Vec::new();
-    let mut block = |prefix: &str, unit: &'static str, texts: Vec<String>| {
-        v.extend(indexed_names(prefix, texts.len()).zip(texts).map(|(name, text)| (name, unit, text)));
-    };
-    block("wrench.f", "N", vec!["force the platform exerts on the cabin, world frame".into(); 3]);
-    block("wrench.m", "N.m", vec!["moment on the cabin about its centre point, world frame".into(); 3]);
-    let tension = |k| format!("tension of actuator {k} (positive: pulls the platform up)");
-    block("actuator.force", "N", (1..=LEGS).map(tension).collect());
-    block("platform.r", "m", vec!["position of the moving platform's centre, world frame".into(); 3]);
-    let component = |c| format!("orientation of the moving platform ({c}), body to world");
-    block("platform.q", "", ["w", "x", "y", "z"].map(component).to_vec());
-    let leg = |k| format!("length of leg {k}, joint centre to joint centre");
-    block("leg.length", "m", (1..=LEGS).map(leg).collect());
-    block(
-        "feed.err",
-        "m",
-        vec![
-            "feed point minus its target, world frame ([control]; else the platform centre minus its start)".into();
-            3
-        ],
-    );
-    block(
-        "feed.rot",
-        "rad",
-        vec!["rotation of the feed (the platform) from its start attitude, world rotation vector".into(); 3],
-    );
-    v
-}
-
 /// The names of the outputs, in value-reference order.
 pub fn output_names() -> Vec<String> {
-    outputs().into_iter().map(|(name, _, _)| name).collect()
+    fmi2::table::names(vr::TABLE, Causality::Output)
 }
 
 /// The names of the inputs, in value-reference order from 0.
 pub fn input_names() -> Vec<String> {
-    let parts = [("cabin.r", 3), ("cabin.q", 4), ("cabin.v", 3), ("cabin.w", 3), ("cabin.a", 3), ("cabin.alpha", 3)];
-    parts.into_iter().flat_map(|(p, n)| indexed_names(p, n)).collect()
+    fmi2::table::names(vr::TABLE, Causality::Input)
 }
 
 /// The cabin's motion the input values `u` give (the orientation normalized); refused when
@@ -404,40 +397,7 @@ impl Model for StewartFmu {
     fn description() -> Result<ModelDescription, ModelError> {
         let inputs = input_names();
         let rest = rest_inputs(SCENES.open(None, DEFAULT_SCENE)?.value());
-        let units = |i: usize| match i {
-            0..3 => "m",
-            3..7 => "",
-            7..10 => "m/s",
-            10..13 => "rad/s",
-            13..16 => "m/s2",
-            _ => "rad/s2",
-        };
-        let what = |i: usize| match i {
-            0..3 => "position of the cabin centre point, world frame",
-            3..7 => "orientation of the cabin, quaternion (w, x, y, z) body to world (normalized)",
-            7..10 => "velocity of the cabin centre point, world frame",
-            10..13 => "angular velocity of the cabin, world frame",
-            13..16 => "acceleration of the cabin centre point, world frame",
-            _ => "angular acceleration of the cabin, world frame",
-        };
-        // Far beyond any cabin on cables (FAST's reflector is 500 m across), so that only a
-        // mistaken or hostile value is refused: positions within 10 km, speeds 1 km/s, 1e5 in
-        // the accelerations' units; quaternion components within ±1.5 (normalized here).
-        let bound = |i: usize| match i {
-            0..3 => 1e4,
-            3..7 => 1.5,
-            7..13 => 1e3,
-            _ => 1e5,
-        };
-        let mut variables: Vec<Variable> = inputs
-            .iter()
-            .enumerate()
-            .map(|(i, n)| {
-                Variable::real_input(n.clone(), i as u32, rest[i], units(i))
-                    .range(-bound(i), bound(i))
-                    .describe(what(i))
-            })
-            .collect();
+        let mut variables = fmi2::table::variables(vr::TABLE, |v| rest[v as usize]);
         // Direct feedthrough, exactly (see the module documentation); in initialization mode
         // the parameters that shape the platform's motion at the start count as well.
         let name = |i: usize| inputs[i].as_str();
@@ -488,34 +448,12 @@ impl Model for StewartFmu {
                 _ => orientation.clone(),
             }
         };
-        let mut out = |name: String, vr: u32, unit: &str, text: String| {
-            let d = deps(vr, false);
-            let initially: Vec<&str> = deps(vr, true).into_iter().chain(params).collect();
-            variables.push(
-                Variable::real_output(name, vr, unit).describe(text).depends_on(&d).initially_depends_on(&initially),
-            );
-        };
-        for (k, (name, unit, text)) in outputs().into_iter().enumerate() {
-            out(name, vr::FORCE + k as u32, unit, text);
+        for v in variables.iter_mut().filter(|v| v.causality == Causality::Output) {
+            let d = deps(v.value_reference, false);
+            let initially: Vec<&str> = deps(v.value_reference, true).into_iter().chain(params).collect();
+            v.depends_on = Some(d.iter().map(|n| n.to_string()).collect());
+            v.initial_depends_on = Some(initially.iter().map(|n| n.to_string()).collect());
         }
-        variables.push(
-            Variable::parameter("radius", vr::RADIUS, -1.0, false)
-                .unit("m")
-                .range(-1.0, 10.0)
-                .describe("radius of the platform's circle; negative: the scene's value"),
-        );
-        variables.push(
-            Variable::parameter("speed", vr::SPEED, -1.0, false)
-                .unit("m/s")
-                .range(-1.0, 10.0)
-                .describe("speed of the platform on the circle (0: held still); negative: the scene's value"),
-        );
-        variables.push(
-            Variable::parameter("ramp_time", vr::RAMP_TIME, -1.0, false)
-                .unit("s")
-                .range(-1.0, 1e4)
-                .describe("duration of the smooth start (with start = 2); non-positive: the scene's value"),
-        );
         variables.push(
             Variable::parameter("start", vr::START, 0, false)
                 .describe("0: the scene's start, 1: abrupt (full speed at t = 0), 2: smooth ramp"),

@@ -263,27 +263,6 @@ impl Variable {
     }
 }
 
-/// Value references laid out one block after the other: `NAME: size` defines
-/// `pub const NAME: u32` as the sum of the sizes before it (from 0), so a model states the
-/// width of each vector variable and never adds them up by hand. Entries may carry doc comments.
-///
-/// ```
-/// fmi2::value_references! { R: 3, Q: 4, V: 3 }
-/// assert_eq!((R, Q, V), (0, 3, 7));
-/// ```
-#[macro_export]
-macro_rules! value_references {
-    ($($(#[$doc:meta])* $name:ident: $size:expr),* $(,)?) => {
-        $crate::value_references!(@from 0; $($(#[$doc])* $name: $size,)*);
-    };
-    (@from $at:expr; $(#[$doc:meta])* $name:ident: $size:expr, $($rest:tt)*) => {
-        $(#[$doc])*
-        pub const $name: u32 = $at;
-        $crate::value_references!(@from $name + ($size) as u32; $($rest)*);
-    };
-    (@from $at:expr;) => {};
-}
-
 /// `name[1]`, …, `name[n]`: the scalar names of a vector variable.
 pub fn indexed_names(name: &str, n: usize) -> impl Iterator<Item = String> + '_ {
     (1..=n).map(move |k| format!("{name}[{k}]"))
