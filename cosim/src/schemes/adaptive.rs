@@ -3,12 +3,11 @@
 //! step is rolled back bit for bit — FMU states, coupled values, extrapolation and quasi-Newton
 //! history.
 
-use super::{Coupled, StepReport};
+use super::{Core, Coupled, StepReport};
 use crate::adaptive::{self, Accepted, Retake};
 use crate::error::SetupError;
 use crate::error::StepError;
 use crate::error_estimate::{ErrorEstimate, Kind};
-use crate::iqn::{Accelerator, IqnOptions};
 use crate::step_control::{Controller, Tolerances};
 use crate::system::spec::prefix_rest;
 use crate::system::{Layout, Slot, Units};
@@ -23,32 +22,19 @@ pub(super) enum Watched {
     Output(usize),
 }
 
-/// What a rollback restores besides the units' states: the time, the coupled values and the
-/// extrapolation history, IQN-ILS's history and IJCSA's reused Jacobian (its blocks, the step it
-/// belongs to, which units are recomputed; kept only with `--jacobian reuse`).
+/// What a rollback restores besides the units' states and the scheme's own state (IQN-ILS's
+/// history, IJCSA's reused Jacobian: [`super::CouplingScheme::keep`]): the time, the coupled
+/// values and the extrapolation history.
 pub(super) struct Restorable {
     time: f64,
     y: Vec<f64>,
     y_prev: Vec<f64>,
     prev_step: Option<f64>,
-    iqn: Accelerator,
-    dydu: Vec<f64>,
-    jacobian_step: Option<f64>,
-    volatile: Vec<u32>,
 }
 
 impl Restorable {
-    fn new(nu: usize, ny: usize, iqn: IqnOptions) -> Restorable {
-        Restorable {
-            time: 0.0,
-            y: vec![0.0; ny],
-            y_prev: vec![0.0; ny],
-            prev_step: None,
-            iqn: Accelerator::new(nu, iqn),
-            dydu: Vec::new(),
-            jacobian_step: None,
-            volatile: Vec::new(),
-        }
+    fn new(ny: usize) -> Restorable {
+        Restorable { time: 0.0, y: vec![0.0; ny], y_prev: vec![0.0; ny], prev_step: None }
     }
 }
 
@@ -66,15 +52,15 @@ pub(super) struct History {
 
 impl History {
     /// Watching every coupled input of `layout`.
-    pub(super) fn new(layout: &Layout, iqn: IqnOptions) -> History {
+    pub(super) fn new(layout: &Layout) -> History {
         let (n, ny) = (layout.inputs(), layout.outputs());
         History {
             estimate: ErrorEstimate::new(n),
             watched: (0..n).map(Watched::Input).collect(),
             group: layout.group.clone(),
             scale: layout.scale.clone(),
-            before_step: Restorable::new(n, ny, iqn),
-            checkpoint: Restorable::new(n, ny, iqn),
+            before_step: Restorable::new(ny),
+            checkpoint: Restorable::new(ny),
         }
     }
 }
@@ -87,7 +73,7 @@ impl<S: Units> Coupled<S> {
     /// besides, e.g. [`crate::SystemSpec::observed`]); every coupled input if `names` is empty.
     /// Call before the first step.
     pub fn watch(&mut self, names: &[String]) -> Result<(), SetupError> {
-        let l = self.units.layout();
+        let l = self.core.units.layout();
         let named = |candidate: &str, name: &str| prefix_rest(candidate, name).is_some();
         let mut watched = Vec::new();
         for name in names {
@@ -130,7 +116,7 @@ impl<S: Units> Coupled<S> {
             .iter()
             .map(|w| match *w {
                 Watched::Input(i) => l.scale[i],
-                Watched::Output(j) => self.y[j],
+                Watched::Output(j) => self.core.y[j],
             })
             .collect();
         let output_scales = Layout::group_scales(&values, &keys);
@@ -165,18 +151,18 @@ impl<S: Units> Coupled<S> {
         tol: Tolerances,
         t_stop: f64,
     ) -> Result<AdaptiveStep, StepError> {
-        if !self.options.scheme.is_implicit() {
-            return Err(self.failed(
-                self.time,
+        if !self.core.options.scheme.is_implicit() {
+            return Err(self.core.failed(
+                self.core.time,
                 format!(
                     "the adaptive step needs an implicit scheme (iterative, ijcsa, iqn-ils), not {}",
-                    self.options.scheme.name()
+                    self.core.options.scheme.name()
                 ),
             ));
         }
         // the estimate lives beside the units it judges; lent to the step for its duration
         let mut estimate = std::mem::replace(&mut self.adaptive.estimate, ErrorEstimate::new(0));
-        let t = self.time;
+        let t = self.core.time;
         let result = adaptive::step(self, &mut estimate, ctl, tol, t, t_stop);
         self.adaptive.estimate = estimate;
         result
@@ -184,64 +170,45 @@ impl<S: Units> Coupled<S> {
 
     /// Keeps what a rollback to `slot` restores besides the units' states (the schemes save
     /// those for [`Slot::Step`] at the start of every step; [`Coupled::checkpoint`] for
-    /// [`Slot::Checkpoint`]).
+    /// [`Slot::Checkpoint`]): the coupled values and the scheme's own state.
     pub(super) fn keep(&mut self, slot: Slot) {
-        let (quasi_newton, jacobian) = (self.options.scheme == super::Scheme::IqnIls, self.reuses_jacobian());
-        let Coupled { adaptive, time, y, y_prev, prev_step, iqn, dydu, jacobian_step, volatile, .. } = self;
+        let Coupled { adaptive, core, scheme } = self;
         let r = match slot {
             Slot::Step => &mut adaptive.before_step,
             Slot::Checkpoint => &mut adaptive.checkpoint,
         };
-        r.time = *time;
-        r.y.copy_from_slice(y);
-        r.y_prev.copy_from_slice(y_prev);
-        r.prev_step = *prev_step;
-        if quasi_newton {
-            iqn.copy_into(&mut r.iqn);
-        }
-        if jacobian {
-            r.dydu.clone_from(dydu);
-            r.jacobian_step = *jacobian_step;
-            r.volatile.clone_from(volatile);
-        }
+        r.time = core.time;
+        r.y.copy_from_slice(&core.y);
+        r.y_prev.copy_from_slice(&core.y_prev);
+        r.prev_step = core.prev_step;
+        scheme.keep(slot);
     }
 
     /// Goes back to `slot`: every unit to the state saved there, bit for bit, and what
     /// [`Coupled::keep`] kept.
     pub(super) fn roll_back(&mut self, slot: Slot) -> Result<(), StepError> {
-        let r = match slot {
-            Slot::Step => &self.adaptive.before_step,
-            Slot::Checkpoint => &self.adaptive.checkpoint,
-        };
-        let t = r.time;
-        self.restore_states(t, slot)?;
-        let (quasi_newton, jacobian) = (self.options.scheme == super::Scheme::IqnIls, self.reuses_jacobian());
-        let Coupled { adaptive, time, y, y_prev, prev_step, iqn, dydu, jacobian_step, volatile, .. } = self;
+        let Coupled { adaptive, core, scheme } = self;
         let r = match slot {
             Slot::Step => &adaptive.before_step,
             Slot::Checkpoint => &adaptive.checkpoint,
         };
+        core.restore_states(r.time, slot)?;
+        let Core { time, y, y_prev, prev_step, .. } = core;
         *time = r.time;
         y.copy_from_slice(&r.y);
         y_prev.copy_from_slice(&r.y_prev);
         *prev_step = r.prev_step;
-        if quasi_newton {
-            r.iqn.copy_into(iqn);
-        }
-        if jacobian {
-            dydu.copy_from_slice(&r.dydu);
-            *jacobian_step = r.jacobian_step;
-            volatile.copy_from_slice(&r.volatile);
-        }
+        scheme.roll_back(slot);
         Ok(())
     }
 
     /// Saves every unit's state and the coupled values into the checkpoint slot: the adaptive
     /// step's step doubling comes back there over more than one step.
     pub(super) fn checkpoint(&mut self) -> Result<(), StepError> {
-        for k in 0..self.units.layout().units.len() {
-            if let Err(e) = self.units.save_state(k, Slot::Checkpoint) {
-                return Err(self.unit_err(self.time, k, e));
+        let core = &mut self.core;
+        for k in 0..core.units.layout().units.len() {
+            if let Err(e) = core.units.save_state(k, Slot::Checkpoint) {
+                return Err(core.unit_err(core.time, k, e));
             }
         }
         self.keep(Slot::Checkpoint);
@@ -281,11 +248,11 @@ impl<S: Units> Retake for Coupled<S> {
     }
 
     fn watched(&mut self, out: &mut [f64]) -> Result<(), StepError> {
-        let l = self.units.layout();
+        let (l, y) = (self.core.units.layout(), &self.core.y);
         for (u, w) in out.iter_mut().zip(&self.adaptive.watched) {
             *u = match *w {
-                Watched::Input(i) => l.coupled(i, &self.y),
-                Watched::Output(j) => self.y[j],
+                Watched::Input(i) => l.coupled(i, y),
+                Watched::Output(j) => y[j],
             };
         }
         Ok(())
@@ -301,8 +268,9 @@ impl<S: Units> Retake for Coupled<S> {
     /// of the inputs it feeds (over the connection's gain); none for an output no connection
     /// carries (it is read after the converged step, and known only as well as the inputs).
     fn noise(&self, out: &mut [f64]) {
-        let l = self.units.layout();
-        let residual = |i: usize| (l.coupled(i, &self.y) - self.work.guess[i]).abs();
+        let c = &self.core;
+        let l = c.units.layout();
+        let residual = |i: usize| (l.coupled(i, &c.y) - c.work.guess[i]).abs();
         for (n, w) in out.iter_mut().zip(&self.adaptive.watched) {
             *n = match *w {
                 Watched::Input(i) => residual(i),

@@ -1,25 +1,29 @@
 //! The fixed-point iteration with rollback: constant relaxation or Aitken's dynamic factor.
 
-use super::{Coupled, Relaxation, StepReport};
+use super::{Core, CouplingScheme, Relaxation, StepReport};
 use crate::error::StepError;
 use crate::system::Units;
 
-impl<S: Units> Coupled<S> {
-    pub(super) fn step_iterative(&mut self, t: f64, h: f64) -> Result<StepReport, StepError> {
-        self.predict_end(h);
-        self.keep_history(h);
-        self.save_states(t)?;
-        let mut omega = match self.options.relaxation {
+pub(super) struct FixedPoint {
+    pub(super) relaxation: Relaxation,
+}
+
+impl<S: Units> CouplingScheme<S> for FixedPoint {
+    fn step(&mut self, core: &mut Core<S>, t: f64, h: f64) -> Result<StepReport, StepError> {
+        core.predict_end(h);
+        core.keep_history(h);
+        core.save_states(t)?;
+        let mut omega = match self.relaxation {
             Relaxation::Fixed(w) => w,
             Relaxation::Aitken => 0.3,
         };
-        for it in 1..=self.options.max_iter {
-            if let Some(done) = self.evaluate(it, t, h)? {
+        for it in 1..=core.options.max_iter {
+            if let Some(done) = core.evaluate(it, t, h)? {
                 return Ok(done);
             }
-            let Coupled { work, units, options, .. } = self;
+            let Core { work, units, .. } = core;
             let scale = &units.layout().scale;
-            if options.relaxation == Relaxation::Aitken && it > 1 {
+            if self.relaxation == Relaxation::Aitken && it > 1 {
                 // Aitken Δ²: ω ← −ω · (r_prev · (r − r_prev)) / |r − r_prev|², scaled entries
                 let (mut num, mut dd) = (0.0, 0.0);
                 for i in 0..work.r.len() {

@@ -2,9 +2,10 @@
 //! Jacobians (derivatives where a unit provides them, central differences with rollback
 //! otherwise).
 
-use super::{Coupled, JacobianUpdate, StepReport};
 use std::ops::Range;
 
+use super::{Core, CouplingScheme, JacobianUpdate, StepReport};
+use crate::dense::IdentityMinus;
 use crate::error::StepError;
 use crate::system::{Layout, Slot, Units};
 
@@ -30,52 +31,93 @@ pub(super) fn eliminated_first(l: &Layout) -> Range<usize> {
         .map_or(0..0, |u| u.inputs.clone())
 }
 
-impl<S: Units> Coupled<S> {
-    pub(super) fn step_ijcsa(&mut self, t: f64, h: f64) -> Result<StepReport, StepError> {
-        self.predict_end(h);
-        self.keep_history(h);
-        self.save_states(t)?;
+/// The interface Jacobian ∂Y/∂U and what decides when it is recomputed.
+#[derive(Clone, Debug, Default)]
+struct Jacobian {
+    /// Block diagonal over the units, row-major ny × nu.
+    dydu: Vec<f64>,
+    /// The macro step whose step maps `dydu` differentiates, once there is one.
+    step: Option<f64>,
+    /// Per unit, the steps its block is still recomputed at every first iteration after it was
+    /// found stale (`reuse`).
+    volatile: Vec<u32>,
+}
+
+pub(super) struct Ijcsa {
+    update: JacobianUpdate,
+    jacobian: Jacobian,
+    /// A reused Jacobian as it was before the last step and at the checkpoint.
+    before_step: Jacobian,
+    checkpoint: Jacobian,
+    /// The interface Newton system's solver (a unit's inputs eliminated first where it can).
+    interface: IdentityMinus,
+    /// The last iterate and its outputs (the secant of a reused Jacobian).
+    u_it: Vec<f64>,
+    y_it: Vec<f64>,
+}
+
+impl Ijcsa {
+    pub(super) fn new(layout: &Layout, update: JacobianUpdate) -> Ijcsa {
+        let (nu, ny) = (layout.inputs(), layout.outputs());
+        Ijcsa {
+            update,
+            jacobian: Jacobian { dydu: vec![0.0; ny * nu], step: None, volatile: vec![0; layout.units.len()] },
+            before_step: Jacobian::default(),
+            checkpoint: Jacobian::default(),
+            interface: IdentityMinus::new(nu, eliminated_first(layout)),
+            u_it: vec![0.0; nu],
+            y_it: vec![0.0; ny],
+        }
+    }
+}
+
+impl<S: Units> CouplingScheme<S> for Ijcsa {
+    fn step(&mut self, core: &mut Core<S>, t: f64, h: f64) -> Result<StepReport, StepError> {
+        core.predict_end(h);
+        core.keep_history(h);
+        core.save_states(t)?;
         let mut fresh_jacobian = false;
         let mut last_res = f64::INFINITY;
-        let reuse = self.options.jacobian == JacobianUpdate::Reuse;
-        for it in 1..=self.options.max_iter {
-            if let Some(done) = self.evaluate(it, t, h)? {
+        let reuse = self.update == JacobianUpdate::Reuse;
+        for it in 1..=core.options.max_iter {
+            if let Some(done) = core.evaluate(it, t, h)? {
                 return Ok(done);
             }
             if reuse && it > 1 {
-                self.secant_update();
+                self.secant_update(core);
             }
             // Jacobian of the step just taken (derivatives at the current inputs)
-            let res = self.residual(&self.work.guess).0;
+            let res = core.residual(&core.work.guess).0;
             let slow = res > 0.1 * last_res;
             // a reused Jacobian belongs to the step size it was made for: another size (an
             // adaptive step's) is another step map, recomputed once rather than found stale
-            if self.jacobian_step != Some(h)
-                || self.options.jacobian == JacobianUpdate::EveryStep && it == 1
+            if self.jacobian.step != Some(h)
+                || self.update == JacobianUpdate::EveryStep && it == 1
                 || (slow && !fresh_jacobian)
             {
-                self.interface_jacobian(t, h)?;
+                self.interface_jacobian(core, t, h)?;
                 fresh_jacobian = true;
             } else if reuse && it == 1 {
-                for k in 0..self.volatile.len() {
-                    if self.volatile[k] > 0 {
-                        self.volatile[k] -= 1;
-                        self.unit_jacobian(t, h, k)?;
+                for k in 0..self.jacobian.volatile.len() {
+                    if self.jacobian.volatile[k] > 0 {
+                        self.jacobian.volatile[k] -= 1;
+                        unit_jacobian(core, &mut self.jacobian.dydu, t, h, k)?;
                     }
                 }
             }
             last_res = res;
             if reuse {
-                self.work.u_it.copy_from_slice(&self.work.guess);
-                self.work.y_it.copy_from_slice(&self.y);
+                self.u_it.copy_from_slice(&core.work.guess);
+                self.y_it.copy_from_slice(&core.y);
             }
             // Newton: (I − C ∂Y/∂U) ΔU = C Y − U, in place
-            let Coupled { work, units, dydu, interface, .. } = self;
+            let Core { work, units, .. } = core;
             let l = units.layout();
             let n = work.r.len();
+            let dydu = &self.jacobian.dydu;
             let row = |i: usize| (l.gain[i], &dydu[l.source[i] * n..(l.source[i] + 1) * n]);
-            if !interface.solve_by_rows(row, &mut work.r) {
-                return Err(self.failed(t + h, "the interface Jacobian is singular"));
+            if !self.interface.solve_by_rows(row, &mut work.r) {
+                return Err(core.failed(t + h, "the interface Jacobian is singular"));
             }
             for (g, d) in work.guess.iter_mut().zip(&work.r) {
                 *g += d;
@@ -84,6 +126,34 @@ impl<S: Units> Coupled<S> {
         unreachable!("evaluate fails at the iteration limit")
     }
 
+    /// A reused Jacobian is kept (with `--jacobian reuse`); one recomputed every step is not.
+    fn keep(&mut self, slot: Slot) {
+        if self.update == JacobianUpdate::Reuse {
+            let kept = match slot {
+                Slot::Step => &mut self.before_step,
+                Slot::Checkpoint => &mut self.checkpoint,
+            };
+            // in place: the vectors keep their allocation from step to step
+            kept.dydu.clone_from(&self.jacobian.dydu);
+            kept.step = self.jacobian.step;
+            kept.volatile.clone_from(&self.jacobian.volatile);
+        }
+    }
+
+    fn roll_back(&mut self, slot: Slot) {
+        if self.update == JacobianUpdate::Reuse {
+            let kept = match slot {
+                Slot::Step => &self.before_step,
+                Slot::Checkpoint => &self.checkpoint,
+            };
+            self.jacobian.dydu.copy_from_slice(&kept.dydu);
+            self.jacobian.step = kept.step;
+            self.jacobian.volatile.copy_from_slice(&kept.volatile);
+        }
+    }
+}
+
+impl Ijcsa {
     /// Broyden's (good) update of every unit's block of ∂Y/∂U with the secant of this step's
     /// last two iterates, `J_k += (ΔY_k − J_k ΔU_k) (D⁻²ΔU_k)ᵀ / (ΔU_kᵀ D⁻² ΔU_k)`, D the
     /// inputs' scales: the reused Jacobian maps the last correction exactly, and the next
@@ -91,8 +161,10 @@ impl<S: Units> Coupled<S> {
     /// missed the secant by more than [`STALE`] of the change it made in the inputs it feeds
     /// (each scaled) and by more than the tolerance is volatile: its block is recomputed at the
     /// first iteration of the next [`VOLATILE_STEPS`] steps.
-    fn secant_update(&mut self) {
-        let Coupled { units, work, dydu, y, volatile, options, .. } = self;
+    fn secant_update<S: Units>(&mut self, core: &mut Core<S>) {
+        let Core { units, work, y, options, .. } = core;
+        let Jacobian { dydu, volatile, .. } = &mut self.jacobian;
+        let (u_it, y_it) = (&self.u_it, &self.y_it);
         let tol = options.tol;
         let l = units.layout();
         let nu = work.r.len();
@@ -101,7 +173,7 @@ impl<S: Units> Coupled<S> {
             let (ds, w) = (&mut work.seed[..ir.len()], &mut work.end[..ir.len()]);
             let mut norm = 0.0;
             for (c, i) in ir.clone().enumerate() {
-                ds[c] = work.guess[i] - work.u_it[i];
+                ds[c] = work.guess[i] - u_it[i];
                 w[c] = ds[c] / (l.scale[i] * l.scale[i]);
                 norm += ds[c] * w[c];
             }
@@ -110,14 +182,14 @@ impl<S: Units> Coupled<S> {
             }
             for r in or.clone() {
                 let row = &dydu[r * nu + ir.start..r * nu + ir.end];
-                work.col[r] = y[r] - work.y_it[r] - row.iter().zip(ds.iter()).map(|(j, s)| j * s).sum::<f64>();
+                work.col[r] = y[r] - y_it[r] - row.iter().zip(ds.iter()).map(|(j, s)| j * s).sum::<f64>();
             }
             // the miss and the change in the inputs this unit feeds, each in its scale
             let (mut miss, mut change) = (0.0f64, 0.0f64);
             for (i, &r) in l.source.iter().enumerate() {
                 if or.contains(&r) {
                     miss = miss.max((l.gain[i] * work.col[r] / l.scale[i]).abs());
-                    change = change.max((l.gain[i] * (y[r] - work.y_it[r]) / l.scale[i]).abs());
+                    change = change.max((l.gain[i] * (y[r] - y_it[r]) / l.scale[i]).abs());
                 }
             }
             if miss > STALE * change && miss > tol {
@@ -133,57 +205,57 @@ impl<S: Units> Coupled<S> {
         }
     }
 
-    /// ∂Y/∂U after stepping with `work.guess` (the units' step maps) into `self.dydu`:
-    /// derivatives where the unit provides them, central differences with rollback otherwise.
-    fn interface_jacobian(&mut self, t: f64, h: f64) -> Result<(), StepError> {
-        for k in 0..self.units.layout().units.len() {
-            self.unit_jacobian(t, h, k)?;
+    /// ∂Y/∂U after stepping with `work.guess` (the units' step maps): derivatives where the
+    /// unit provides them, central differences with rollback otherwise.
+    fn interface_jacobian<S: Units>(&mut self, core: &mut Core<S>, t: f64, h: f64) -> Result<(), StepError> {
+        for k in 0..core.units.layout().units.len() {
+            unit_jacobian(core, &mut self.jacobian.dydu, t, h, k)?;
         }
-        self.jacobian_step = Some(h);
+        self.jacobian.step = Some(h);
         Ok(())
     }
+}
 
-    /// Unit `k`'s block of ∂Y/∂U (see [`Coupled::interface_jacobian`]).
-    fn unit_jacobian(&mut self, t: f64, h: f64, k: usize) -> Result<(), StepError> {
-        let nu = self.work.r.len();
-        let Coupled { units, work, dydu, .. } = self;
-        let (ir, or) = (units.layout().units[k].inputs.clone(), units.layout().units[k].outputs.clone());
-        let (io, ni, oo, no) = (ir.start, ir.len(), or.start, or.len());
-        let (seed, col) = (&mut work.seed[..ni], &mut work.col[..no]);
-        let res = (|| {
-            if units.capabilities(k).step_derivatives {
-                for c in 0..ni {
-                    seed.fill(0.0);
-                    seed[c] = 1.0;
-                    units.step_derivative(k, seed, col)?;
-                    for r in 0..no {
-                        dydu[(oo + r) * nu + io + c] = col[r];
-                    }
-                }
-                return Ok(());
-            }
-            // central differences, each from the saved state; the nominal step last
+/// Unit `k`'s block of ∂Y/∂U into `dydu` (see [`Ijcsa::interface_jacobian`]).
+fn unit_jacobian<S: Units>(core: &mut Core<S>, dydu: &mut [f64], t: f64, h: f64, k: usize) -> Result<(), StepError> {
+    let nu = core.work.r.len();
+    let Core { units, work, .. } = core;
+    let (ir, or) = (units.layout().units[k].inputs.clone(), units.layout().units[k].outputs.clone());
+    let (io, ni, oo, no) = (ir.start, ir.len(), or.start, or.len());
+    let (seed, col) = (&mut work.seed[..ni], &mut work.col[..no]);
+    let res = (|| {
+        if units.capabilities(k).step_derivatives {
             for c in 0..ni {
-                let delta = 1e-6 * units.layout().scale[io + c];
+                seed.fill(0.0);
+                seed[c] = 1.0;
+                units.step_derivative(k, seed, col)?;
                 for r in 0..no {
-                    dydu[(oo + r) * nu + io + c] = 0.0;
-                }
-                for sign in [1.0, -1.0] {
-                    work.end[..ni].copy_from_slice(&work.guess[ir.clone()]);
-                    work.end[c] += sign * delta;
-                    units.restore_state(k, Slot::Step)?;
-                    units.set_inputs(k, &work.end[..ni])?;
-                    units.do_step(k, t, h)?;
-                    units.get_outputs(k, col)?;
-                    for r in 0..no {
-                        dydu[(oo + r) * nu + io + c] += sign * col[r] / (2.0 * delta);
-                    }
+                    dydu[(oo + r) * nu + io + c] = col[r];
                 }
             }
-            units.restore_state(k, Slot::Step)?;
-            units.set_inputs(k, &work.guess[ir.clone()])?;
-            units.do_step(k, t, h)
-        })();
-        res.map_err(|e| self.unit_err(t + h, k, e))
-    }
+            return Ok(());
+        }
+        // central differences, each from the saved state; the nominal step last
+        for c in 0..ni {
+            let delta = 1e-6 * units.layout().scale[io + c];
+            for r in 0..no {
+                dydu[(oo + r) * nu + io + c] = 0.0;
+            }
+            for sign in [1.0, -1.0] {
+                work.end[..ni].copy_from_slice(&work.guess[ir.clone()]);
+                work.end[c] += sign * delta;
+                units.restore_state(k, Slot::Step)?;
+                units.set_inputs(k, &work.end[..ni])?;
+                units.do_step(k, t, h)?;
+                units.get_outputs(k, col)?;
+                for r in 0..no {
+                    dydu[(oo + r) * nu + io + c] += sign * col[r] / (2.0 * delta);
+                }
+            }
+        }
+        units.restore_state(k, Slot::Step)?;
+        units.set_inputs(k, &work.guess[ir.clone()])?;
+        units.do_step(k, t, h)
+    })();
+    res.map_err(|e| core.unit_err(t + h, k, e))
 }

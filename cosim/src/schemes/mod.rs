@@ -22,10 +22,9 @@ mod iqn;
 
 pub use adaptive::AdaptiveStep;
 
-use crate::dense::IdentityMinus;
 use crate::error::StepError;
-use crate::iqn::{Accelerator, IqnOptions};
-use crate::system::{Slot, UnitError, Units};
+use crate::iqn::IqnOptions;
+use crate::system::{Layout, Slot, UnitError, Units};
 
 /// A coupling scheme.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -138,6 +137,14 @@ pub const START_SUBSTEPS: u32 = 10;
 
 /// Units coupled by a scheme, stepping in time.
 pub struct Coupled<S: Units> {
+    core: Core<S>,
+    /// The scheme, with the state it keeps from step to step.
+    scheme: Box<dyn CouplingScheme<S>>,
+    adaptive: adaptive::History,
+}
+
+/// What every scheme steps: the units, the coupled values and their history, the buffers.
+struct Core<S: Units> {
     units: S,
     options: Options,
     time: f64,
@@ -146,20 +153,33 @@ pub struct Coupled<S: Units> {
     y_prev: Vec<f64>,
     /// The time from `y_prev` to `y` (the last step's size), once there is a last step.
     prev_step: Option<f64>,
-    /// Interface Jacobian ∂Y/∂U (block diagonal over the units), row-major ny × nu.
-    dydu: Vec<f64>,
-    /// The macro step whose step maps `dydu` differentiates, once there is one.
-    jacobian_step: Option<f64>,
-    /// Per unit, the steps its block is still recomputed at every first iteration after it was
-    /// found stale (`reuse`).
-    volatile: Vec<u32>,
-    /// The interface Newton system's solver (a unit's inputs eliminated first where it can).
-    interface: IdentityMinus,
-    /// The order in which Gauss–Seidel-type schemes step the units.
-    order: Vec<usize>,
-    iqn: Accelerator,
-    adaptive: adaptive::History,
     work: Work,
+}
+
+/// A coupling scheme: how the units advance one macro step together. It owns what it keeps
+/// from step to step, and keeps it for a rollback.
+trait CouplingScheme<S: Units> {
+    /// One macro step of size `h` from `t`, the units' outputs at `t` in `core.y`: steps every
+    /// unit to `t + h` and leaves their outputs there in `core.y`.
+    fn step(&mut self, core: &mut Core<S>, t: f64, h: f64) -> Result<StepReport, StepError>;
+
+    /// Keeps what a rollback to `slot` restores of the scheme's own state (none by default).
+    fn keep(&mut self, _slot: Slot) {}
+
+    /// Restores what [`CouplingScheme::keep`] kept for `slot`.
+    fn roll_back(&mut self, _slot: Slot) {}
+}
+
+/// The scheme of `options` for the units of `layout`: the one place a scheme is registered.
+fn scheme_for<S: Units>(options: &Options, layout: &Layout) -> Box<dyn CouplingScheme<S>> {
+    match options.scheme {
+        Scheme::Jacobi => Box::new(explicit::Jacobi),
+        Scheme::GaussSeidel { reversed } => Box::new(explicit::GaussSeidel::listed(layout, reversed)),
+        Scheme::Sequential => Box::new(explicit::GaussSeidel::data_flow(layout)),
+        Scheme::Iterative => Box::new(fixed_point::FixedPoint { relaxation: options.relaxation }),
+        Scheme::Ijcsa => Box::new(ijcsa::Ijcsa::new(layout, options.jacobian)),
+        Scheme::IqnIls => Box::new(iqn::Iqn::new(layout.inputs(), options.iqn)),
+    }
 }
 
 impl<S: Units> Coupled<S> {
@@ -196,76 +216,62 @@ impl<S: Units> Coupled<S> {
                 source: Box::new(e),
             })?;
         }
-        let units_layout = units.layout();
-        let interface = IdentityMinus::new(nu, ijcsa::eliminated_first(units_layout));
-        let volatile = vec![0; units_layout.units.len()];
-        let mut c = Coupled {
-            adaptive: adaptive::History::new(units.layout(), options.iqn),
-            iqn: Accelerator::new(nu, options.iqn),
-            units,
-            options,
-            time: 0.0,
-            y,
-            y_prev: vec![0.0; ny],
-            prev_step: None,
-            dydu: vec![0.0; ny * nu],
-            jacobian_step: None,
-            volatile,
-            interface,
-            order: Vec::new(),
-            work: Work::new(nu, ny),
-        };
-        c.order = c.sequence();
-        Ok(c)
+        Ok(Coupled {
+            adaptive: adaptive::History::new(units.layout()),
+            scheme: scheme_for(&options, units.layout()),
+            core: Core {
+                units,
+                options,
+                time: 0.0,
+                y,
+                y_prev: vec![0.0; ny],
+                prev_step: None,
+                work: Work::new(nu, ny),
+            },
+        })
     }
 
     pub fn time(&self) -> f64 {
-        self.time
+        self.core.time
     }
 
     pub fn options(&self) -> &Options {
-        &self.options
+        &self.core.options
     }
 
     pub fn units(&self) -> &S {
-        &self.units
+        &self.core.units
     }
 
     /// The units, e.g. to read any variable of an FMU between steps.
     pub fn units_mut(&mut self) -> &mut S {
-        &mut self.units
+        &mut self.core.units
     }
 
     /// The coupled outputs `Y` now.
     pub fn outputs(&self) -> &[f64] {
-        &self.y
+        &self.core.y
     }
 
     /// One macro step of size `h`.
     pub fn step(&mut self, h: f64) -> Result<StepReport, StepError> {
-        let t = self.time;
+        let t = self.core.time;
         let t1 = t + h;
         // what `undo_step` restores besides the units
         self.keep(Slot::Step);
-        self.units.exchange_discrete().map_err(|e| self.unit_err(t, 0, e))?;
-        let report = match self.options.scheme {
-            Scheme::Jacobi => self.step_jacobi(t, h).map_err(|e| self.unstable(e))?,
-            Scheme::GaussSeidel { .. } => self.step_gauss_seidel(t, h).map_err(|e| self.unstable(e))?,
-            Scheme::Sequential => self.step_gauss_seidel(t, h)?,
-            Scheme::Iterative => self.step_iterative(t, h)?,
-            Scheme::Ijcsa => self.step_ijcsa(t, h)?,
-            Scheme::IqnIls => self.step_iqn(t, h)?,
-        };
-        if self.y.iter().any(|x| !x.is_finite()) {
-            return Err(self.failed(t1, "an output is not finite (the coupled motion diverged)"));
+        let core = &mut self.core;
+        core.units.exchange_discrete().map_err(|e| core.unit_err(t, 0, e))?;
+        let report = self.scheme.step(core, t, h)?;
+        if core.y.iter().any(|x| !x.is_finite()) {
+            return Err(core.failed(t1, "an output is not finite (the coupled motion diverged)"));
         }
         // A coupling value a hundred times its scale (kilonewtons for a weight of a few, hundreds
         // of m/s² for a cabin): the coupled motion has run away; stop before the numbers lie.
-        if self.largest_coupled_value().is_some_and(|(_, g)| g > 100.0) {
-            let e = self.failed(t1, format!("{} diverged", self.options.scheme.name()));
-            return Err(self.unstable(e));
+        if core.largest_coupled_value().is_some_and(|(_, g)| g > 100.0) {
+            let e = core.failed(t1, format!("{} diverged", core.options.scheme.name()));
+            return Err(core.unstable(e));
         }
-        self.time = t1;
+        core.time = t1;
         Ok(report)
     }
 
@@ -282,15 +288,15 @@ impl<S: Units> Coupled<S> {
     /// one step; 8.2e-3, 2.1e-3, 5.1e-4 mm in substeps, the monolithic model's own second-order
     /// error (8.2e-3, 2.1e-3, 5.1e-4 mm).
     pub fn step_from_start(&mut self, h: f64) -> Result<StepReport, StepError> {
-        if !matches!(self.options.scheme, Scheme::Ijcsa | Scheme::IqnIls) {
+        if !matches!(self.core.options.scheme, Scheme::Ijcsa | Scheme::IqnIls) {
             return self.step(h);
         }
-        let end = self.time + h;
+        let end = self.core.time + h;
         let mut piece = h / f64::from(1u32 << START_SUBSTEPS);
         let mut report = StepReport::default();
         for j in 0..=START_SUBSTEPS {
             // the pieces add up to h / 2 exactly (each partial sum is h over a power of two)
-            let step = if j == START_SUBSTEPS { end - self.time } else { piece };
+            let step = if j == START_SUBSTEPS { end - self.core.time } else { piece };
             report = report.then(self.step(step)?);
             if j > 0 {
                 piece *= 2.0;
@@ -299,21 +305,18 @@ impl<S: Units> Coupled<S> {
         Ok(report)
     }
 
-    /// Whether IJCSA keeps its interface Jacobian from step to step (`--jacobian reuse`).
-    fn reuses_jacobian(&self) -> bool {
-        self.options.scheme == Scheme::Ijcsa && self.options.jacobian == JacobianUpdate::Reuse
-    }
-
     /// Undoes the last step of an implicit scheme: every unit back to the state saved at its
     /// start (bit for bit), the coupled values, the quasi-Newton history, IJCSA's reused
     /// Jacobian and the time as before it — the step taken again repeats the same iterates.
     pub fn undo_step(&mut self) -> Result<(), StepError> {
-        if !self.options.scheme.is_implicit() {
-            return Err(self.failed(self.time, "only the implicit schemes save the states to undo a step"));
+        if !self.core.options.scheme.is_implicit() {
+            return Err(self.core.failed(self.core.time, "only the implicit schemes save the states to undo a step"));
         }
         self.roll_back(Slot::Step)
     }
+}
 
+impl<S: Units> Core<S> {
     fn failed(&self, time: f64, reason: impl Into<String>) -> StepError {
         StepError::Failed { time, reason: reason.into() }
     }
@@ -343,7 +346,7 @@ impl<S: Units> Coupled<S> {
     /// asked), and for non-iterating schemes the slope into `work.slope`. Returns whether a
     /// slope is set.
     fn predict(&mut self) -> bool {
-        let Coupled { work, units, y, y_prev, prev_step, options, .. } = self;
+        let Core { work, units, y, y_prev, prev_step, options, .. } = self;
         let l = units.layout();
         for (i, g) in work.guess.iter_mut().enumerate() {
             *g = l.coupled(i, y);
@@ -404,7 +407,7 @@ impl<S: Units> Coupled<S> {
     /// Sets unit `k`'s inputs from `work.guess` (with `slope`: a unit that interpolates inputs
     /// gets it as an input derivative, another the extrapolated end value), then steps it.
     fn advance(&mut self, k: usize, slope: bool, t: f64, h: f64) -> Result<(), StepError> {
-        let Coupled { units, work, .. } = self;
+        let Core { units, work, .. } = self;
         let r = units.layout().units[k].inputs.clone();
         let n = r.len();
         let interpolates = units.capabilities(k).interpolates;
@@ -480,22 +483,12 @@ impl<S: Units> Coupled<S> {
                 tol: self.options.tol,
             });
         }
-        let Coupled { work, units, y, .. } = self;
+        let Core { work, units, y, .. } = self;
         let l = units.layout();
         for (i, r) in work.r.iter_mut().enumerate() {
             *r = l.coupled(i, y) - work.guess[i];
         }
         Ok(None)
-    }
-
-    /// The order in which Gauss–Seidel-type schemes step the units.
-    fn sequence(&self) -> Vec<usize> {
-        let n = self.units.layout().units.len();
-        match self.options.scheme {
-            Scheme::GaussSeidel { reversed: true } => (0..n).rev().collect(),
-            Scheme::Sequential => self.flow_order(),
-            _ => (0..n).collect(),
-        }
     }
 }
 
@@ -510,9 +503,6 @@ struct Work {
     end: Vec<f64>,
     seed: Vec<f64>,
     col: Vec<f64>,
-    /// IJCSA's last iterate and its outputs (the secant of a reused Jacobian).
-    u_it: Vec<f64>,
-    y_it: Vec<f64>,
     /// Scaled iterate and fixed-point image for the quasi-Newton update.
     x: Vec<f64>,
     xt: Vec<f64>,
@@ -528,8 +518,6 @@ impl Work {
             end: vec![0.0; nu],
             seed: vec![0.0; nu],
             col: vec![0.0; ny],
-            u_it: vec![0.0; nu],
-            y_it: vec![0.0; ny],
             x: vec![0.0; nu],
             xt: vec![0.0; nu],
         }

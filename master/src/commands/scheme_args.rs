@@ -35,24 +35,33 @@ pub(crate) enum SchemeName {
 }
 
 impl SchemeName {
-    /// The name as written on the command line.
+    /// The coupling scheme the name selects; none for the methods that are not a co-simulation
+    /// of their own (the cable model alone, the monolithic and the decoupled models).
+    pub(crate) fn coupling(self) -> Option<Scheme> {
+        match self {
+            SchemeName::Cable | SchemeName::Monolithic | SchemeName::Decoupled => None,
+            SchemeName::Jacobi => Some(Scheme::Jacobi),
+            SchemeName::GaussSeidel => Some(Scheme::GaussSeidel { reversed: false }),
+            SchemeName::GaussSeidelReversed => Some(Scheme::GaussSeidel { reversed: true }),
+            SchemeName::Iterative => Some(Scheme::Iterative),
+            SchemeName::Ijcsa => Some(Scheme::Ijcsa),
+            SchemeName::IqnIls => Some(Scheme::IqnIls),
+        }
+    }
+
+    /// The name as written on the command line (a coupling scheme's is its own name).
     pub(crate) fn as_str(self) -> &'static str {
         match self {
             SchemeName::Cable => "cable",
             SchemeName::Monolithic => "monolithic",
-            SchemeName::Jacobi => "jacobi",
-            SchemeName::GaussSeidel => "gauss-seidel",
-            SchemeName::GaussSeidelReversed => "gauss-seidel-reversed",
-            SchemeName::Iterative => "iterative",
-            SchemeName::Ijcsa => "ijcsa",
-            SchemeName::IqnIls => "iqn-ils",
             SchemeName::Decoupled => "decoupled",
+            other => other.coupling().map_or("", Scheme::name),
         }
     }
 
     /// Whether the scheme iterates within a macro step.
     pub(crate) fn iterates(self) -> bool {
-        matches!(self, SchemeName::Iterative | SchemeName::Ijcsa | SchemeName::IqnIls)
+        self.coupling().is_some_and(Scheme::is_implicit)
     }
 
     /// Whether the method has an adaptive step: the monolithic model and the schemes that
@@ -262,12 +271,7 @@ impl SchemeOptions {
             SchemeName::Monolithic => return Ok(Method::Monolithic),
             SchemeName::Cable => return Ok(Method::CableOnly),
             SchemeName::Decoupled => return Ok(Method::Decoupled(options)),
-            SchemeName::Jacobi => Scheme::Jacobi,
-            SchemeName::GaussSeidel => Scheme::GaussSeidel { reversed: false },
-            SchemeName::GaussSeidelReversed => Scheme::GaussSeidel { reversed: true },
-            SchemeName::Iterative => Scheme::Iterative,
-            SchemeName::Ijcsa => Scheme::Ijcsa,
-            SchemeName::IqnIls => Scheme::IqnIls,
+            other => other.coupling().expect("the other methods are coupling schemes"),
         };
         if self.adaptive {
             return Ok(Method::CosimAdaptive(options, self.adaptive_settings()?));
@@ -312,5 +316,21 @@ impl Default for SchemeOptions {
             options: SchemeOptions,
         }
         <Empty as clap::Parser>::parse_from(["master"]).options
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::SchemeName;
+    use clap::ValueEnum;
+
+    /// The names the tool prints are the ones its command line takes, coupling schemes' included.
+    #[test]
+    fn every_method_prints_the_name_it_is_given_by() {
+        for name in SchemeName::value_variants() {
+            let given = name.to_possible_value().expect("no method is hidden");
+            assert_eq!(name.as_str(), given.get_name());
+            assert_eq!(name.iterates(), matches!(name, SchemeName::Iterative | SchemeName::Ijcsa | SchemeName::IqnIls));
+        }
     }
 }
