@@ -31,13 +31,9 @@ pub enum RunError {
 }
 
 impl RunError {
-    /// A co-simulation step that failed: its time, and its message without the time it
-    /// starts with.
+    /// A co-simulation step that failed: its time and its reason.
     pub fn stopped_by(method: &'static str, e: &StepError) -> RunError {
-        let text = e.to_string();
-        let prefix = format!("co-simulation stopped at t = {:.6} s: ", e.time());
-        let reason = text.strip_prefix(&prefix).map_or(text.clone(), str::to_string);
-        RunError::Stopped { method, time: e.time(), reason }
+        RunError::Stopped { method, time: e.time(), reason: e.reason() }
     }
 
     /// A system that could not be set up.
