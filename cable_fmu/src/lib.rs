@@ -201,7 +201,7 @@ fn effective_scene(scene: &FileParameter<Scene, SceneError>, st: &Settings) -> R
     if st.newton_tol > 0.0 {
         s.solver.newton_tol = st.newton_tol;
     }
-    let name = scene.name();
+    let name = scene.label();
     s.validate(name)?;
     if s.cable_count() != CABLES {
         return Err(format!("scene `{name}` has {} cables; this FMU exposes {CABLES}", s.cable_count()).into());
@@ -375,7 +375,8 @@ fn variables(w0: &Vector6<f64>) -> Vec<Variable> {
             .describe("finite elements per cable; 0: the scene's value"),
     );
     variables.push(Variable::parameter("scene", vr::SCENE, DEFAULT_SCENE, false).describe(
-        "scene file (TOML); relative paths resolve inside resources/, which holds lt50m_B.toml and lt50m_C.toml",
+        "scene file (TOML); relative paths resolve inside resources/, which holds lt50m_B.toml and lt50m_C.toml; or the \
+         scene itself, data:application/toml;name=NAME,TEXT (TEXT percent-encoded)",
     ));
     variables
 }

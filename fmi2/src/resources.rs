@@ -3,7 +3,8 @@
 //!
 //! A relative name resolves inside the FMU's `resources/` directory and nowhere else (no `..`
 //! escape, no symbolic link out of it); an absolute name is the importer's explicit choice. A
-//! name the FMU ships is also found without a resource location. Files are read up to a size
+//! name the FMU ships is also found without a resource location. A `data:` URI
+//! ([`crate::uri::data_uri`]) hands the text itself over, with a name for messages. Files are read up to a size
 //! limit, and an error quotes at most a short, escaped excerpt of what was read.
 
 use std::io::Read;
@@ -42,6 +43,15 @@ pub(crate) fn read_text(
     shipped: &[(&str, &str)],
     limit: u64,
 ) -> Result<(String, String), ResourceError> {
+    if let Some(inline) = crate::uri::parse_data_uri(name) {
+        let (label, text) =
+            inline.map_err(|message| ResourceError::Invalid { origin: "the text given inline".into(), message })?;
+        let origin = inline_label(&label);
+        if text.len() as u64 > limit {
+            return Err(ResourceError::TooLarge { path: PathBuf::from(origin), limit });
+        }
+        return Ok((text, origin));
+    }
     let embedded = shipped.iter().find(|(n, _)| *n == name).map(|(_, t)| *t);
     let path = Path::new(name);
     let file = if path.is_absolute() {
@@ -85,6 +95,20 @@ pub(crate) fn read_text(
     }
     let text = String::from_utf8(bytes).map_err(|_| ResourceError::NotText { path: file.clone() })?;
     Ok((text, file.display().to_string()))
+}
+
+/// How messages name a text given inline with this `name` parameter.
+fn inline_label(name: &str) -> String {
+    if name.is_empty() { "the text given inline".to_owned() } else { format!("{name} (given inline)") }
+}
+
+/// How messages name the resource `name`: itself, or for a `data:` URI its `name` parameter.
+fn label_of(name: &str) -> String {
+    match crate::uri::parse_data_uri(name) {
+        Some(Ok((label, _))) => inline_label(&label),
+        Some(Err(_)) => inline_label(""),
+        None => name.to_owned(),
+    }
 }
 
 /// The resource `name` (see [`read_text`]) parsed by `parse(text, origin)`; a parse error is
@@ -131,7 +155,8 @@ impl<T, E: std::fmt::Display> FileKind<T, E> {
     /// `resources/` directory, if the importer gave one.
     pub fn open(&'static self, resources: Option<&Path>, name: &str) -> Result<FileParameter<T, E>, ResourceError> {
         let (value, digest) = self.load(name, resources)?;
-        Ok(FileParameter { kind: self, resources: resources.map(Path::to_owned), name: name.to_owned(), value, digest })
+        let (name, label) = (name.to_owned(), label_of(name));
+        Ok(FileParameter { kind: self, resources: resources.map(Path::to_owned), name, label, value, digest })
     }
 
     fn load(&self, name: &str, resources: Option<&Path>) -> Result<(T, u64), ResourceError> {
@@ -152,6 +177,8 @@ pub struct FileParameter<T: 'static, E: 'static> {
     kind: &'static FileKind<T, E>,
     resources: Option<PathBuf>,
     name: String,
+    /// What messages call it: the name, or a `data:` URI's `name` parameter.
+    label: String,
     value: T,
     /// Of the text read: a saved state keeps it with the name, to be restored with that file only.
     digest: u64,
@@ -161,6 +188,12 @@ impl<T, E: std::fmt::Display> FileParameter<T, E> {
     /// The name as set.
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// What messages call it: the name, or for a text given inline (a `data:` URI) its `name`
+    /// parameter.
+    pub fn label(&self) -> &str {
+        &self.label
     }
 
     /// The file as parsed.
@@ -176,7 +209,7 @@ impl<T, E: std::fmt::Display> FileParameter<T, E> {
             return Ok(false);
         }
         (self.value, self.digest) = self.kind.load(name, self.resources.as_deref())?;
-        self.name = name.to_owned();
+        (self.name, self.label) = (name.to_owned(), label_of(name));
         Ok(true)
     }
 
@@ -189,7 +222,7 @@ impl<T, E: std::fmt::Display> FileParameter<T, E> {
     /// saved with (same digest), else [`ResourceError::Changed`] and the parameter is unchanged.
     pub fn restore(&mut self, saved: SavedFile<'_>) -> Result<bool, ResourceError> {
         let SavedFile { name, digest } = saved;
-        let changed = |now| ResourceError::Changed { name: name.to_owned(), saved: digest, now };
+        let changed = |now| ResourceError::Changed { name: label_of(name), saved: digest, now };
         if name == self.name {
             return if self.digest == digest { Ok(false) } else { Err(changed(self.digest)) };
         }
@@ -197,7 +230,7 @@ impl<T, E: std::fmt::Display> FileParameter<T, E> {
         if now != digest {
             return Err(changed(now));
         }
-        (self.value, self.digest, self.name) = (value, now, name.to_owned());
+        (self.value, self.digest, self.name, self.label) = (value, now, name.to_owned(), label_of(name));
         Ok(true)
     }
 }
@@ -223,6 +256,32 @@ pub(crate) fn excerpt(message: &str, max: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn plain(text: &str, _origin: &str) -> Result<String, String> {
+        Ok(text.to_owned())
+    }
+
+    static NOTES: FileKind<String, String> = FileKind::new(&[], 100, plain);
+
+    #[test]
+    fn a_text_given_inline_is_read_as_a_file_would_be() {
+        let uri = crate::uri::data_uri("text/plain", "note.txt", "a b\nc");
+        let mut p = NOTES.open(None, &uri).unwrap();
+        assert_eq!((p.value().as_str(), p.label(), p.name()), ("a b\nc", "note.txt (given inline)", uri.as_str()));
+        // a state saved with it restores it, in another instance too
+        let saved_name = p.name().to_owned();
+        let digest = p.digest;
+        let mut other = NOTES.open(None, &crate::uri::data_uri("text/plain", "", "other")).unwrap();
+        assert_eq!(other.label(), "the text given inline");
+        assert!(other.restore(SavedFile { name: &saved_name, digest }).unwrap());
+        assert_eq!((other.value().as_str(), other.label()), ("a b\nc", "note.txt (given inline)"));
+        assert!(!p.set(&uri).unwrap(), "the same text is not read again");
+        let big = crate::uri::data_uri("text/plain", "big.txt", &"x".repeat(101));
+        let e = NOTES.open(None, &big).err().unwrap().to_string();
+        assert!(e.contains("big.txt (given inline)") && e.contains("100 bytes"), "{e}");
+        let e = NOTES.open(None, "data:text/plain;base64,eA==").err().unwrap().to_string();
+        assert!(e.contains("base64"), "{e}");
+    }
 
     fn dir(tag: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("fmi2-res-{tag}-{}", std::process::id()));

@@ -45,7 +45,7 @@ fn strip_prefix_ignore_case<'a>(s: &'a str, prefix: &str) -> Option<&'a str> {
 }
 
 /// Decode `%XX` escapes; the result must be UTF-8.
-fn percent_decode(s: &str) -> Result<String, String> {
+pub(crate) fn percent_decode(s: &str) -> Result<String, String> {
     let bytes = s.as_bytes();
     let mut out = Vec::with_capacity(bytes.len());
     let mut i = 0;
@@ -62,7 +62,7 @@ fn percent_decode(s: &str) -> Result<String, String> {
             i += 1;
         }
     }
-    String::from_utf8(out).map_err(|_| "the decoded path is not UTF-8".to_owned())
+    String::from_utf8(out).map_err(|_| "the decoded text is not UTF-8".to_owned())
 }
 
 /// `file:///abs/path` with every byte outside `A-Za-z0-9-._~/` percent-encoded.
@@ -123,5 +123,73 @@ mod tests {
             assert!(uri.starts_with("file:///"));
             assert_eq!(dir(&uri), PathBuf::from(p), "{uri}");
         }
+    }
+}
+
+/// A text handed over in a String parameter instead of a file name: a `data:` URI (RFC 2397)
+/// of the media type, with a `name` parameter that messages show, the text percent-encoded.
+pub fn data_uri(media_type: &str, name: &str, text: &str) -> String {
+    let mut out = format!("data:{media_type};name={},", percent_encode(name, b"-._~"));
+    out.push_str(&percent_encode(text, b"-._~!*'();/?:@&=+$"));
+    out
+}
+
+/// Every byte outside `A-Za-z0-9` and `keep` percent-encoded.
+fn percent_encode(text: &str, keep: &[u8]) -> String {
+    let mut out = String::with_capacity(text.len() + text.len() / 4);
+    for &b in text.as_bytes() {
+        if b.is_ascii_alphanumeric() || keep.contains(&b) {
+            out.push(b as char);
+        } else {
+            out.push_str(&format!("%{b:02X}"));
+        }
+    }
+    out
+}
+
+/// A `data:` URI's text and its `name` parameter (empty if it has none); `None` if `s` is not a
+/// `data:` URI. Only the percent-encoded form is read (not `;base64`).
+pub fn parse_data_uri(s: &str) -> Option<Result<(String, String), String>> {
+    let rest = strip_prefix_ignore_case(s, "data:")?;
+    Some((|| {
+        let (header, data) = rest.split_once(',').ok_or("a data: URI needs a comma before its data")?;
+        let mut name = String::new();
+        for parameter in header.split(';').skip(1) {
+            match parameter.split_once('=') {
+                Some(("name", value)) => name = percent_decode(value).map_err(|e| format!("its name: {e}"))?,
+                Some(_) => {}
+                None if parameter.eq_ignore_ascii_case("base64") => {
+                    return Err("base64 data: URIs are not read; percent-encode the text".to_owned());
+                }
+                None => return Err(format!("its parameter `{parameter}` is not attribute=value")),
+            }
+        }
+        let text = percent_decode(data)?;
+        Ok((name, text))
+    })())
+}
+
+#[cfg(test)]
+mod data_tests {
+    use super::*;
+
+    #[test]
+    fn a_text_survives_the_round_trip_with_its_name() {
+        let text = "# a scene\n[pose]\nposition_m = [0.0, -1.5e-3, 30]  # é, 100 %, \"quoted\", a,b\n";
+        let uri = data_uri("application/toml", "lt50m C.toml", text);
+        assert!(uri.starts_with("data:application/toml;name=lt50m%20C.toml,"), "{uri}");
+        let data = uri.split_once(',').unwrap().1;
+        assert!(!data.contains([' ', '\n', '"', '#', ',']), "{uri}");
+        assert_eq!(parse_data_uri(&uri).unwrap().unwrap(), ("lt50m C.toml".to_owned(), text.to_owned()));
+    }
+
+    #[test]
+    fn the_rfc_example_reads_and_other_forms_are_refused_by_name() {
+        assert_eq!(parse_data_uri("data:,A%20brief%20note").unwrap().unwrap(), (String::new(), "A brief note".into()));
+        assert!(parse_data_uri("lt50m_C.toml").is_none());
+        let e = parse_data_uri("data:text/plain;base64,SGVsbG8=").unwrap().unwrap_err();
+        assert!(e.contains("base64"), "{e}");
+        assert!(parse_data_uri("data:text/plain").unwrap().unwrap_err().contains("comma"));
+        assert!(parse_data_uri("data:,%zz").unwrap().unwrap_err().contains("percent"));
     }
 }

@@ -105,7 +105,6 @@ fn main() -> ExitCode {
         Command::Package(args) => commands::boxed(commands::package::run(&args)),
         Command::Replay(args) => commands::replay::run(&args),
     };
-    master::simulate::remove_variants();
     match result {
         Ok(()) => ExitCode::SUCCESS,
         // The reader of our output went away (`master statics | head -1`): nothing to report.

@@ -24,14 +24,17 @@ fn relative_to(scene_file: &Path, path: &str) -> PathBuf {
 }
 
 /// The scene's `[system]` as a system description: FMU paths relative to the scene file,
-/// connections by name prefix, parameters as text (`"@scene"`: the scene file's absolute path).
+/// connections by name prefix, parameters as text (`"@scene"`: the scene itself, handed over as
+/// a `data:` URI named after its file, so that the FMUs read exactly this scene, a variant made in
+/// memory included).
 pub fn scene_spec(scene: &Scene, scene_file: &Path) -> Result<SystemSpec, SetupError> {
     let file_error = |message: String| SetupError::File { path: scene_file.to_owned(), message };
     let sys = scene
         .system
         .as_ref()
         .ok_or_else(|| file_error("the scene has no [system] section (FMUs and their connections)".into()))?;
-    let scene_abs = std::fs::canonicalize(scene_file).map_err(|e| file_error(e.to_string()))?;
+    let file_name = scene_file.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let scene_text = fmi2::uri::data_uri("application/toml", &file_name, &scene.to_toml());
     let endpoint = |text: &str| {
         let (component, variable) = text.split_once('.').expect("validated scene");
         Endpoint { component: component.into(), variable: variable.into() }
@@ -58,7 +61,7 @@ pub fn scene_spec(scene: &Scene, scene_file: &Path) -> Result<SystemSpec, SetupE
             .iter()
             .map(|(key, value)| Parameter {
                 target: endpoint(key),
-                value: Value::Text(if value == "@scene" { scene_abs.display().to_string() } else { value.clone() }),
+                value: Value::Text(if value == "@scene" { scene_text.clone() } else { value.clone() }),
             })
             .collect(),
         connectors: Vec::new(),

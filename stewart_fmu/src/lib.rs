@@ -261,7 +261,7 @@ impl StewartFmu {
                     2 => s.motion.start = Start::Ramp,
                     _ => {}
                 }
-                s.validate(self.scene.name())?;
+                s.validate(self.scene.label())?;
                 // Before the start the platform rests at its start pose: the motion (and an
                 // abrupt start's jump) begins at the start time, so that a consistent
                 // initialization puts the cable net in its static equilibrium under the
@@ -459,7 +459,8 @@ impl Model for StewartFmu {
                 .describe("0: the scene's start, 1: abrupt (full speed at t = 0), 2: smooth ramp"),
         );
         variables.push(Variable::parameter("scene", vr::SCENE, DEFAULT_SCENE, false).describe(
-            "scene file (TOML); relative paths resolve against resources/, which holds lt50m_B.toml and lt50m_C.toml",
+            "scene file (TOML); relative paths resolve against resources/, which holds lt50m_B.toml and lt50m_C.toml; or \
+             the scene itself, data:application/toml;name=NAME,TEXT (TEXT percent-encoded)",
         ));
         Ok(ModelDescription::co_simulation(
             "stewart_fmu",
@@ -583,7 +584,7 @@ impl Model for StewartFmu {
     }
 
     fn initialization_warning(&mut self) -> Option<String> {
-        pose_mismatch(self.scene.name(), self.scene.value(), &self.data.inputs)
+        pose_mismatch(self.scene.label(), self.scene.value(), &self.data.inputs)
     }
 
     fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {

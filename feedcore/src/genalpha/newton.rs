@@ -35,7 +35,7 @@ use super::state::{State, Workspace};
 /// robustness at 5 % more monolithic work than the optimum.
 pub(crate) const SLOW_CONTRACTION: f64 = 0.1;
 /// A matrix refreshed in this step that still contracts by less than this has met an element at
-/// its slack limit: from then on the exact tangent (the first matrix of the old cable model).
+/// its slack limit: from then on the exact tangent, slack elements at zero stiffness.
 pub(crate) const STILL_SLOW: f64 = 0.25;
 /// The error estimate ρ/(1−ρ)·|δ| is trusted below this contraction.
 const FAST_CONTRACTION: f64 = 0.2;

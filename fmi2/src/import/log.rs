@@ -68,10 +68,22 @@ impl LogSink {
         self.messages.lock().unwrap_or_else(|p| p.into_inner()).drain(..).collect()
     }
 
-    /// The last few messages, newest last, for error reports.
+    /// The last few messages, newest last, for error reports; each cut to
+    /// [`REPORTED_CHARACTERS`] (an FMU may quote a long parameter value back).
     pub(crate) fn recent(&self) -> Vec<String> {
         let m = self.messages.lock().unwrap_or_else(|p| p.into_inner());
-        m.iter().rev().take(5).rev().map(|x| format!("[{}] {}", x.category, x.text)).collect()
+        m.iter().rev().take(5).rev().map(|x| format!("[{}] {}", x.category, cut(&x.text))).collect()
+    }
+}
+
+/// The most of one logged message an error report quotes.
+pub(crate) const REPORTED_CHARACTERS: usize = 1000;
+
+/// `text`, or its first [`REPORTED_CHARACTERS`] characters and how long it was.
+fn cut(text: &str) -> std::borrow::Cow<'_, str> {
+    match text.char_indices().nth(REPORTED_CHARACTERS) {
+        None => text.into(),
+        Some((end, _)) => format!("{}… ({} characters in all)", &text[..end], text.chars().count()).into(),
     }
 }
 
@@ -107,5 +119,16 @@ unsafe extern "C" fn log_sink(
     });
     if let Err(payload) = caught {
         std::mem::forget(payload);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn long_messages_are_cut_in_reports() {
+        assert_eq!(super::cut("short"), "short");
+        let long = "é".repeat(1500);
+        let c = super::cut(&long);
+        assert!(c.starts_with(&"é".repeat(1000)) && c.ends_with("… (1500 characters in all)"), "{c}");
     }
 }

@@ -27,7 +27,8 @@ mod api;
 mod instance;
 mod log;
 
-/// The names this module used before the description types were shared with the exporter.
+/// The description types under the names an importer meets them by (`<ScalarVariable>`, the
+/// FMU's description, its default experiment).
 pub use crate::description::{
     CoSimulationFlags, DefaultExperiment as Experiment, ModelDescription as FmuDescription, Variable as ScalarVariable,
 };

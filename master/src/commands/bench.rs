@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use master::journal::{self, Journal};
 use master::plot::{Precision, work_precision};
-use master::simulate::{Run, RunError, Trace, write_variant};
+use master::simulate::{Run, RunError, Trace};
 use master::table::Table;
 
 use super::output::{Outputs, run_inputs};
@@ -157,8 +157,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let reference_dt = args.reference_dt.unwrap_or(dts.iter().cloned().fold(f64::INFINITY, f64::min) / 4.0);
 
     // every run is checked before the first one starts
-    let (variant, file) = write_variant(&scene, &args.scene, &format!("bench-{}", scene.name))
-        .context("writing the bench's copy of the scene")?;
+    let (variant, file) = (scene.clone(), args.scene.clone());
     let limits = caps().run;
     let mut runs = Vec::new();
     for &name in &args.schemes {
@@ -175,8 +174,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     } else {
         let mut fine = variant.clone();
         fine.outputs.sample_interval_s = reference_dt;
-        write_variant(&fine, &file, &format!("bench-reference-{}", scene.name))
-            .context("writing the bench's copy of the scene")?
+        (fine, file.clone())
     };
     let reference = Run::prepare(
         &reference_scene,

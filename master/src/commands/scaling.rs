@@ -11,8 +11,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, bail};
+use feedcore::scene::Scene;
 use master::plot::{PALETTE, PlotError};
-use master::simulate::{Run, write_variant};
+use master::simulate::Run;
 use plotters::prelude::*;
 
 use super::output::{Outputs, run_inputs};
@@ -43,6 +44,35 @@ pub(crate) struct Args {
     /// Output directory for scaling.csv and scaling.svg.
     #[arg(long, default_value = "out/scaling")]
     pub(crate) out: PathBuf,
+}
+
+/// A directory removed with everything in it when dropped.
+struct RemovedOnDrop(PathBuf);
+
+impl Drop for RemovedOnDrop {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Writes `scene` (a variant of the one read from `scene_file`) to `path` for a run in another
+/// process, the FMU paths of its `[system]` made absolute; returns the scene as written.
+fn write_case_scene(scene: &Scene, scene_file: &Path, path: &Path) -> std::io::Result<Scene> {
+    let mut s = scene.clone();
+    if let Some(sys) = s.system.as_mut() {
+        let base = scene_file.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        for f in &mut sys.fmus {
+            let p = Path::new(&f.path);
+            if !p.is_absolute() {
+                f.path = std::fs::canonicalize(base)?.join(p).display().to_string();
+            }
+        }
+    }
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    std::fs::write(path, s.to_toml())?;
+    Ok(s)
 }
 
 /// GNU time, which reports the peak resident memory of a process.
@@ -97,7 +127,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let exe = std::env::current_exe().context("locating the master executable")?;
     let limits = caps().run;
     let options = SchemeOptions::default();
-    // every run is checked before the first one starts
+    // every run is checked before the first one starts; each is a process of its own, which
+    // reads its scene from a file of this command's, removed when it ends
+    let case_scenes = RemovedOnDrop(std::env::temp_dir().join(format!("master-scaling-{}", std::process::id())));
     let mut inputs = Vec::new();
     let mut cases = Vec::new();
     for &scheme in &args.schemes {
@@ -108,8 +140,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         for &n in &args.elements {
             let mut s = base.clone();
             s.cables.elements = n as usize;
-            let (variant, path) = write_variant(&s, file, &format!("scaling-{}-{n}", scheme.as_str()))
-                .context("writing the scene variants")?;
+            let path = case_scenes.0.join(format!("{}-{n}.toml", scheme.as_str()));
+            let variant = write_case_scene(&s, file, &path)
+                .with_context(|| format!("{}: writing the scene of a case", path.display()))?;
             let dt = variant.solver.dt_s;
             for t_end in [dt, args.t_end] {
                 Run::prepare(&variant, &path, method.clone(), dt, t_end, &limits).with_context(|| {

@@ -10,7 +10,7 @@ use cable::net::CableNet;
 use cable::statics::{StaticsError, form_find};
 use master::journal::{self, Journal};
 use master::plot::{CATEGORY_COLORS, Cell, MapPanel, stability_map};
-use master::simulate::{Run, RunError, write_variant};
+use master::simulate::{Run, RunError};
 use master::table::Table;
 
 use super::output::{Outputs, run_inputs};
@@ -112,13 +112,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let limits = caps().run;
     // every variant is form-found and every run checked before the first one starts
     let mut scaled_scenes = Vec::new();
-    for (ir, &f) in ratios.iter().enumerate() {
-        let (variant, file) = write_variant(
-            &master::sweep::with_platform_mass_factor(&scene, f),
-            &args.scene,
-            &format!("stability-{}-{ir}", scene.name),
-        )
-        .context("writing the scaled scenes")?;
+    for &f in ratios {
+        let (variant, file) = (master::sweep::with_platform_mass_factor(&scene, f), args.scene.clone());
         let net = CableNet::from_scene(&variant);
         let feasible = match form_find(&net, variant.target_position(), variant.target_orientation()) {
             Ok(_) => true,

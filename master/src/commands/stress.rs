@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 use feedcore::scene::{Scene, Start};
 use master::cosim::{Options, Scheme};
-use master::simulate::{Method, Trace, write_variant};
+use master::simulate::{Method, Trace};
 use master::table::Table;
 
 use super::{CmdResult, load_scene, simulate};
@@ -87,10 +87,10 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         }
         eprintln!("{case}: done");
     };
-    let variant = |s: &Scene, file: &PathBuf, tag: &str, edit: &dyn Fn(&mut Scene)| {
+    let variant = |s: &Scene, edit: &dyn Fn(&mut Scene)| -> Scene {
         let mut v = s.clone();
         edit(&mut v);
-        write_variant(&v, file, tag)
+        v
     };
 
     report(
@@ -124,9 +124,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         report(
             &format!("{case}, {} s", short(20.0)),
             (|| {
-                let (v, f) = variant(&c, &args.scene_c, &format!("stress-{}", case.len()), edit)?;
-                let m = simulate(&v, &f, Method::Monolithic, 0.01, 20.0 * scale.max(0.1), quiet)?;
-                let j = simulate(&v, &f, ijcsa(), 0.01, 20.0 * scale.max(0.1), quiet)?;
+                let (v, f) = (variant(&c, edit), &args.scene_c);
+                let m = simulate(&v, f, Method::Monolithic, 0.01, 20.0 * scale.max(0.1), quiet)?;
+                let j = simulate(&v, f, ijcsa(), 0.01, 20.0 * scale.max(0.1), quiet)?;
                 Ok(format!(
                     "peak {:.3} mm; ijcsa − monolithic {:.2e} mm; {:.2} iterations/step; constraint residual ≤ {:.1e} m",
                     m.peak_mm(),
@@ -152,8 +152,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         &format!("abrupt against ramp start (5 s), monolithic, C, {} s", short(60.0)),
         (|| {
             let a = simulate(&c, &args.scene_c, Method::Monolithic, 0.01, 60.0 * scale.max(0.1), quiet)?;
-            let (v, f) = variant(&c, &args.scene_c, "stress-ramp", &|s: &mut Scene| s.motion.start = Start::Ramp)?;
-            let r = simulate(&v, &f, Method::Monolithic, 0.01, 60.0 * scale.max(0.1), quiet)?;
+            let v = variant(&c, &|s: &mut Scene| s.motion.start = Start::Ramp);
+            let r = simulate(&v, &args.scene_c, Method::Monolithic, 0.01, 60.0 * scale.max(0.1), quiet)?;
             Ok(format!(
                 "vibration above 0.2 Hz (RMS): abrupt {:.2e} mm, ramp {:.2e} mm; peaks {:.3} / {:.3} mm",
                 fast_part(&a),
@@ -166,9 +166,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     report(
         &format!("platform held still, ijcsa and monolithic, B, {} s", long(100.0)),
         (|| {
-            let (v, f) = variant(&b, &args.scene_b, "stress-still", &|s: &mut Scene| s.motion.speed_m_s = 0.0)?;
-            let j = simulate(&v, &f, ijcsa(), 0.01, 100.0 * scale, quiet)?;
-            let m = simulate(&v, &f, Method::Monolithic, 0.01, 100.0 * scale, quiet)?;
+            let v = variant(&b, &|s: &mut Scene| s.motion.speed_m_s = 0.0);
+            let j = simulate(&v, &args.scene_b, ijcsa(), 0.01, 100.0 * scale, quiet)?;
+            let m = simulate(&v, &args.scene_b, Method::Monolithic, 0.01, 100.0 * scale, quiet)?;
             Ok(format!("drift: ijcsa {:.1e} mm, monolithic {:.1e} mm", j.peak_mm(), m.peak_mm()))
         })(),
     );

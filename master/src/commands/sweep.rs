@@ -174,7 +174,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         |cells| Ok(cells.to_vec()),
         |_, &index| {
             let values = grid.point(index);
-            let outcome = sweep::evaluate(&scene, scene_file, &placement, &request, index, &values);
+            let outcome = sweep::evaluate(&scene, scene_file, &placement, &request, &values);
             let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
             if !quiet {
                 eprintln!("[{k}/{}] point {index}: {}", points.len(), brief(&outcome));

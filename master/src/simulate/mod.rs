@@ -14,20 +14,18 @@
 //! * [`run`]: the run's checks and its execution; [`steppers`]: one stepper per kind of method
 //!   (the cable model alone, the monolithic model, a co-simulation) behind one trait;
 //! * [`record`]: what a step leaves and the recorder that checks it; [`trace`]: what a run keeps;
-//! * [`error`]: why a run gives no result; [`variants`]: scene variants for the FMUs to read.
+//! * [`error`]: why a run gives no result.
 
 mod error;
 mod record;
 mod run;
 mod steppers;
 mod trace;
-mod variants;
 
 pub use error::{Detached, RunError};
 pub use run::{Run, simulate};
 pub use steppers::CABIN_POSE;
 pub use trace::{Summary, Trace};
-pub use variants::{remove_variants, write_variant};
 
 use cosim::Options;
 

@@ -126,16 +126,6 @@ impl<'a> Run<'a> {
                         scene_file.display()
                     )));
                 }
-                // The FMUs get the scene's path as an FMI string, which is UTF-8.
-                let absolute =
-                    std::fs::canonicalize(scene_file).map_err(|e| refused(format!("{}: {e}", scene_file.display())))?;
-                if absolute.to_str().is_none() {
-                    return Err(refused(format!(
-                        "{}: the scene's path is not UTF-8, and the FMUs receive it as an FMI (UTF-8) string; \
-                         rename the file or link it under a UTF-8 name",
-                        scene_file.display()
-                    )));
-                }
             }
         }
         let every = match schedule {

@@ -23,7 +23,7 @@ use feedcore::scene::Scene;
 use thiserror::Error;
 
 use crate::limits::Limits;
-use crate::simulate::{Method, Run, write_variant};
+use crate::simulate::{Method, Run};
 
 #[derive(Debug, Error)]
 pub enum SweepError {
@@ -345,14 +345,13 @@ pub struct Outcome {
     pub note: String,
 }
 
-/// Evaluates point `index` of the sweep (`base` read from `base_file`). Never fails: what
+/// Evaluates the sweep's point at `values` (`base` read from `base_file`). Never fails: what
 /// cannot be computed is left out and named in the note.
 pub fn evaluate(
     base: &Scene,
     base_file: &Path,
     placement: &Placement,
     request: &Request,
-    index: usize,
     values: &[(Axis, f64)],
 ) -> Outcome {
     let start = Instant::now();
@@ -432,12 +431,9 @@ pub fn evaluate(
         }
     }
     if let Some((method, t_end)) = request.run.clone() {
-        let tag = format!("sweep-{}-{index}", scene.name);
-        let run = write_variant(&scene, base_file, &tag).map_err(|e| e.to_string()).and_then(|(variant, file)| {
-            Run::prepare(&variant, &file, method, dt, t_end, &request.limits)
-                .and_then(|run| run.execute(true))
-                .map_err(|e| error_chain(&e))
-        });
+        let run = Run::prepare(&scene, base_file, method, dt, t_end, &request.limits)
+            .and_then(|run| run.execute(true))
+            .map_err(|e| error_chain(&e));
         match run {
             Ok(t) => {
                 out.run = Some(RunOutcome {

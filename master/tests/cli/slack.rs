@@ -7,9 +7,9 @@
 //! monolithic model through the cable crate's assembly, IJCSA inside the cable FMU), with the
 //! slack safeguards of the shared Newton controller.
 //!
-//! Tolerance: the gap to the monolithic model was once a first-order start-up defect of the
+//! Tolerance: taken in one step, the first macro step leaves a first-order start-up defect of the
 //! co-simulation (each FMU's first acceleration without the other's inertia, 8.2e-2 mm at h = 0.01
-//! and 2.1e-2 mm at h/4); with the first macro step taken in substeps it is a floor that does not
+//! and 2.1e-2 mm at h/4); with the first macro step taken in substeps the gap is a floor that does not
 //! depend on h (about 3e-4 mm, 2e-6 of the peak), nor on the interface tolerance (1e-8 and 1e-10
 //! give the same) or the first substep (h/1024 and h/65536 too); its source is not found. What
 //! "agree through it" means: (1) the gap stays below 1e-5 of the peak displacement at h and at h/4;
