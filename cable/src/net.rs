@@ -54,14 +54,4 @@ impl CableNet {
     pub fn suspended(&self) -> MassProperties {
         self.cabin.combined(&self.payload)
     }
-
-    /// Mass lumped at each end node of a cable of unstretched `length` (half an element).
-    pub(crate) fn end_node_mass(&self, length: f64) -> f64 {
-        0.5 * self.spec.mass_per_length * length / self.spec.elements as f64
-    }
-
-    /// ∂[`CableNet::end_node_mass`]/∂length.
-    pub(crate) fn end_node_mass_rate(&self) -> f64 {
-        0.5 * self.spec.mass_per_length / self.spec.elements as f64
-    }
 }

@@ -42,6 +42,36 @@ pub struct CableSpec {
     pub gravity: Vec3,
 }
 
+/// The lumped masses of a chain of `elements` bars: every interior node carries one element's
+/// mass, each end node half of one.
+impl CableSpec {
+    /// Mass of an interior node of a chain of unstretched `length`.
+    pub fn node_mass(&self, length: f64) -> f64 {
+        self.mass_per_length * (length / self.elements as f64)
+    }
+
+    /// ∂[`CableSpec::node_mass`]/∂length.
+    pub fn node_mass_rate(&self) -> f64 {
+        self.mass_per_length / self.elements as f64
+    }
+
+    /// Mass of each end node of a chain of unstretched `length`.
+    pub fn end_node_mass(&self, length: f64) -> f64 {
+        0.5 * self.mass_per_length * length / self.elements as f64
+    }
+
+    /// ∂[`CableSpec::end_node_mass`]/∂length.
+    pub fn end_node_mass_rate(&self) -> f64 {
+        0.5 * self.mass_per_length / self.elements as f64
+    }
+
+    /// ∂(mass of all interior nodes)/∂length: (n − 1) of them.
+    pub fn interior_mass_rate(&self) -> f64 {
+        let n = self.elements as f64;
+        self.mass_per_length * (n - 1.0) / n
+    }
+}
+
 /// Walks the chain for a trial first tension `t1`; returns the end point and its derivatives
 /// with respect to `t1` (3×3) and to the unstretched length (3).
 fn walk(
@@ -54,8 +84,8 @@ fn walk(
 ) -> (Vec3, Mat3, Vec3) {
     let n = spec.elements;
     let l0e = length / n as f64;
-    let node_weight = -spec.gravity * (spec.mass_per_length * l0e); // −m g: added to T at each interior node
-    let d_weight_d_length = -spec.gravity * (spec.mass_per_length / n as f64);
+    let node_weight = -spec.gravity * spec.node_mass(length); // −m g: added to T at each interior node
+    let d_weight_d_length = -spec.gravity * spec.node_mass_rate();
     let (mut r, mut dr_dt, mut dr_dl) = (*start, Mat3::zeros(), Vec3::zeros());
     let mut t = *t1;
     let mut nodes = nodes;
@@ -141,8 +171,7 @@ pub fn solve_chain(
             // dT_last/dL = dT1/dL + (n−1)·dm g;  dT1/dL = −J⁻¹ ∂r/∂L at fixed end
             let jinv = jac.try_inverse().ok_or(ShootingError::SingularJacobian { at_solution: true })?;
             let dt1 = -(jinv * dl);
-            let n = spec.elements as f64;
-            let d_last = dt1 - spec.gravity * (spec.mass_per_length * (n - 1.0) / n);
+            let d_last = dt1 - spec.gravity * spec.interior_mass_rate();
             return Ok(ChainStatics { nodes, tension, d_last_tension_d_length: d_last });
         }
         let dt = j.lu().solve(&(-res)).ok_or(ShootingError::SingularJacobian { at_solution: false })?;

@@ -126,7 +126,6 @@ pub fn tension_wrench_sensitivity(net: &CableNet, eq: &Equilibrium) -> Result<Ve
     if n != 6 {
         return Err(StaticsError::CableCount { count: n });
     }
-    let elements = net.spec.elements as f64;
     let arms: Vec<Vec3> = net.attachments.iter().map(|a| eq.orientation * a).collect();
     let jac = length_jacobian(net, eq.cables.iter().map(|c| &c.shape), &arms);
     // cabin equations R(L) + δW = 0  ⇒  δL = −J⁻¹ δW
@@ -139,7 +138,7 @@ pub fn tension_wrench_sensitivity(net: &CableNet, eq: &Equilibrium) -> Result<Ve
             let t = &c.shape.tension;
             let d_last = c.shape.d_last_tension_d_length;
             // T_first = T_last − (n − 1) m g with node mass m = μ L / n
-            let d_first = d_last + net.spec.gravity * (net.spec.mass_per_length * (elements - 1.0) / elements);
+            let d_first = d_last + net.spec.gravity * net.spec.interior_mass_rate();
             let rate = |tv: &Vec3, dt: &Vec3| if tv.norm() > 0.0 { tv.normalize().dot(dt) } else { 0.0 };
             let (ra, rc) = (rate(&t[0], &d_first), rate(&t[t.len() - 1], &d_last));
             let mut out = [[0.0; 6]; 2];
@@ -159,7 +158,7 @@ pub fn tension_wrench_sensitivity(net: &CableNet, eq: &Equilibrium) -> Result<Ve
 fn length_jacobian<'a>(net: &CableNet, cables: impl Iterator<Item = &'a ChainStatics>, arms: &[Vec3]) -> Matrix6<f64> {
     let mut jac = Matrix6::zeros();
     for (i, c) in cables.enumerate() {
-        let df = -c.d_last_tension_d_length + net.spec.gravity * net.end_node_mass_rate();
+        let df = -c.d_last_tension_d_length + net.spec.gravity * net.spec.end_node_mass_rate();
         let dm = arms[i].cross(&df);
         for k in 0..3 {
             jac[(k, i)] = df[k];
@@ -230,7 +229,7 @@ fn form_find_loaded(
     let residual_of = |cables: &[ChainStatics], lengths: &[f64]| -> Vector6<f64> {
         let mut r = load;
         for (i, c) in cables.iter().enumerate() {
-            let f = c.force_on_second_end() + net.spec.gravity * net.end_node_mass(lengths[i]);
+            let f = c.force_on_second_end() + net.spec.gravity * net.spec.end_node_mass(lengths[i]);
             let m = arms[i].cross(&f);
             r += Vector6::new(f.x, f.y, f.z, m.x, m.y, m.z);
         }

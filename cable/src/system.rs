@@ -140,10 +140,10 @@ impl System {
     pub fn new(net: CableNet, lengths: Vec<f64>, locked_payload: bool, support: Support) -> System {
         let n = net.spec.elements as f64;
         let element_length: Vec<f64> = lengths.iter().map(|l| l / n).collect();
-        let node_mass: Vec<f64> = element_length.iter().map(|le| net.spec.mass_per_length * le).collect();
+        let node_mass: Vec<f64> = lengths.iter().map(|&l| net.spec.node_mass(l)).collect();
         let mut body = if locked_payload { net.suspended() } else { net.cabin };
         for (a, l) in net.attachments.iter().zip(&lengths) {
-            body = body.combined(&MassProperties::point(net.end_node_mass(*l), *a));
+            body = body.combined(&MassProperties::point(net.spec.end_node_mass(*l), *a));
         }
         System { net, lengths, element_length, node_mass, body, support, damping: None, wind: None }
     }
