@@ -1,14 +1,14 @@
 //! Costs of the FMUs as the master sees them: loading, one `fmi2DoStep` of each FMU at
-//! h = 0.01 s, a rollback, a directional derivative, and one co-simulation macro step (IJCSA),
-//! next to one step of the monolithic model. Needs the libraries of
+//! h = 0.01 s, a rollback, a directional derivative, one macro step of every coupling scheme,
+//! and one step of the monolithic model. Needs the libraries of
 //! `cargo build --release --workspace`.
 
 use std::path::PathBuf;
 
-use feedcore::benchkit::bench;
+use feedcore::benchkit::{bench, human};
 use feedcore::scene::Scene;
 use fmi2::import::Fmu;
-use master::cosim::{Coupled, FmuSystem, Options, Scheme};
+use master::cosim::{Coupled, FmuSystem, JacobianUpdate, Options, Scheme};
 use master::monolithic::Monolithic;
 
 fn library(name: &str) -> PathBuf {
@@ -64,11 +64,50 @@ fn main() {
         });
     }
 
-    let options = Options { scheme: Scheme::Ijcsa, ..Options::default() };
     let spec = master::system::scene_spec(&scene, &file).unwrap();
-    let system = FmuSystem::load(&spec, &master::system::needs(&options, false)).unwrap();
-    let mut c = Coupled::new(system, options).unwrap();
-    bench("ijcsa macro step (2 iterations + Jacobian)", 2.0, || c.step(0.01).unwrap());
+    let coupled = |scheme, jacobian| {
+        let options = Options { scheme, jacobian, ..Options::default() };
+        let system = FmuSystem::load(&spec, &master::system::needs(&options, false)).unwrap();
+        Coupled::new(system, options).unwrap()
+    };
+    println!("One macro step of each scheme at C, h = 0.01 s");
+    // The schemes that iterate: the step and its rollback, 1 s into the motion, so that every
+    // take starts from the same state (a reused Jacobian and the quasi-Newton history included).
+    for (label, scheme, jacobian) in [
+        ("iterative", Scheme::Iterative, JacobianUpdate::EveryStep),
+        ("ijcsa", Scheme::Ijcsa, JacobianUpdate::EveryStep),
+        ("ijcsa, Jacobian reused", Scheme::Ijcsa, JacobianUpdate::Reuse),
+        ("iqn-ils", Scheme::IqnIls, JacobianUpdate::EveryStep),
+    ] {
+        let mut c = coupled(scheme, jacobian);
+        for _ in 0..100 {
+            c.step(0.01).unwrap();
+        }
+        bench(&format!("{label}: macro step + rollback"), 2.0, || {
+            c.step(0.01).unwrap();
+            c.undo_step().unwrap();
+        });
+    }
+    // The explicit schemes cannot roll back, and their coupled motion at C runs away within a
+    // second (the added mass): the first 20 steps from the start, five times.
+    for (label, scheme) in [("jacobi", Scheme::Jacobi), ("gauss-seidel", Scheme::GaussSeidel { reversed: false })] {
+        let mut per_step: Vec<f64> = (0..5)
+            .map(|_| {
+                let mut c = coupled(scheme, JacobianUpdate::EveryStep);
+                let start = std::time::Instant::now();
+                for _ in 0..20 {
+                    c.step(0.01).unwrap();
+                }
+                start.elapsed().as_secs_f64() / 20.0
+            })
+            .collect();
+        per_step.sort_by(f64::total_cmp);
+        println!(
+            "{:<48} {:>12} per call  (median of 5 runs of 20 steps)",
+            format!("{label}: macro step"),
+            human(per_step[2])
+        );
+    }
     let mut m = Monolithic::new(&scene).unwrap();
     bench("monolithic step (eq. 7, sparse LU)", 2.0, || m.step(0.01).unwrap());
 

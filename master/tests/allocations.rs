@@ -1,0 +1,118 @@
+//! What the time loop allocates, counted by a global allocator: the monolithic model's steps and
+//! the co-simulation's bookkeeping around the FMUs (their own allocations happen inside their
+//! libraries, with their own allocator, and are not counted here).
+
+#[path = "common/mod.rs"]
+mod common;
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use master::cosim::{Coupled, FmuSystem, JacobianUpdate, Options, Scheme};
+use master::monolithic::Monolithic;
+
+/// Counts the allocations of the thread that makes them.
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+}
+
+// SAFETY: every call goes to the system allocator with the caller's arguments; counting touches
+// only a thread-local counter, which does not allocate.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.with(|a| a.set(a.get() + 1));
+        // SAFETY: the caller's obligations are those of `System.alloc`.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` came from `alloc` above, which is `System`'s.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.with(|a| a.set(a.get() + 1));
+        // SAFETY: as for `System.realloc`; `ptr` came from this allocator.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static COUNTING: Counting = Counting;
+
+/// Allocations made by `f` on this thread.
+fn allocations(f: impl FnOnce()) -> u64 {
+    let before = ALLOCATIONS.with(Cell::get);
+    f();
+    ALLOCATIONS.with(Cell::get) - before
+}
+
+#[test]
+fn the_counter_counts() {
+    assert_eq!(allocations(|| drop(std::hint::black_box(vec![1u8; 16]))), 1);
+    assert_eq!(allocations(|| drop(std::hint::black_box(String::new()))), 0);
+}
+
+#[test]
+fn the_monolithic_model_steps_without_allocating() {
+    let (scene, _) = common::scene("lt50m_C.toml", "allocations-monolithic", |_| {});
+    let mut m = Monolithic::new(&scene).unwrap();
+    for _ in 0..100 {
+        m.step(0.01).unwrap();
+    }
+    let n = allocations(|| {
+        for _ in 0..100 {
+            m.step(0.01).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "allocations in 100 monolithic steps");
+}
+
+#[test]
+fn the_co_simulation_steps_without_allocating() {
+    let (scene, file) = common::scene("lt50m_C.toml", "allocations-cosim", |_| {});
+    let spec = master::system::scene_spec(&scene, &file).unwrap();
+    for (scheme, jacobian) in [
+        (Scheme::Ijcsa, JacobianUpdate::EveryStep),
+        (Scheme::Ijcsa, JacobianUpdate::Reuse),
+        (Scheme::IqnIls, JacobianUpdate::EveryStep),
+        (Scheme::Iterative, JacobianUpdate::EveryStep),
+    ] {
+        let options = Options { scheme, jacobian, ..Options::default() };
+        let system = FmuSystem::load(&spec, &master::system::needs(&options, false)).unwrap();
+        let mut c = Coupled::new(system, options).unwrap();
+        for _ in 0..100 {
+            c.step(0.01).unwrap();
+        }
+        let n = allocations(|| {
+            for _ in 0..100 {
+                c.step(0.01).unwrap();
+            }
+        });
+        assert_eq!(n, 0, "allocations in 100 macro steps of {} ({jacobian:?})", scheme.name());
+    }
+    // the adaptive macro step: its estimate, controller and rollbacks
+    let options = Options { scheme: Scheme::Ijcsa, ..Options::default() };
+    let system = FmuSystem::load(&spec, &master::system::needs(&options, true)).unwrap();
+    let mut c = Coupled::new(system, options).unwrap();
+    let adaptive = master::system::Adaptive {
+        tolerances: master::cosim::step_control::Tolerances { rtol: 1e-4, atol: 1e-7 },
+        h_min: 1e-5,
+        h_max: 0.02,
+        watch: Vec::new(),
+        estimate: master::cosim::error_estimate::Kind::Predictor,
+    };
+    let mut ctl = adaptive.controller().unwrap();
+    let tol = adaptive.tolerances;
+    for _ in 0..100 {
+        c.step_adaptive(&mut ctl, tol, 100.0).unwrap();
+    }
+    let n = allocations(|| {
+        for _ in 0..100 {
+            c.step_adaptive(&mut ctl, tol, 100.0).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "allocations in 100 adaptive macro steps of ijcsa");
+}
