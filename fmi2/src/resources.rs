@@ -28,6 +28,11 @@ pub enum ResourceError {
     #[error("{origin}: {message}")]
     Invalid { origin: String, message: String },
     #[error(
+        "the state was saved with a text given inline (digest {saved:016x}) and the parameter now holds \
+         {now}: set the parameter to that text before restoring the state"
+    )]
+    InlineChanged { saved: u64, now: String },
+    #[error(
         "`{name}` is not the file the state was saved with (its contents changed, or another file took its \
          name; digest {now:016x}, saved {saved:016x}): restore the state with the file as it was"
     )]
@@ -164,6 +169,10 @@ impl<T, E: std::fmt::Display> FileKind<T, E> {
     }
 }
 
+/// What a saved state keeps as the name of a text given inline: the text is known by its digest
+/// alone (a state does not carry a copy of it), and restored where that text is set.
+const INLINE_NAME: &str = "data:";
+
 /// A file parameter in a saved state: the name, and the digest of the text read then.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SavedFile<'a> {
@@ -215,13 +224,28 @@ impl<T, E: std::fmt::Display> FileParameter<T, E> {
 
     /// The parameter as a saved state keeps it.
     pub fn saved(&self) -> SavedFile<'_> {
-        SavedFile { name: &self.name, digest: self.digest }
+        let name = if self.inline() { INLINE_NAME } else { &self.name };
+        SavedFile { name, digest: self.digest }
+    }
+
+    /// Whether the text was given inline (a `data:` URI) rather than named.
+    fn inline(&self) -> bool {
+        crate::uri::is_data_uri(&self.name)
     }
 
     /// As [`FileParameter::set`], from a saved state: the file must be the one the state was
     /// saved with (same digest), else [`ResourceError::Changed`] and the parameter is unchanged.
     pub fn restore(&mut self, saved: SavedFile<'_>) -> Result<bool, ResourceError> {
         let SavedFile { name, digest } = saved;
+        if name == INLINE_NAME {
+            return match (self.inline(), self.digest == digest) {
+                (true, true) => Ok(false),
+                (true, false) => {
+                    Err(ResourceError::InlineChanged { saved: digest, now: format!("another ({})", self.label) })
+                }
+                (false, _) => Err(ResourceError::InlineChanged { saved: digest, now: format!("`{}`", self.name) }),
+            };
+        }
         let changed = |now| ResourceError::Changed { name: label_of(name), saved: digest, now };
         if name == self.name {
             return if self.digest == digest { Ok(false) } else { Err(changed(self.digest)) };
@@ -268,13 +292,17 @@ mod tests {
         let uri = crate::uri::data_uri("text/plain", "note.txt", "a b\nc");
         let mut p = NOTES.open(None, &uri).unwrap();
         assert_eq!((p.value().as_str(), p.label(), p.name()), ("a b\nc", "note.txt (given inline)", uri.as_str()));
-        // a state saved with it restores it, in another instance too
-        let saved_name = p.name().to_owned();
-        let digest = p.digest;
+        // a saved state keeps its digest, not a copy: it restores where the same text is set
+        let saved = p.saved();
+        assert_eq!(saved.name, "data:");
+        let (saved_name, digest) = (saved.name.to_owned(), p.digest);
+        let mut same = NOTES.open(None, &uri).unwrap();
+        assert!(!same.restore(SavedFile { name: &saved_name, digest }).unwrap());
         let mut other = NOTES.open(None, &crate::uri::data_uri("text/plain", "", "other")).unwrap();
         assert_eq!(other.label(), "the text given inline");
-        assert!(other.restore(SavedFile { name: &saved_name, digest }).unwrap());
-        assert_eq!((other.value().as_str(), other.label()), ("a b\nc", "note.txt (given inline)"));
+        let e = other.restore(SavedFile { name: &saved_name, digest }).unwrap_err().to_string();
+        assert!(e.contains("set the parameter to that text") && e.contains("the text given inline"), "{e}");
+        assert_eq!(other.value().as_str(), "other", "unchanged");
         assert!(!p.set(&uri).unwrap(), "the same text is not read again");
         let big = crate::uri::data_uri("text/plain", "big.txt", &"x".repeat(101));
         let e = NOTES.open(None, &big).err().unwrap().to_string();

@@ -147,6 +147,11 @@ fn percent_encode(text: &str, keep: &[u8]) -> String {
     out
 }
 
+/// Whether `s` is a `data:` URI (well formed or not).
+pub fn is_data_uri(s: &str) -> bool {
+    strip_prefix_ignore_case(s, "data:").is_some()
+}
+
 /// A `data:` URI's text and its `name` parameter (empty if it has none); `None` if `s` is not a
 /// `data:` URI. Only the percent-encoded form is read (not `;base64`).
 pub fn parse_data_uri(s: &str) -> Option<Result<(String, String), String>> {
