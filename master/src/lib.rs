@@ -13,10 +13,12 @@
 //! * [`table`]: plain-text tables;
 //! * [`parallel`]: independent cases on every core, results in order;
 //! * [`sweep`]: grids over the workspace and the parameters, their tables and maps;
+//! * [`calibrate`]: scene keys fitted to measured natural frequencies (model updating);
 //! * [`interrupt`]: Ctrl-C between steps and points; [`journal`]: the points a long command
 //!   finished, kept through an interrupt or a kill for `--resume`.
 
 pub use cosim;
+pub mod calibrate;
 pub use monolithic;
 pub mod feed;
 pub mod interrupt;

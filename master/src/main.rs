@@ -48,6 +48,8 @@ enum Command {
     Statics(commands::statics::Args),
     /// Natural frequencies and mode shapes of the cable–cabin system about its static equilibrium.
     Modes(commands::modes::Args),
+    /// Model updating: scene keys fitted to measured natural frequencies by least squares.
+    Calibrate(commands::calibrate::Args),
     /// Stewart platform on a fixed cabin: added mass, static wrench, wrench range over one circle.
     Stewart(commands::stewart::Args),
     /// Simulate the scene with a coupling scheme, the monolithic model or the decoupled model.
@@ -91,6 +93,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Statics(args) => commands::statics::run(&args),
         Command::Modes(args) => commands::modes::run(&args),
+        Command::Calibrate(args) => commands::calibrate::run(&args),
         Command::Stewart(args) => commands::stewart::run(&args),
         Command::Run(args) => commands::run::run(&args),
         Command::Compare(args) => commands::compare::run(&args),

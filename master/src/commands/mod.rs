@@ -10,6 +10,7 @@ use feedcore::scene::{Scene, SceneErrorKind};
 use master::limits::Limits;
 
 pub(crate) mod bench;
+pub(crate) mod calibrate;
 pub(crate) mod compare;
 pub(crate) mod compensation;
 pub(crate) mod export_ssp;

@@ -108,11 +108,7 @@ pub(crate) fn case_frequencies(
     count: usize,
 ) -> anyhow::Result<Vec<f64>> {
     let s = case_scene(scene, platform, youngs_modulus);
-    // the damping fit is not needed here: fit at given frequencies, no modes built
-    let mut bare = s.clone();
-    bare.damping.fit_modes = None;
-    bare.damping.fit_frequencies_hz = Some([1.0, 2.0]);
-    let model = CableCabin::build(&bare, 0)?;
+    let model = CableCabin::build(&master::calibrate::modal_scene(&s), 0)?;
     let sys = model.system(cable::model::Payload::Locked);
     let cfg = model.equilibrium_config();
     let dropped = |cable_end_rotation, weight_rotation| Dropped { cable_end_rotation, weight_rotation };

@@ -13,6 +13,7 @@
 //! * `step_map`: IJCSA with the FMUs' step-map extension against finite differences;
 //! * `ssp_system`: SSP systems of FMUs that know nothing of the project's physics;
 //! * `sweep`: sweeps and their shards against the library, point by point;
+//! * `calibrate`: model updating against modes of scenes with known keys;
 //! * `resume`: long commands killed halfway and continued with --resume.
 
 #[path = "../common/mod.rs"]
@@ -21,6 +22,7 @@ mod common;
 mod adaptive;
 mod analyses;
 mod archive_mutants;
+mod calibrate;
 mod cosim;
 mod feed;
 mod misuse;

@@ -1,0 +1,440 @@
+//! Model updating: numeric scene keys shared by one or more scenes, fitted by least squares to
+//! measured natural frequencies.
+//!
+//! The residual of a measured mode is its relative miss, weighted: `w (f_computed − f_measured) /
+//! f_measured`, the k-th measured mode of a scene paired with its k-th computed one. The keys are
+//! scaled by their start values; Levenberg–Marquardt steps are projected onto the bounds; the
+//! Jacobian is taken by central differences over the modal solver (every difference a model
+//! built anew, in parallel). A trial whose scene is invalid or whose pose cannot be held (a cable
+//! would push) is a rejected step. From the Jacobian at the fit: the standard errors (with the
+//! residuals' own variance), the correlations, and the condition of the problem — a key along a
+//! direction the data do not see is named as not identifiable.
+
+use std::path::Path;
+
+use cable::model::CableCabin;
+use cable::modes::{Dropped, modes_dropping};
+use feedcore::scene::Scene;
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+
+/// Why a calibration cannot start or go on.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrationError {
+    #[error("{file}: {reason}")]
+    Measured { file: String, reason: String },
+    #[error("--fit {key}: {reason}")]
+    Key { key: String, reason: String },
+    #[error("the model at the start cannot be evaluated: {0}")]
+    Start(String),
+    #[error("the Jacobian at the fit cannot be evaluated: {0}")]
+    Jacobian(String),
+}
+
+/// One measured natural frequency.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measured {
+    /// The scene's `name`.
+    pub scene: String,
+    /// From 1, lowest first.
+    pub mode: usize,
+    pub f_hz: f64,
+    pub weight: f64,
+}
+
+/// Reads `scene,mode,f_hz[,weight]` (a header line, then one mode per line).
+pub fn read_measured(path: &Path) -> Result<Vec<Measured>, CalibrationError> {
+    let file = path.display().to_string();
+    let err = |reason: String| CalibrationError::Measured { file: file.clone(), reason };
+    let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
+    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let header: Vec<&str> = lines.next().ok_or_else(|| err("empty".into()))?.1.split(',').map(str::trim).collect();
+    if header.len() < 3 || header[..3] != ["scene", "mode", "f_hz"] || header.len() > 4 {
+        return Err(err(format!(
+            "the header is `{}`; expected `scene,mode,f_hz` with an optional `weight`",
+            header.join(",")
+        )));
+    }
+    if header.len() == 4 && header[3] != "weight" {
+        return Err(err(format!("its fourth column is `{}`; expected `weight`", header[3])));
+    }
+    let mut out: Vec<Measured> = Vec::new();
+    for (i, line) in lines {
+        let at = |what: &str| err(format!("line {}: {what}", i + 1));
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != header.len() {
+            return Err(at(&format!("{} fields, the header has {}", fields.len(), header.len())));
+        }
+        let mode: usize = fields[1].parse().ok().filter(|&m| m >= 1).ok_or_else(|| at("mode must be 1, 2, …"))?;
+        let positive = |text: &str, name: &str| {
+            text.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite() && *x > 0.0)
+                .ok_or_else(|| at(&format!("{name} = `{text}` must be a positive number")))
+        };
+        let f_hz = positive(fields[2], "f_hz")?;
+        let weight = if fields.len() == 4 { positive(fields[3], "weight")? } else { 1.0 };
+        if out.iter().any(|m| m.scene == fields[0] && m.mode == mode) {
+            return Err(at(&format!("mode {mode} of scene `{}` is given twice", fields[0])));
+        }
+        out.push(Measured { scene: fields[0].to_owned(), mode, f_hz, weight });
+    }
+    if out.is_empty() {
+        return Err(err("no measured mode".into()));
+    }
+    Ok(out)
+}
+
+/// A key fitted, with its bounds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Key {
+    /// Dotted path of a real-valued scene key, e.g. `anchors.radius_m`.
+    pub path: String,
+    pub lo: f64,
+    pub hi: f64,
+}
+
+/// The value of the real-valued key `path` of `scene`.
+pub fn get_key(scene: &Scene, path: &str) -> Result<f64, String> {
+    let table: toml::Table = toml::from_str(&scene.to_toml()).map_err(|e| e.to_string())?;
+    let mut value = toml::Value::Table(table);
+    for part in path.split('.') {
+        value = value
+            .get(part)
+            .cloned()
+            .ok_or_else(|| format!("the scene has no key `{path}` (no `{part}` where it is looked for)"))?;
+    }
+    match value {
+        toml::Value::Float(x) => Ok(x),
+        toml::Value::Integer(_) => Err(format!("`{path}` is an integer; only real-valued keys can be fitted")),
+        other => Err(format!("`{path}` is a {}, not a number", other.type_str())),
+    }
+}
+
+/// `scene` (read from `file`) with the real-valued key `path` set to `value`, validated.
+pub fn with_key(scene: &Scene, file: &str, path: &str, value: f64) -> Result<Scene, String> {
+    let mut table: toml::Table = toml::from_str(&scene.to_toml()).map_err(|e| e.to_string())?;
+    let parts: Vec<&str> = path.split('.').collect();
+    let (last, parents) = parts.split_last().ok_or("an empty key")?;
+    let mut here = &mut table;
+    for part in parents {
+        here = here
+            .get_mut(*part)
+            .and_then(toml::Value::as_table_mut)
+            .ok_or_else(|| format!("the scene has no table `{part}` on the way to `{path}`"))?;
+    }
+    match here.get_mut(*last) {
+        Some(v @ toml::Value::Float(_)) => *v = toml::Value::Float(value),
+        _ => return Err(format!("`{path}` is not a real-valued key of the scene")),
+    }
+    let text = toml::to_string(&table).map_err(|e| e.to_string())?;
+    Scene::from_toml(&text, file).map_err(|e| e.to_string())
+}
+
+/// The lowest `count` natural frequencies (Hz) of `scene`, the platform as the scene has it.
+pub fn frequencies(scene: &Scene, count: usize) -> Result<Vec<f64>, String> {
+    let model = CableCabin::build(&modal_scene(scene), 0).map_err(|e| e.to_string())?;
+    let sys = model.system(cable::model::Payload::Locked);
+    let modes =
+        modes_dropping(&sys, &model.equilibrium_config(), count, Dropped::default()).map_err(|e| e.to_string())?;
+    Ok(modes.frequencies_hz.into_iter().take(count).collect())
+}
+
+/// The scene for a modal analysis: its damping fitted at given frequencies, so that building the
+/// model does not compute modes of its own.
+pub fn modal_scene(scene: &Scene) -> Scene {
+    let mut bare = scene.clone();
+    bare.damping.fit_modes = None;
+    bare.damping.fit_frequencies_hz = Some([1.0, 2.0]);
+    bare
+}
+
+/// A scaled key moved to one side for a difference, and the residuals there.
+type Side = (f64, DVector<f64>);
+
+/// The scenes, the measured modes and the keys of one calibration.
+pub struct Problem {
+    /// Each scene with the file it was read from.
+    pub scenes: Vec<(Scene, String)>,
+    pub measured: Vec<Measured>,
+    /// Where the measured modes came from (for messages).
+    pub measured_file: String,
+    pub keys: Vec<Key>,
+}
+
+/// A fitted calibration.
+#[derive(Clone, Debug)]
+pub struct Fit {
+    /// Per key: the start value and the fitted one.
+    pub start: Vec<f64>,
+    pub values: Vec<f64>,
+    /// Keys that ended on one of their bounds (the data would move them further).
+    pub at_bound: Vec<String>,
+    /// Standard errors of the keys within their bounds (none for a key at a bound; none at all
+    /// with no more residuals than free keys, whose variance is then unknown, or with a key the
+    /// data do not determine).
+    pub std_error: Option<Vec<Option<f64>>>,
+    /// Correlations of the keys within their bounds (row-major over all keys; none where a key is
+    /// at a bound), with the standard errors.
+    pub correlation: Option<Vec<Option<f64>>>,
+    /// Singular values of the scaled Jacobian, largest first, and its condition number.
+    pub singular_values: Vec<f64>,
+    pub condition: f64,
+    /// Keys along the directions the data do not see (singular value below 1e-6 of the largest).
+    pub unidentifiable: Vec<String>,
+    /// Per measured mode (in the order given): the computed frequency at the fit.
+    pub computed_hz: Vec<f64>,
+    /// Half the sum of the squared weighted relative misses, at the start and at the fit.
+    pub start_cost: f64,
+    pub cost: f64,
+    pub iterations: usize,
+    /// Each scene with the fitted keys.
+    pub scenes: Vec<Scene>,
+}
+
+impl Problem {
+    /// Checks the keys, their bounds and the measured scenes' names before anything is computed.
+    pub fn check(&self) -> Result<Vec<f64>, CalibrationError> {
+        for m in &self.measured {
+            if !self.scenes.iter().any(|(s, _)| s.name == m.scene) {
+                let names: Vec<String> = self.scenes.iter().map(|(s, _)| format!("`{}`", s.name)).collect();
+                return Err(CalibrationError::Measured {
+                    file: self.measured_file.clone(),
+                    reason: format!(
+                        "scene `{}` is not among the scenes given (their `name`s: {})",
+                        m.scene,
+                        names.join(", ")
+                    ),
+                });
+            }
+        }
+        let mut start = Vec::new();
+        for k in &self.keys {
+            let key_err = |reason: String| CalibrationError::Key { key: k.path.clone(), reason };
+            let mut value = None;
+            for (s, file) in &self.scenes {
+                let v = get_key(s, &k.path).map_err(|e| key_err(format!("{file}: {e}")))?;
+                if value.is_some_and(|x| x != v) {
+                    return Err(key_err(format!(
+                        "the scenes differ in it ({} and {v}); a fitted key is shared by every scene",
+                        value.unwrap_or_default()
+                    )));
+                }
+                value = Some(v);
+            }
+            let v = value.ok_or_else(|| key_err("no scene given".into()))?;
+            if !(v != 0.0) {
+                return Err(key_err("its start value is 0; keys are scaled by their start values".into()));
+            }
+            if !(k.lo <= v && v <= k.hi) {
+                return Err(key_err(format!("the start value {v} lies outside the bounds [{}, {}]", k.lo, k.hi)));
+            }
+            start.push(v);
+        }
+        Ok(start)
+    }
+
+    /// The scenes with the keys at `values`.
+    fn scenes_at(&self, values: &[f64]) -> Result<Vec<Scene>, String> {
+        self.scenes
+            .iter()
+            .map(|(s, file)| {
+                let mut s = s.clone();
+                for (k, v) in self.keys.iter().zip(values) {
+                    s = with_key(&s, file, &k.path, *v).map_err(|e| format!("{} = {v}: {e}", k.path))?;
+                }
+                Ok(s)
+            })
+            .collect()
+    }
+
+    /// The computed frequency of every measured mode, with the keys at `values`.
+    fn computed(&self, values: &[f64]) -> Result<Vec<f64>, String> {
+        let scenes = self.scenes_at(values)?;
+        let mut per_scene = Vec::new();
+        for s in &scenes {
+            let count = self.measured.iter().filter(|m| m.scene == s.name).map(|m| m.mode).max().unwrap_or(0);
+            let f =
+                if count == 0 { Vec::new() } else { frequencies(s, count).map_err(|e| format!("{}: {e}", s.name))? };
+            per_scene.push((s.name.clone(), f));
+        }
+        self.measured
+            .iter()
+            .map(|m| {
+                let f = &per_scene.iter().find(|(n, _)| *n == m.scene).expect("checked").1;
+                f.get(m.mode - 1).copied().ok_or_else(|| format!("{}: only {} modes found", m.scene, f.len()))
+            })
+            .collect()
+    }
+
+    fn residuals(&self, computed: &[f64]) -> DVector<f64> {
+        DVector::from_iterator(
+            computed.len(),
+            self.measured.iter().zip(computed).map(|(m, f)| m.weight * (f - m.f_hz) / m.f_hz),
+        )
+    }
+
+    /// ∂r/∂x, x the keys over their start values, by central differences (one-sided at a bound
+    /// or where one side cannot be evaluated).
+    fn jacobian(&self, start: &[f64], x: &[f64]) -> Result<DMatrix<f64>, String> {
+        const STEP: f64 = 1e-5;
+        let n = x.len();
+        let evaluate = |j: usize, sign: f64| -> Option<Side> {
+            let mut xs = x.to_vec();
+            xs[j] += sign * STEP;
+            let (lo, hi) = (self.keys[j].lo / start[j], self.keys[j].hi / start[j]);
+            if xs[j] < lo.min(hi) || xs[j] > lo.max(hi) {
+                return None;
+            }
+            let values: Vec<f64> = xs.iter().zip(start).map(|(x, s)| x * s).collect();
+            self.computed(&values).ok().map(|c| (xs[j], self.residuals(&c)))
+        };
+        let sides: Vec<(Option<Side>, Option<Side>)> =
+            (0..n).into_par_iter().map(|j| (evaluate(j, 1.0), evaluate(j, -1.0))).collect();
+        let center = || -> Result<DVector<f64>, String> {
+            let values: Vec<f64> = x.iter().zip(start).map(|(x, s)| x * s).collect();
+            Ok(self.residuals(&self.computed(&values)?))
+        };
+        let mut jac = DMatrix::zeros(self.measured.len(), n);
+        for (j, side) in sides.into_iter().enumerate() {
+            let column = match side {
+                (Some((a, ra)), Some((b, rb))) => (ra - rb) / (a - b),
+                (Some((a, ra)), None) => (ra - center()?) / (a - x[j]),
+                (None, Some((b, rb))) => (center()? - rb) / (x[j] - b),
+                (None, None) => {
+                    return Err(format!("`{}` cannot be moved either way from {}", self.keys[j].path, x[j] * start[j]));
+                }
+            };
+            jac.set_column(j, &column);
+        }
+        Ok(jac)
+    }
+
+    /// Fits the keys (Levenberg–Marquardt on the scaled keys, steps projected onto the bounds).
+    pub fn fit(&self) -> Result<Fit, CalibrationError> {
+        let start = self.check()?;
+        let n = start.len();
+        let bounds: Vec<(f64, f64)> = self
+            .keys
+            .iter()
+            .zip(&start)
+            .map(|(k, s)| {
+                let (a, b) = (k.lo / s, k.hi / s);
+                (a.min(b), a.max(b))
+            })
+            .collect();
+        // the keys' values, within their bounds exactly (x · start may round past one)
+        let at = |x: &[f64]| -> Vec<f64> {
+            x.iter().zip(&start).zip(&self.keys).map(|((x, s), k)| (x * s).clamp(k.lo, k.hi)).collect()
+        };
+        let mut x = vec![1.0; n];
+        let computed = self.computed(&start).map_err(CalibrationError::Start)?;
+        let mut r = self.residuals(&computed);
+        let start_cost = 0.5 * r.norm_squared();
+        let mut cost = start_cost;
+        let mut lambda = 1e-3;
+        let mut iterations = 0;
+        let mut converged = false;
+        while !converged && iterations < 100 {
+            iterations += 1;
+            let jac = self.jacobian(&start, &x).map_err(CalibrationError::Jacobian)?;
+            let jtj = jac.transpose() * &jac;
+            let g = jac.transpose() * &r;
+            // a step that lowers the cost, the damping raised until one does
+            let mut step_taken = false;
+            while !step_taken && lambda < 1e12 {
+                let mut a = jtj.clone();
+                for i in 0..n {
+                    a[(i, i)] += lambda * jtj[(i, i)].max(1e-12);
+                }
+                let Some(step) = a.cholesky().map(|c| c.solve(&(-&g))) else {
+                    lambda *= 4.0;
+                    continue;
+                };
+                let trial: Vec<f64> = (0..n).map(|i| (x[i] + step[i]).clamp(bounds[i].0, bounds[i].1)).collect();
+                // an invalid scene or a pose the cables cannot hold is a step too far
+                let lower = self
+                    .computed(&at(&trial))
+                    .ok()
+                    .map(|c| self.residuals(&c))
+                    .filter(|rt| 0.5 * rt.norm_squared() < cost);
+                match lower {
+                    Some(rt) => {
+                        let moved = trial.iter().zip(&x).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+                        let ct = 0.5 * rt.norm_squared();
+                        converged = moved < 1e-10 || cost - ct < 1e-14 * (1.0 + ct);
+                        (x, r, cost) = (trial, rt, ct);
+                        lambda = (lambda / 3.0).max(1e-12);
+                        step_taken = true;
+                    }
+                    None => lambda *= 4.0,
+                }
+            }
+            // no step lowers the cost: a minimum (within the bounds)
+            converged |= !step_taken;
+        }
+        let values = at(&x);
+        let jac = self.jacobian(&start, &x).map_err(CalibrationError::Jacobian)?;
+        let svd = jac.clone().svd(false, true);
+        let mut singular_values: Vec<f64> = svd.singular_values.iter().copied().collect();
+        singular_values.sort_by(|a, b| b.total_cmp(a));
+        let largest = singular_values.first().copied().unwrap_or(0.0);
+        let smallest = singular_values.last().copied().unwrap_or(0.0);
+        let condition = if smallest > 0.0 { largest / smallest } else { f64::INFINITY };
+        let v_t = svd.v_t.expect("asked for");
+        let mut unidentifiable = Vec::new();
+        for (i, s) in svd.singular_values.iter().enumerate() {
+            if *s <= 1e-6 * largest {
+                // the keys that make up this unseen direction
+                for j in 0..n {
+                    if v_t[(i, j)].abs() > 0.1 && !unidentifiable.contains(&self.keys[j].path) {
+                        unidentifiable.push(self.keys[j].path.clone());
+                    }
+                }
+            }
+        }
+        // keys on a bound are held there; the errors are those of the free keys
+        let at_bound: Vec<String> = self
+            .keys
+            .iter()
+            .zip(&values)
+            .filter(|(k, v)| **v == k.lo || **v == k.hi)
+            .map(|(k, _)| k.path.clone())
+            .collect();
+        let free: Vec<usize> = (0..n).filter(|&j| !at_bound.contains(&self.keys[j].path)).collect();
+        let m = self.measured.len();
+        let sub = DMatrix::from_fn(m, free.len(), |i, j| jac[(i, free[j])]);
+        let (std_error, correlation) = match (sub.transpose() * &sub).try_inverse() {
+            Some(inv) if m > free.len() && unidentifiable.is_empty() => {
+                let s2 = r.norm_squared() / (m - free.len()) as f64;
+                let position = |j: usize| free.iter().position(|&f| f == j);
+                let sd = (0..n).map(|j| position(j).map(|p| (s2 * inv[(p, p)]).sqrt() * start[j].abs())).collect();
+                let corr = (0..n * n)
+                    .map(|ij| {
+                        let (p, q) = (position(ij / n)?, position(ij % n)?);
+                        Some(inv[(p, q)] / (inv[(p, p)] * inv[(q, q)]).sqrt())
+                    })
+                    .collect();
+                (Some(sd), Some(corr))
+            }
+            _ => (None, None),
+        };
+        let computed_hz = self.computed(&values).map_err(CalibrationError::Jacobian)?;
+        let scenes = self.scenes_at(&values).map_err(CalibrationError::Jacobian)?;
+        Ok(Fit {
+            start,
+            values,
+            at_bound,
+            std_error,
+            correlation,
+            singular_values,
+            condition,
+            unidentifiable,
+            computed_hz,
+            start_cost,
+            cost,
+            iterations,
+            scenes,
+        })
+    }
+}
