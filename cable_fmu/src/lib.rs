@@ -52,6 +52,8 @@ pub mod vr {
 
     const XYZ: &[&str] = &["x", "y", "z"];
     const WXYZ: &[&str] = &["w", "x", "y", "z"];
+    /// Cables are numbered from 0, as the statics and the scenes number them.
+    const CABLE_NUMBERS: &[&str; CABLES] = &["0", "1", "2", "3", "4", "5"];
     /// 1e7 N (N·m): thirty times the weight of FAST's 30 t cabin; only a mistaken or hostile
     /// value lies beyond.
     const WRENCH_BOUND: f64 = 1e7;
@@ -71,8 +73,10 @@ pub mod vr {
         ANGULAR_VELOCITY = Block::output("cabin.w", 3, "rad/s", "angular velocity of the cabin, world {k}").labels(XYZ),
         ACCELERATION = Block::output("cabin.a", 3, "m/s2", "acceleration of the cabin centre point, world {k}").labels(XYZ),
         ANGULAR_ACCELERATION = Block::output("cabin.alpha", 3, "rad/s2", "angular acceleration of the cabin, world {k}").labels(XYZ),
-        TENSION_ANCHOR = Block::output("cable.tension_anchor", CABLES as u32, "N", "axial force of the element next to the tower, cable {k}"),
-        TENSION_CABIN = Block::output("cable.tension_cabin", CABLES as u32, "N", "axial force of the element next to the cabin, cable {k}"),
+        TENSION_ANCHOR = Block::output("cable.tension_anchor", CABLES as u32, "N", "axial force of the element next to the tower, cable {k}")
+            .labels(CABLE_NUMBERS),
+        TENSION_CABIN = Block::output("cable.tension_cabin", CABLES as u32, "N", "axial force of the element next to the cabin, cable {k}")
+            .labels(CABLE_NUMBERS),
         /// Real parameters.
         DAMPING_RATIO = Block::parameter("damping_ratio", -1.0, "",
             "Rayleigh damping ratio of the cable structure; negative: the scene's value"),
