@@ -5,10 +5,11 @@
 //! f_measured`, the k-th measured mode of a scene paired with its k-th computed one. The keys are
 //! scaled by their start values; Levenberg–Marquardt steps are projected onto the bounds; the
 //! Jacobian is taken by central differences over the modal solver (every difference a model
-//! built anew, in parallel). A trial whose scene is invalid or whose pose cannot be held (a cable
-//! would push) is a rejected step. From the Jacobian at the fit: the standard errors (with the
-//! residuals' own variance), the correlations, and the condition of the problem — a key along a
-//! direction the data do not see is named as not identifiable.
+//! built anew, in parallel). A trial whose scene is invalid, whose pose cannot be held (a cable
+//! would push) or that breaks a statement about a tension is a rejected step. From the Jacobian
+//! at the fit: the standard errors (with the residuals' own variance), the correlations, and the
+//! condition of the problem — a key along a direction the data do not see is named as not
+//! identifiable.
 
 use std::path::Path;
 
@@ -25,8 +26,10 @@ pub enum CalibrationError {
     Measured { file: String, reason: String },
     #[error("--fit {key}: {reason}")]
     Key { key: String, reason: String },
-    #[error("the model at the start cannot be evaluated: {0}")]
+    #[error("the model at the start cannot be evaluated, or breaks a --tension statement: {0}")]
     Start(String),
+    #[error("--tension: {0}")]
+    Tension(String),
     #[error("the Jacobian at the fit cannot be evaluated: {0}")]
     Jacobian(String),
 }
@@ -133,11 +136,73 @@ pub fn with_key(scene: &Scene, file: &str, path: &str, value: f64) -> Result<Sce
 
 /// The lowest `count` natural frequencies (Hz) of `scene`, the platform as the scene has it.
 pub fn frequencies(scene: &Scene, count: usize) -> Result<Vec<f64>, String> {
+    Ok(modal_state(scene, count)?.0)
+}
+
+/// Per cable, the smaller and the larger of its two end tensions (N).
+type EndTensions = Vec<(f64, f64)>;
+
+/// The lowest `count` natural frequencies (Hz) of `scene` and the end tensions of the static
+/// equilibrium they are taken about.
+fn modal_state(scene: &Scene, count: usize) -> Result<(Vec<f64>, EndTensions), String> {
     let model = CableCabin::build(&modal_scene(scene), 0).map_err(|e| e.to_string())?;
+    let tensions =
+        model.equilibrium.cables.iter().map(|c| (c.tension_anchor.min(c.tension_cabin), c.largest_tension())).collect();
+    if count == 0 {
+        return Ok((Vec::new(), tensions));
+    }
     let sys = model.system(cable::model::Payload::Locked);
     let modes =
         modes_dropping(&sys, &model.equilibrium_config(), count, Dropped::default()).map_err(|e| e.to_string())?;
-    Ok(modes.frequencies_hz.into_iter().take(count).collect())
+    Ok((modes.frequencies_hz.into_iter().take(count).collect(), tensions))
+}
+
+/// A statement the fit must keep about a cable's tension in a scene's static equilibrium, e.g.
+/// "cable 4 nearly slack at B": its larger end tension at most `at_most`; "all taut": each one's
+/// smaller end tension at least `at_least`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TensionBound {
+    /// The scene's `name`.
+    pub scene: String,
+    /// From 0, as the statics number them.
+    pub cable: usize,
+    pub at_most: Option<f64>,
+    pub at_least: Option<f64>,
+}
+
+impl TensionBound {
+    /// Reads `SCENE:CABLE<=N` or `SCENE:CABLE>=N` (cables from 0, newtons).
+    pub fn parse(text: &str) -> Result<TensionBound, String> {
+        let bad = || format!("`{text}`: expected SCENE:CABLE<=NEWTONS or SCENE:CABLE>=NEWTONS (cables from 0)");
+        let (scene, rest) = text.split_once(':').ok_or_else(bad)?;
+        let (cable, value, at_most) = if let Some((c, v)) = rest.split_once("<=") {
+            (c, v, true)
+        } else if let Some((c, v)) = rest.split_once(">=") {
+            (c, v, false)
+        } else {
+            return Err(bad());
+        };
+        let cable: usize = cable.trim().parse().map_err(|_| bad())?;
+        let value: f64 = value.trim().parse().ok().filter(|v: &f64| v.is_finite() && *v >= 0.0).ok_or_else(bad)?;
+        let scene = scene.trim().to_owned();
+        let (at_most, at_least) = if at_most { (Some(value), None) } else { (None, Some(value)) };
+        Ok(TensionBound { scene, cable, at_most, at_least })
+    }
+
+    /// `None` if the tensions keep the statement, else how they break it.
+    fn broken(&self, tensions: &[(f64, f64)]) -> Option<String> {
+        let (low, high) = tensions.get(self.cable).copied().unwrap_or((f64::NAN, f64::NAN));
+        let (cable, scene) = (self.cable, &self.scene);
+        match (self.at_most, self.at_least) {
+            (Some(max), _) if !(high <= max) => {
+                Some(format!("cable {cable} of {scene} holds {high:.1} N, above {max} N"))
+            }
+            (_, Some(min)) if !(low >= min) => {
+                Some(format!("cable {cable} of {scene} holds {low:.1} N, below {min} N"))
+            }
+            _ => None,
+        }
+    }
 }
 
 /// The scene for a modal analysis: its damping fitted at given frequencies, so that building the
@@ -159,6 +224,8 @@ pub struct Problem {
     pub measured: Vec<Measured>,
     /// Where the measured modes came from (for messages).
     pub measured_file: String,
+    /// Statements about tensions every trial must keep.
+    pub tensions: Vec<TensionBound>,
     pub keys: Vec<Key>,
 }
 
@@ -168,7 +235,8 @@ pub struct Fit {
     /// Per key: the start value and the fitted one.
     pub start: Vec<f64>,
     pub values: Vec<f64>,
-    /// Keys that ended on one of their bounds (the data would move them further).
+    /// Keys that ended on one of their bounds (the data would move them further), or where no step
+    /// either way keeps the statements about tensions.
     pub at_bound: Vec<String>,
     /// Standard errors of the keys within their bounds (none for a key at a bound; none at all
     /// with no more residuals than free keys, whose variance is then unknown, or with a key the
@@ -206,6 +274,15 @@ impl Problem {
                         names.join(", ")
                     ),
                 });
+            }
+        }
+        for t in &self.tensions {
+            let Some((s, file)) = self.scenes.iter().find(|(s, _)| s.name == t.scene) else {
+                return Err(CalibrationError::Tension(format!("scene `{}` is not among the scenes given", t.scene)));
+            };
+            if t.cable >= s.cable_count() {
+                let last = s.cable_count() - 1;
+                return Err(CalibrationError::Tension(format!("{file} has cables 0 to {last}, not {}", t.cable)));
             }
         }
         let mut start = Vec::new();
@@ -254,8 +331,10 @@ impl Problem {
         let mut per_scene = Vec::new();
         for s in &scenes {
             let count = self.measured.iter().filter(|m| m.scene == s.name).map(|m| m.mode).max().unwrap_or(0);
-            let f =
-                if count == 0 { Vec::new() } else { frequencies(s, count).map_err(|e| format!("{}: {e}", s.name))? };
+            let (f, tensions) = modal_state(s, count).map_err(|e| format!("{}: {e}", s.name))?;
+            if let Some(broken) = self.tensions.iter().filter(|t| t.scene == s.name).find_map(|t| t.broken(&tensions)) {
+                return Err(broken);
+            }
             per_scene.push((s.name.clone(), f));
         }
         self.measured
@@ -275,8 +354,9 @@ impl Problem {
     }
 
     /// ∂r/∂x, x the keys over their start values, by central differences (one-sided at a bound
-    /// or where one side cannot be evaluated).
-    fn jacobian(&self, start: &[f64], x: &[f64]) -> Result<DMatrix<f64>, String> {
+    /// or where one side cannot be evaluated), and the keys that cannot move either way (held by
+    /// a bound and a statement about a tension): their columns are zero.
+    fn jacobian(&self, start: &[f64], x: &[f64]) -> Result<(DMatrix<f64>, Vec<usize>), String> {
         const STEP: f64 = 1e-5;
         let n = x.len();
         let evaluate = |j: usize, sign: f64| -> Option<Side> {
@@ -296,18 +376,20 @@ impl Problem {
             Ok(self.residuals(&self.computed(&values)?))
         };
         let mut jac = DMatrix::zeros(self.measured.len(), n);
+        let mut held = Vec::new();
         for (j, side) in sides.into_iter().enumerate() {
             let column = match side {
                 (Some((a, ra)), Some((b, rb))) => (ra - rb) / (a - b),
                 (Some((a, ra)), None) => (ra - center()?) / (a - x[j]),
                 (None, Some((b, rb))) => (center()? - rb) / (x[j] - b),
                 (None, None) => {
-                    return Err(format!("`{}` cannot be moved either way from {}", self.keys[j].path, x[j] * start[j]));
+                    held.push(j);
+                    continue;
                 }
             };
             jac.set_column(j, &column);
         }
-        Ok(jac)
+        Ok((jac, held))
     }
 
     /// Fits the keys (Levenberg–Marquardt on the scaled keys, steps projected onto the bounds).
@@ -337,7 +419,7 @@ impl Problem {
         let mut converged = false;
         while !converged && iterations < 100 {
             iterations += 1;
-            let jac = self.jacobian(&start, &x).map_err(CalibrationError::Jacobian)?;
+            let (jac, _) = self.jacobian(&start, &x).map_err(CalibrationError::Jacobian)?;
             let jtj = jac.transpose() * &jac;
             let g = jac.transpose() * &r;
             // a step that lowers the cost, the damping raised until one does
@@ -374,7 +456,10 @@ impl Problem {
             converged |= !step_taken;
         }
         let values = at(&x);
-        let jac = self.jacobian(&start, &x).map_err(CalibrationError::Jacobian)?;
+        let (full, held) = self.jacobian(&start, &x).map_err(CalibrationError::Jacobian)?;
+        // the keys held by a bound and a statement are out of the problem at the fit
+        let movable: Vec<usize> = (0..n).filter(|j| !held.contains(j)).collect();
+        let jac = DMatrix::from_fn(full.nrows(), movable.len(), |i, j| full[(i, movable[j])]);
         let svd = jac.clone().svd(false, true);
         let mut singular_values: Vec<f64> = svd.singular_values.iter().copied().collect();
         singular_values.sort_by(|a, b| b.total_cmp(a));
@@ -386,9 +471,9 @@ impl Problem {
         for (i, s) in svd.singular_values.iter().enumerate() {
             if *s <= 1e-6 * largest {
                 // the keys that make up this unseen direction
-                for j in 0..n {
-                    if v_t[(i, j)].abs() > 0.1 && !unidentifiable.contains(&self.keys[j].path) {
-                        unidentifiable.push(self.keys[j].path.clone());
+                for (j, &key) in movable.iter().enumerate() {
+                    if v_t[(i, j)].abs() > 0.1 && !unidentifiable.contains(&self.keys[key].path) {
+                        unidentifiable.push(self.keys[key].path.clone());
                     }
                 }
             }
@@ -398,12 +483,13 @@ impl Problem {
             .keys
             .iter()
             .zip(&values)
-            .filter(|(k, v)| **v == k.lo || **v == k.hi)
-            .map(|(k, _)| k.path.clone())
+            .enumerate()
+            .filter(|(j, (k, v))| **v == k.lo || **v == k.hi || held.contains(j))
+            .map(|(_, (k, _))| k.path.clone())
             .collect();
         let free: Vec<usize> = (0..n).filter(|&j| !at_bound.contains(&self.keys[j].path)).collect();
         let m = self.measured.len();
-        let sub = DMatrix::from_fn(m, free.len(), |i, j| jac[(i, free[j])]);
+        let sub = DMatrix::from_fn(m, free.len(), |i, j| full[(i, free[j])]);
         let (std_error, correlation) = match (sub.transpose() * &sub).try_inverse() {
             Some(inv) if m > free.len() && unidentifiable.is_empty() => {
                 let s2 = r.norm_squared() / (m - free.len()) as f64;

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use feedcore::scene::Scene;
-use master::calibrate::{Key, Problem, get_key, read_measured};
+use master::calibrate::{Key, Problem, TensionBound, get_key, read_measured};
 use master::table::Table;
 use serde_json::json;
 
@@ -29,6 +29,11 @@ pub(crate) struct Args {
     /// Bounds of a fitted key, KEY=LO:HI (repeatable); default: half to twice its start value.
     #[arg(long)]
     pub(crate) bounds: Vec<String>,
+    /// A statement about a cable's tension every trial must keep (repeatable), in the static
+    /// equilibrium of a scene named as in the CSV, cables from 0: SCENE:CABLE<=N bounds its larger
+    /// end tension ("nearly slack"), SCENE:CABLE>=N its smaller one ("taut").
+    #[arg(long, value_parser = |s: &str| TensionBound::parse(s))]
+    pub(crate) tension: Vec<TensionBound>,
     /// Directory for the updated scenes (each under its file name; the FMU paths of its [system]
     /// made absolute so that it runs from there).
     #[arg(long)]
@@ -104,7 +109,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         }
     }
     let measured_file = args.measured.display().to_string();
-    let problem = Problem { scenes, measured: read_measured(&args.measured)?, measured_file, keys };
+    let tensions = args.tension.clone();
+    let problem = Problem { scenes, measured: read_measured(&args.measured)?, measured_file, tensions, keys };
     problem.check()?;
     let mut outputs = Outputs::new(inputs);
     let ids: Vec<_> = args

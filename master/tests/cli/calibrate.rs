@@ -189,3 +189,65 @@ fn the_fast_scenes_first_modes_fall_in_the_band_measured_on_fast() {
         assert!((0.12..=0.2).contains(&f), "{name}: first mode {f} Hz");
     }
 }
+
+/// A statement about a tension holds throughout: B's modes measured with wider towers (cable 4
+/// then slacker, its cabin end at 183 N) fitted under "cable 4 keeps at least 195 N" stop short of
+/// the towers' truth, where the statement binds; one broken at the start is refused by name.
+#[test]
+fn a_tension_statement_is_kept() {
+    let d = dir("tension");
+    let scenes = [scene("lt50m_B.toml")];
+    let measured = d.join("measured.csv");
+    measure(&scenes, &[("anchors.radius_m", 31.5)], 6, &measured);
+    let b = &scenes[0].1;
+    let (m, out) = (measured.to_str().unwrap(), d.join("out"));
+    let fit = calibrate(&[
+        "--scene",
+        b,
+        "--measured",
+        m,
+        "--out",
+        out.to_str().unwrap(),
+        "--fit",
+        "anchors.radius_m",
+        "--tension",
+        "lt50m_B:4>=195",
+    ]);
+    let radius = fit["fitted"]["anchors.radius_m"].as_f64().unwrap();
+    let updated = Scene::load(out.join("lt50m_B.toml")).unwrap();
+    let model = cable::model::CableCabin::build(&master::calibrate::modal_scene(&updated), 0).unwrap();
+    let cable4 = &model.equilibrium.cables[4];
+    let low = cable4.tension_anchor.min(cable4.tension_cabin);
+    assert!((195.0..197.0).contains(&low), "cable 4 at the fit: {low} N");
+    assert!((30.0..31.4).contains(&radius) && radius > 30.0, "{radius}");
+    assert!(fit["cost"].as_f64().unwrap() > 1e-8, "the truth is out of reach: {fit}");
+    let r = master(&[
+        "calibrate",
+        "--scene",
+        b,
+        "--measured",
+        m,
+        "--out",
+        out.to_str().unwrap(),
+        "--fit",
+        "anchors.radius_m",
+        "--tension",
+        "lt50m_B:4<=250",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(!r.status.success() && err.contains("cable 4 of lt50m_B holds 316.7 N, above 250 N"), "{err}");
+    let r = master(&[
+        "calibrate",
+        "--scene",
+        b,
+        "--measured",
+        m,
+        "--out",
+        out.to_str().unwrap(),
+        "--fit",
+        "anchors.radius_m",
+        "--tension",
+        "lt50m_B:9>=1",
+    ]);
+    assert!(String::from_utf8_lossy(&r.stderr).contains("cables 0 to 5, not 9"));
+}
