@@ -43,23 +43,39 @@ pub struct Measured {
     pub mode: usize,
     pub f_hz: f64,
     pub weight: f64,
+    /// The measured damping ratio, if given: the scene's Rayleigh damping at the paired mode is
+    /// fitted to it as well (a residual of its own, weighted as the frequency).
+    pub zeta: Option<f64>,
+    /// The cabin's part of the measured shape (dx, dy, dz, rx, ry, rz), if given: the mode is
+    /// then paired with the computed one of the most similar shape, not by its number.
+    pub shape: Option<[f64; 6]>,
 }
 
-/// Reads `scene,mode,f_hz[,weight]` (a header line, then one mode per line).
+/// The optional columns of a measured shape, in this order.
+const SHAPE_COLUMNS: [&str; 6] = ["dx", "dy", "dz", "rx", "ry", "rz"];
+
+/// Computed modes searched beyond the highest measured one when shapes pair them.
+const SHAPE_SEARCH: usize = 4;
+
+/// Reads `scene,mode,f_hz[,weight][,zeta][,dx,dy,dz,rx,ry,rz]` (a header line, then one mode per
+/// line).
 pub fn read_measured(path: &Path) -> Result<Vec<Measured>, CalibrationError> {
     let file = path.display().to_string();
     let err = |reason: String| CalibrationError::Measured { file: file.clone(), reason };
     let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let header: Vec<&str> = lines.next().ok_or_else(|| err("empty".into()))?.1.split(',').map(str::trim).collect();
-    if header.len() < 3 || header[..3] != ["scene", "mode", "f_hz"] || header.len() > 4 {
-        return Err(err(format!(
-            "the header is `{}`; expected `scene,mode,f_hz` with an optional `weight`",
-            header.join(",")
-        )));
-    }
-    if header.len() == 4 && header[3] != "weight" {
-        return Err(err(format!("its fourth column is `{}`; expected `weight`", header[3])));
+    let expected = "`scene,mode,f_hz`, then optionally `weight`, `zeta`, `dx,dy,dz,rx,ry,rz` in this order";
+    let has_weight = header.get(3) == Some(&"weight");
+    let zeta_at = if has_weight { 4 } else { 3 };
+    let has_zeta = header.get(zeta_at) == Some(&"zeta");
+    let shape_at = if has_zeta { zeta_at + 1 } else { zeta_at };
+    let has_shape = header.len() == shape_at + 6 && header[shape_at..] == SHAPE_COLUMNS;
+    if header.len() < 3
+        || header[..3] != ["scene", "mode", "f_hz"]
+        || header.len() != shape_at + if has_shape { 6 } else { 0 }
+    {
+        return Err(err(format!("the header is `{}`; expected {expected}", header.join(","))));
     }
     let mut out: Vec<Measured> = Vec::new();
     for (i, line) in lines {
@@ -76,11 +92,29 @@ pub fn read_measured(path: &Path) -> Result<Vec<Measured>, CalibrationError> {
                 .ok_or_else(|| at(&format!("{name} = `{text}` must be a positive number")))
         };
         let f_hz = positive(fields[2], "f_hz")?;
-        let weight = if fields.len() == 4 { positive(fields[3], "weight")? } else { 1.0 };
+        let weight = if has_weight { positive(fields[3], "weight")? } else { 1.0 };
+        let zeta = if has_zeta { Some(positive(fields[zeta_at], "zeta")?) } else { None };
+        let shape = if has_shape {
+            let mut v = [0.0; 6];
+            for (k, x) in v.iter_mut().enumerate() {
+                let text = fields[shape_at + k];
+                *x = text
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| at(&format!("{} = `{text}` must be a number", SHAPE_COLUMNS[k])))?;
+            }
+            if v.iter().all(|x| *x == 0.0) {
+                return Err(at("the shape is zero"));
+            }
+            Some(v)
+        } else {
+            None
+        };
         if out.iter().any(|m| m.scene == fields[0] && m.mode == mode) {
             return Err(at(&format!("mode {mode} of scene `{}` is given twice", fields[0])));
         }
-        out.push(Measured { scene: fields[0].to_owned(), mode, f_hz, weight });
+        out.push(Measured { scene: fields[0].to_owned(), mode, f_hz, weight, zeta, shape });
     }
     if out.is_empty() {
         return Err(err("no measured mode".into()));
@@ -136,25 +170,73 @@ pub fn with_key(scene: &Scene, file: &str, path: &str, value: f64) -> Result<Sce
 
 /// The lowest `count` natural frequencies (Hz) of `scene`, the platform as the scene has it.
 pub fn frequencies(scene: &Scene, count: usize) -> Result<Vec<f64>, String> {
-    Ok(modal_state(scene, count)?.0)
+    Ok(modal_state(scene, count)?.frequencies_hz)
 }
 
-/// Per cable, the smaller and the larger of its two end tensions (N).
-type EndTensions = Vec<(f64, f64)>;
+/// The modes of a scene about its static equilibrium, and the cables' tensions there.
+struct ModalState {
+    frequencies_hz: Vec<f64>,
+    /// The cabin's part of each shape.
+    cabin_shapes: Vec<[f64; 6]>,
+    /// Per cable, the smaller and the larger of its two end tensions (N).
+    tensions: Vec<(f64, f64)>,
+}
 
-/// The lowest `count` natural frequencies (Hz) of `scene` and the end tensions of the static
-/// equilibrium they are taken about.
-fn modal_state(scene: &Scene, count: usize) -> Result<(Vec<f64>, EndTensions), String> {
+/// The lowest `count` modes of `scene`: frequencies (Hz) and the cabin's part of each shape.
+pub fn cabin_modes(scene: &Scene, count: usize) -> Result<(Vec<f64>, Vec<[f64; 6]>), String> {
+    let m = modal_state(scene, count)?;
+    Ok((m.frequencies_hz, m.cabin_shapes))
+}
+
+/// The lowest `count` modes of `scene` (frequencies in Hz, the cabin's part of each shape) and
+/// the end tensions of the static equilibrium they are taken about.
+fn modal_state(scene: &Scene, count: usize) -> Result<ModalState, String> {
     let model = CableCabin::build(&modal_scene(scene), 0).map_err(|e| e.to_string())?;
     let tensions =
         model.equilibrium.cables.iter().map(|c| (c.tension_anchor.min(c.tension_cabin), c.largest_tension())).collect();
     if count == 0 {
-        return Ok((Vec::new(), tensions));
+        return Ok(ModalState { frequencies_hz: Vec::new(), cabin_shapes: Vec::new(), tensions });
     }
     let sys = model.system(cable::model::Payload::Locked);
     let modes =
         modes_dropping(&sys, &model.equilibrium_config(), count, Dropped::default()).map_err(|e| e.to_string())?;
-    Ok((modes.frequencies_hz.into_iter().take(count).collect(), tensions))
+    let n = modes.frequencies_hz.len().min(count);
+    let cabin_shapes = (0..n).map(|k| modes.cabin_part(k).into()).collect();
+    Ok(ModalState { frequencies_hz: modes.frequencies_hz.into_iter().take(n).collect(), cabin_shapes, tensions })
+}
+
+/// What the model gives for one measured mode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Computed {
+    f_hz: f64,
+    /// The computed mode it is paired with, from 1.
+    mode: usize,
+    /// The scene's Rayleigh damping ratio at that mode (NaN unless a damping ratio is measured).
+    zeta: f64,
+}
+
+/// The damping ratio of the scene's Rayleigh damping at each frequency of `f` (its modes, lowest
+/// first: the fit's modes are among them).
+fn damping_ratios(scene: &Scene, f: &[f64]) -> Result<Vec<f64>, String> {
+    let d = &scene.damping;
+    let band = match (d.fit_modes, d.fit_frequencies_hz) {
+        (Some([a, b]), _) => [a, b].map(|k| f.get(k - 1).copied()),
+        (None, Some(hz)) => hz.map(Some),
+        (None, None) => [None, None],
+    };
+    let [Some(f1), Some(f2)] = band else {
+        return Err(format!("{}: the damping's fit frequencies are not available", scene.name));
+    };
+    let w = |f: f64| 2.0 * std::f64::consts::PI * f;
+    let (alpha, beta) = cable::damping::rayleigh_coefficients(d.ratio, w(f1), w(f2));
+    Ok(f.iter().map(|&fk| alpha / (2.0 * w(fk)) + beta * w(fk) / 2.0).collect())
+}
+
+/// The modal assurance criterion of two shapes: 1 for the same shape, 0 for orthogonal ones.
+fn mac(a: &[f64; 6], b: &[f64; 6]) -> f64 {
+    let dot = |x: &[f64; 6], y: &[f64; 6]| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>();
+    let (ab, aa, bb) = (dot(a, b), dot(a, a), dot(b, b));
+    if aa > 0.0 && bb > 0.0 { ab * ab / (aa * bb) } else { 0.0 }
 }
 
 /// A statement the fit must keep about a cable's tension in a scene's static equilibrium, e.g.
@@ -250,8 +332,13 @@ pub struct Fit {
     pub condition: f64,
     /// Keys along the directions the data do not see (singular value below 1e-6 of the largest).
     pub unidentifiable: Vec<String>,
-    /// Per measured mode (in the order given): the computed frequency at the fit.
+    /// Per measured mode (in the order given): the computed frequency at the fit, and the number
+    /// of the computed mode it is paired with (from 1).
     pub computed_hz: Vec<f64>,
+    pub paired_mode: Vec<usize>,
+    /// Per measured mode with a measured damping ratio: the scene's at the paired mode (NaN for
+    /// the others).
+    pub computed_zeta: Vec<f64>,
     /// Half the sum of the squared weighted relative misses, at the start and at the fit.
     pub start_cost: f64,
     pub cost: f64,
@@ -326,31 +413,70 @@ impl Problem {
     }
 
     /// The computed frequency of every measured mode, with the keys at `values`.
-    fn computed(&self, values: &[f64]) -> Result<Vec<f64>, String> {
+    fn computed(&self, values: &[f64]) -> Result<Vec<Computed>, String> {
         let scenes = self.scenes_at(values)?;
-        let mut per_scene = Vec::new();
+        let mut out = vec![Computed { f_hz: f64::NAN, mode: 0, zeta: f64::NAN }; self.measured.len()];
         for s in &scenes {
-            let count = self.measured.iter().filter(|m| m.scene == s.name).map(|m| m.mode).max().unwrap_or(0);
-            let (f, tensions) = modal_state(s, count).map_err(|e| format!("{}: {e}", s.name))?;
+            let mine: Vec<usize> = (0..self.measured.len()).filter(|&i| self.measured[i].scene == s.name).collect();
+            let by_shape = mine.iter().any(|&i| self.measured[i].shape.is_some());
+            let highest = mine.iter().map(|&i| self.measured[i].mode).max().unwrap_or(0);
+            let mut count = if by_shape { highest + SHAPE_SEARCH } else { highest };
+            // measured damping: the modes the scene's Rayleigh damping is fitted at too
+            let with_zeta = mine.iter().any(|&i| self.measured[i].zeta.is_some());
+            if let (true, Some(fit)) = (with_zeta, s.damping.fit_modes) {
+                count = count.max(fit[0]).max(fit[1]);
+            }
+            let ModalState { frequencies_hz: f, cabin_shapes: shapes, tensions } =
+                modal_state(s, count).map_err(|e| format!("{}: {e}", s.name))?;
             if let Some(broken) = self.tensions.iter().filter(|t| t.scene == s.name).find_map(|t| t.broken(&tensions)) {
                 return Err(broken);
             }
-            per_scene.push((s.name.clone(), f));
+            let zeta = if with_zeta { damping_ratios(s, &f)? } else { vec![f64::NAN; f.len()] };
+            let mut pair = |i: usize, k: usize| out[i] = Computed { f_hz: f[k], mode: k + 1, zeta: zeta[k] };
+            if by_shape {
+                // the most similar pairs first, each measured and each computed mode once
+                let mut pairs: Vec<(f64, usize, usize)> = mine
+                    .iter()
+                    .flat_map(|&i| {
+                        let shape = self.measured[i].shape.expect("every row of the file has a shape");
+                        shapes.iter().enumerate().map(move |(k, c)| (mac(&shape, c), i, k))
+                    })
+                    .collect();
+                pairs.sort_by(|a, b| b.0.total_cmp(&a.0));
+                let mut taken = vec![false; shapes.len()];
+                let mut done = vec![false; self.measured.len()];
+                for (_, i, k) in pairs {
+                    if !done[i] && !taken[k] {
+                        pair(i, k);
+                        (done[i], taken[k]) = (true, true);
+                    }
+                }
+            } else {
+                for &i in &mine {
+                    let k = self.measured[i].mode - 1;
+                    if k >= f.len() {
+                        return Err(format!("{}: only {} modes found", s.name, f.len()));
+                    }
+                    pair(i, k);
+                }
+            }
+            if let Some(&i) = mine.iter().find(|&&i| out[i].mode == 0) {
+                return Err(format!(
+                    "{}: no computed mode left to pair with measured mode {}",
+                    s.name, self.measured[i].mode
+                ));
+            }
         }
-        self.measured
-            .iter()
-            .map(|m| {
-                let f = &per_scene.iter().find(|(n, _)| *n == m.scene).expect("checked").1;
-                f.get(m.mode - 1).copied().ok_or_else(|| format!("{}: only {} modes found", m.scene, f.len()))
-            })
-            .collect()
+        Ok(out)
     }
 
-    fn residuals(&self, computed: &[f64]) -> DVector<f64> {
-        DVector::from_iterator(
-            computed.len(),
-            self.measured.iter().zip(computed).map(|(m, f)| m.weight * (f - m.f_hz) / m.f_hz),
-        )
+    /// The weighted relative misses: every measured frequency, then every measured damping ratio.
+    fn residuals(&self, computed: &[Computed]) -> DVector<f64> {
+        let frequencies = self.measured.iter().zip(computed).map(|(m, c)| m.weight * (c.f_hz - m.f_hz) / m.f_hz);
+        let damping =
+            self.measured.iter().zip(computed).filter_map(|(m, c)| m.zeta.map(|z| m.weight * (c.zeta - z) / z));
+        let all: Vec<f64> = frequencies.chain(damping).collect();
+        DVector::from_vec(all)
     }
 
     /// ∂r/∂x, x the keys over their start values, by central differences (one-sided at a bound
@@ -375,7 +501,8 @@ impl Problem {
             let values: Vec<f64> = x.iter().zip(start).map(|(x, s)| x * s).collect();
             Ok(self.residuals(&self.computed(&values)?))
         };
-        let mut jac = DMatrix::zeros(self.measured.len(), n);
+        let rows = self.measured.len() + self.measured.iter().filter(|m| m.zeta.is_some()).count();
+        let mut jac = DMatrix::zeros(rows, n);
         let mut held = Vec::new();
         for (j, side) in sides.into_iter().enumerate() {
             let column = match side {
@@ -488,7 +615,7 @@ impl Problem {
             .map(|(_, (k, _))| k.path.clone())
             .collect();
         let free: Vec<usize> = (0..n).filter(|&j| !at_bound.contains(&self.keys[j].path)).collect();
-        let m = self.measured.len();
+        let m = r.len();
         let sub = DMatrix::from_fn(m, free.len(), |i, j| full[(i, free[j])]);
         let (std_error, correlation) = match (sub.transpose() * &sub).try_inverse() {
             Some(inv) if m > free.len() && unidentifiable.is_empty() => {
@@ -505,7 +632,10 @@ impl Problem {
             }
             _ => (None, None),
         };
-        let computed_hz = self.computed(&values).map_err(CalibrationError::Jacobian)?;
+        let computed = self.computed(&values).map_err(CalibrationError::Jacobian)?;
+        let computed_hz = computed.iter().map(|c| c.f_hz).collect();
+        let paired_mode = computed.iter().map(|c| c.mode).collect();
+        let computed_zeta = computed.iter().map(|c| c.zeta).collect();
         let scenes = self.scenes_at(&values).map_err(CalibrationError::Jacobian)?;
         Ok(Fit {
             start,
@@ -517,6 +647,8 @@ impl Problem {
             condition,
             unidentifiable,
             computed_hz,
+            paired_mode,
+            computed_zeta,
             start_cost,
             cost,
             iterations,

@@ -18,8 +18,12 @@ pub(crate) struct Args {
     /// `scene` column holds each scene's `name`).
     #[arg(long = "scene", required = true)]
     pub(crate) scenes: Vec<PathBuf>,
-    /// Measured natural frequencies: CSV `scene,mode,f_hz[,weight]`, the k-th measured mode of a
-    /// scene paired with its k-th computed one (lowest first).
+    /// Measured natural frequencies: CSV `scene,mode,f_hz[,weight][,zeta][,dx,dy,dz,rx,ry,rz]`.
+    /// Without shapes the k-th measured mode of a scene is paired with its k-th computed one
+    /// (lowest first); with the cabin's part of each measured shape (`master modes --json`,
+    /// cabin_shape), with the computed mode of the most similar shape (MAC), so that a swap of
+    /// close modes does not mislead the fit. A measured damping ratio `zeta` is fitted too (the
+    /// scene's Rayleigh damping at the paired mode).
     #[arg(long)]
     pub(crate) measured: PathBuf,
     /// Real-valued scene keys to fit, shared by every scene (comma-separated dotted names, e.g.
@@ -38,8 +42,9 @@ pub(crate) struct Args {
     /// made absolute so that it runs from there).
     #[arg(long)]
     pub(crate) out: PathBuf,
-    /// Print JSON: fitted, std_error, correlation, residuals (per scene and mode: measured,
-    /// computed), cost, start_cost, condition, unidentifiable.
+    /// Print JSON: fitted, start, std_error, correlation, at_bound, residuals (per scene and mode:
+    /// measured, computed, computed_mode; measured_zeta, computed_zeta where measured), cost,
+    /// start_cost, iterations, singular_values, condition, unidentifiable.
     #[arg(long)]
     pub(crate) json: bool,
 }
@@ -141,8 +146,16 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         let residuals: Vec<_> = problem
             .measured
             .iter()
-            .zip(&fit.computed_hz)
-            .map(|(m, c)| json!({"scene": m.scene, "mode": m.mode, "measured": m.f_hz, "computed": c}))
+            .zip(fit.computed_hz.iter().zip(&fit.paired_mode).zip(&fit.computed_zeta))
+            .map(|(m, ((c, k), z))| {
+                let mut r =
+                    json!({"scene": m.scene, "mode": m.mode, "measured": m.f_hz, "computed": c, "computed_mode": k});
+                if let Some(measured) = m.zeta {
+                    r["measured_zeta"] = json!(measured);
+                    r["computed_zeta"] = json!(z);
+                }
+                r
+            })
             .collect();
         let j = json!({
             "fitted": by_key(&fit.values),
@@ -174,15 +187,30 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     write!(out, "{}", t.render())?;
     writeln!(out)?;
-    let mut t = Table::new(["scene", "mode", "measured Hz", "computed Hz", "miss %"]);
-    for (m, c) in problem.measured.iter().zip(&fit.computed_hz) {
-        t.row([
+    let by_shape = problem.measured.iter().any(|m| m.shape.is_some());
+    let with_zeta = problem.measured.iter().any(|m| m.zeta.is_some());
+    let mut header = vec!["scene", "mode", "measured Hz", "computed Hz", "miss %"];
+    if with_zeta {
+        header.extend(["measured ζ", "computed ζ"]);
+    }
+    let mut t = Table::new(header);
+    for (((m, c), k), z) in problem.measured.iter().zip(&fit.computed_hz).zip(&fit.paired_mode).zip(&fit.computed_zeta)
+    {
+        // paired by shape, the computed mode's number follows the measured one's
+        let mode = if by_shape { format!("{} ↔ {k}", m.mode) } else { m.mode.to_string() };
+        let mut row = vec![
             m.scene.clone(),
-            m.mode.to_string(),
+            mode,
             format!("{:.5}", m.f_hz),
             format!("{c:.5}"),
             format!("{:+.3}", 100.0 * (c - m.f_hz) / m.f_hz),
-        ]);
+        ];
+        if with_zeta {
+            let measured = m.zeta.map_or("—".to_owned(), |z| format!("{z:.5}"));
+            let computed = if m.zeta.is_some() { format!("{z:.5}") } else { "—".to_owned() };
+            row.extend([measured, computed]);
+        }
+        t.row(row);
     }
     write!(out, "{}", t.render())?;
     writeln!(out)?;

@@ -251,3 +251,148 @@ fn a_tension_statement_is_kept() {
     ]);
     assert!(String::from_utf8_lossy(&r.stderr).contains("cables 0 to 5, not 9"));
 }
+
+/// With noise on the measurements, the fit misses the truth by about its standard errors: 0.1 %
+/// relative noise (deterministic) on twelve modes of B and C, three keys; every key within four
+/// standard errors of its truth, and the errors of the size the noise implies (not zero, not a
+/// hundred times the miss).
+#[test]
+fn the_standard_errors_match_the_noise() {
+    let d = dir("noise");
+    let scenes = [scene("lt50m_B.toml"), scene("lt50m_C.toml")];
+    let truth =
+        [("anchors.radius_m", 31.5), ("cabin.attachments.radius_m", 0.9), ("cables.youngs_modulus_pa", 1.31e11)];
+    let measured = d.join("measured.csv");
+    measure(&scenes, &truth, 6, &measured);
+    // a fixed sequence in [−1, 1] (a linear congruential generator): the noise, 1e-3 relative
+    let mut state: u64 = 12345;
+    let mut noise = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    };
+    let text = std::fs::read_to_string(&measured).unwrap();
+    let noisy: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                return format!("{l}\n");
+            }
+            let (head, f) = l.rsplit_once(',').unwrap();
+            format!("{head},{:?}\n", f.parse::<f64>().unwrap() * (1.0 + 1e-3 * noise()))
+        })
+        .collect();
+    std::fs::write(&measured, noisy).unwrap();
+    let (b, c, out) = (&scenes[0].1, &scenes[1].1, d.join("out"));
+    let fit = calibrate(&[
+        "--scene",
+        b,
+        "--scene",
+        c,
+        "--measured",
+        measured.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--fit",
+        "anchors.radius_m,cabin.attachments.radius_m,cables.youngs_modulus_pa",
+    ]);
+    for (k, v) in truth {
+        let (got, sd) = (fit["fitted"][k].as_f64().unwrap(), fit["std_error"][k].as_f64().unwrap());
+        assert!((got - v).abs() < 4.0 * sd, "{k}: {got} is {} standard errors ({sd}) from {v}", (got - v).abs() / sd);
+        assert!(sd > 1e-6 * v && sd < 0.1 * v, "{k}: standard error {sd}");
+    }
+}
+
+/// FAST's damping: the ratio measured there is at least 0.004; the FAST scenes' Rayleigh damping
+/// gives their first mode at least that (0.005 at the modes it is fitted to, more in between).
+#[test]
+fn the_fast_scenes_damp_their_first_mode_as_measured() {
+    for name in ["fast500_centre.toml", "fast500_rim.toml"] {
+        let (s, _) = scene(name);
+        let model = cable::model::CableCabin::build(&s, 0).unwrap();
+        let f1 = frequencies(&s, 1).unwrap()[0];
+        let w = 2.0 * std::f64::consts::PI * f1;
+        let zeta = model.damping.alpha / (2.0 * w) + model.damping.beta * w / 2.0;
+        assert!(zeta >= 0.004, "{name}: damping ratio {zeta} at the first mode {f1} Hz");
+    }
+}
+
+/// A swap of two modes in the measured list: paired by number, the fit is misled; with the
+/// measured shapes (the cabin's part), each mode finds its computed twin and the truth is found.
+#[test]
+fn measured_shapes_undo_a_swap_of_modes() {
+    use master::calibrate::cabin_modes;
+    let d = dir("swap");
+    let (b, file) = scene("lt50m_B.toml");
+    let truth = with_key(&b, &file, "anchors.radius_m", 31.5).unwrap();
+    let (f, shapes) = cabin_modes(&truth, 6).unwrap();
+    // modes 3 and 4 listed the other way round
+    let order = [0, 1, 3, 2, 4, 5];
+    let row = |k: usize, i: usize, with_shape: bool| {
+        let shape: String = shapes[i].iter().map(|x| format!(",{x:?}")).collect();
+        format!("lt50m_B,{},{:?}{}\n", k + 1, f[i], if with_shape { shape.as_str() } else { "" })
+    };
+    let (with, without) = (d.join("with.csv"), d.join("without.csv"));
+    let rows = |s: bool| order.iter().enumerate().map(|(k, &i)| row(k, i, s)).collect::<String>();
+    std::fs::write(&with, format!("scene,mode,f_hz,dx,dy,dz,rx,ry,rz\n{}", rows(true))).unwrap();
+    std::fs::write(&without, format!("scene,mode,f_hz\n{}", rows(false))).unwrap();
+    let out = d.join("out");
+    let fit = |measured: &Path| {
+        calibrate(&[
+            "--scene",
+            &file,
+            "--measured",
+            measured.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--fit",
+            "anchors.radius_m",
+        ])
+    };
+    let by_shape = fit(&with);
+    let radius = by_shape["fitted"]["anchors.radius_m"].as_f64().unwrap();
+    assert!((radius - 31.5).abs() < 1e-6 * 31.5, "{by_shape}");
+    let paired: Vec<u64> =
+        by_shape["residuals"].as_array().unwrap().iter().map(|r| r["computed_mode"].as_u64().unwrap()).collect();
+    assert_eq!(paired, [1, 2, 4, 3, 5, 6]);
+    let by_number = fit(&without);
+    assert!(by_number["cost"].as_f64().unwrap() > 1e6 * by_shape["cost"].as_f64().unwrap().max(1e-30), "{by_number}");
+}
+
+/// Measured damping ratios are fitted too: C's modes and damping ratios computed with the
+/// Rayleigh ratio 0.008 and wider towers give back both (the ratio from the damping alone: the
+/// frequencies do not see it).
+#[test]
+fn measured_damping_ratios_fit_the_rayleigh_ratio() {
+    let d = dir("zeta");
+    let (c, file) = scene("lt50m_C.toml");
+    let truth =
+        with_key(&with_key(&c, &file, "anchors.radius_m", 31.5).unwrap(), &file, "damping.ratio", 0.008).unwrap();
+    let f = frequencies(&truth, 6).unwrap();
+    let model = cable::model::CableCabin::build(&truth, 0).unwrap();
+    let zeta = |f: f64| {
+        let w = 2.0 * std::f64::consts::PI * f;
+        model.damping.alpha / (2.0 * w) + model.damping.beta * w / 2.0
+    };
+    let rows: String = f.iter().enumerate().map(|(k, f)| format!("lt50m_C,{},{f:?},{:?}\n", k + 1, zeta(*f))).collect();
+    let measured = d.join("measured.csv");
+    std::fs::write(&measured, format!("scene,mode,f_hz,zeta\n{rows}")).unwrap();
+    let out = d.join("out");
+    let fit = calibrate(&[
+        "--scene",
+        &file,
+        "--measured",
+        measured.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--fit",
+        "anchors.radius_m,damping.ratio",
+    ]);
+    for (k, v) in [("anchors.radius_m", 31.5), ("damping.ratio", 0.008)] {
+        let got = fit["fitted"][k].as_f64().unwrap();
+        assert!((got - v).abs() < 1e-6 * v, "{k}: {got} against {v}: {fit}");
+    }
+    assert!(fit["unidentifiable"].as_array().unwrap().is_empty());
+    let r = &fit["residuals"][0];
+    assert!((r["computed_zeta"].as_f64().unwrap() - r["measured_zeta"].as_f64().unwrap()).abs() < 1e-9, "{r}");
+}
