@@ -412,7 +412,10 @@ impl Problem {
             .collect()
     }
 
-    /// The computed frequency of every measured mode, with the keys at `values`.
+    /// What the model gives for every measured mode, with the keys at `values`: the computed mode
+    /// paired with it (by number, or by the most similar shape where the measured shape is given,
+    /// each computed mode paired once), its frequency and, where a damping ratio is measured, the
+    /// scene's Rayleigh damping ratio at it.
     fn computed(&self, values: &[f64]) -> Result<Vec<Computed>, String> {
         let scenes = self.scenes_at(values)?;
         let mut out = vec![Computed { f_hz: f64::NAN, mode: 0, zeta: f64::NAN }; self.measured.len()];
