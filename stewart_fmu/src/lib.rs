@@ -650,17 +650,18 @@ impl Model for StewartFmu {
             }
             du[*k as usize] += s;
         }
-        let v3 = |i: usize| Vec3::new(du[i], du[i + 1], du[i + 2]);
-        let quaternion = |v: &[f64]| nalgebra::Quaternion::new(v[0], v[1], v[2], v[3]);
+        let v3 = |u: &[f64], i: u32| Vec3::new(u[i as usize], u[i as usize + 1], u[i as usize + 2]);
+        let q = |u: &[f64]| nalgebra::Quaternion::from_parts(u[vr::Q as usize], v3(u, vr::Q + 1));
+        let inputs = self.data.inputs;
         let d = CabinChange {
-            position: v3(vr::R as usize),
-            rotation: rotation_of_quaternion_change(&quaternion(&self.data.inputs[3..7]), &quaternion(&du[3..7])),
-            velocity: v3(vr::V as usize),
-            angular_velocity: v3(vr::W as usize),
-            acceleration: v3(vr::A as usize),
-            angular_acceleration: v3(vr::ALPHA as usize),
+            position: v3(&du, vr::R),
+            rotation: rotation_of_quaternion_change(&q(&inputs), &q(&du)),
+            velocity: v3(&du, vr::V),
+            angular_velocity: v3(&du, vr::W),
+            acceleration: v3(&du, vr::A),
+            angular_acceleration: v3(&du, vr::ALPHA),
         };
-        let cabin_r = Vec3::new(self.data.inputs[0], self.data.inputs[1], self.data.inputs[2]);
+        let cabin_r = v3(&inputs, vr::R);
         let needs = |outputs: std::ops::Range<u32>| unknowns.iter().any(|u| outputs.contains(u));
         let (df, dtilt) = if needs(vr::FEED_ERR..vr::RADIUS) {
             let t = self.data.time;
