@@ -8,7 +8,7 @@
 //! part of the state, so a rollback reproduces the same bits.
 
 use feedcore::genalpha::{self, Failure, Integrator, Iterate, IterationMatrix, Newton, OptionsError, StepError};
-use feedcore::rigid::left_jacobian_so3;
+use feedcore::rigid::{MotionChange, left_jacobian_so3};
 use feedcore::{Quat, Vec3};
 use nalgebra::{Matrix3x6, Vector6};
 
@@ -111,13 +111,7 @@ pub struct LastStep {
 /// Change of the cabin's motion and of the end tensions caused by a change of the wrench.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CabinDelta {
-    pub position: Vec3,
-    /// World-frame rotation vector.
-    pub rotation: Vec3,
-    pub velocity: Vec3,
-    pub angular_velocity: Vec3,
-    pub acceleration: Vec3,
-    pub angular_acceleration: Vec3,
+    pub motion: MotionChange,
     /// (anchor end, cabin end) per cable.
     pub tensions: Vec<(f64, f64)>,
 }
@@ -360,24 +354,21 @@ impl Dynamics {
         let (dr, dth) = (xc.fixed_rows::<3>(0).into_owned(), xc.fixed_rows::<3>(3).into_owned());
         if self.state.last_step.is_none() {
             return Ok(CabinDelta {
-                position: Vec3::zeros(),
-                rotation: Vec3::zeros(),
-                velocity: Vec3::zeros(),
-                angular_velocity: Vec3::zeros(),
-                acceleration: dr,
-                angular_acceleration: dth,
+                motion: MotionChange { acceleration: dr, angular_acceleration: dth, ..MotionChange::default() },
                 tensions: if with_tensions { vec![(0.0, 0.0); self.system.cables()] } else { Vec::new() },
             });
         }
         // the rotation coordinate is an increment inside exp(); the world rotation it makes:
         let dphi = left_jacobian_so3(&theta) * dth;
         let motion = |tensions| CabinDelta {
-            position: dr,
-            rotation: dphi,
-            velocity: dr * gp,
-            angular_velocity: dth * gp,
-            acceleration: dr * bp,
-            angular_acceleration: dth * bp,
+            motion: MotionChange {
+                position: dr,
+                rotation: dphi,
+                velocity: dr * gp,
+                angular_velocity: dth * gp,
+                acceleration: dr * bp,
+                angular_acceleration: dth * bp,
+            },
             tensions,
         };
         if !with_tensions {

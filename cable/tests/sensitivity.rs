@@ -91,14 +91,19 @@ fn step_sensitivity_matches_central_differences() {
         let minus = step_with(&mut dy, &(w - seed * eps));
         step_with(&mut dy, &w); // back to the nominal step for the next sensitivity
         let fd: Vec<f64> = plus.iter().zip(&minus).map(|(p, m)| (p - m) / (2.0 * eps)).collect();
-        let mut analytic: Vec<f64> =
-            [d.position, d.velocity, d.angular_velocity, d.acceleration, d.angular_acceleration]
-                .iter()
-                .flat_map(|x| x.iter().copied().collect::<Vec<_>>())
-                .collect();
+        let mut analytic: Vec<f64> = [
+            d.motion.position,
+            d.motion.velocity,
+            d.motion.angular_velocity,
+            d.motion.acceleration,
+            d.motion.angular_acceleration,
+        ]
+        .iter()
+        .flat_map(|x| x.iter().copied().collect::<Vec<_>>())
+        .collect();
         // quaternion: δq = ½ (0, δφ) ⊗ q
         let q = dy.cabin().orientation.into_inner();
-        let dq = nalgebra::Quaternion::from_imag(d.rotation * 0.5) * q;
+        let dq = nalgebra::Quaternion::from_imag(d.motion.rotation * 0.5) * q;
         analytic.extend_from_slice(&[dq.w, dq.i, dq.j, dq.k]);
         analytic.extend(d.tensions.iter().flat_map(|(a, b)| [*a, *b]));
         for (i, (a, f)) in analytic.iter().zip(&fd).enumerate() {

@@ -388,16 +388,17 @@ fn variables(w0: &Vector6<f64>) -> Vec<Variable> {
 /// The output `vr` of a motion delta (for directional derivatives), with `q` the orientation.
 fn delta_output(d: &CabinDelta, q: &nalgebra::Quaternion<f64>, vr: u32) -> Option<f64> {
     let v3 = |v: &Vec3, base: u32| v[(vr - base) as usize];
+    let m = &d.motion;
     Some(match vr {
-        vr::POSITION..vr::ORIENTATION => v3(&d.position, vr::POSITION),
+        vr::POSITION..vr::ORIENTATION => v3(&m.position, vr::POSITION),
         vr::ORIENTATION..vr::VELOCITY => {
-            let dq = nalgebra::Quaternion::from_imag(d.rotation * 0.5) * q;
+            let dq = feedcore::rigid::quaternion_change(&m.rotation, q);
             [dq.w, dq.i, dq.j, dq.k][(vr - vr::ORIENTATION) as usize]
         }
-        vr::VELOCITY..vr::ANGULAR_VELOCITY => v3(&d.velocity, vr::VELOCITY),
-        vr::ANGULAR_VELOCITY..vr::ACCELERATION => v3(&d.angular_velocity, vr::ANGULAR_VELOCITY),
-        vr::ACCELERATION..vr::ANGULAR_ACCELERATION => v3(&d.acceleration, vr::ACCELERATION),
-        vr::ANGULAR_ACCELERATION..vr::TENSION_ANCHOR => v3(&d.angular_acceleration, vr::ANGULAR_ACCELERATION),
+        vr::VELOCITY..vr::ANGULAR_VELOCITY => v3(&m.velocity, vr::VELOCITY),
+        vr::ANGULAR_VELOCITY..vr::ACCELERATION => v3(&m.angular_velocity, vr::ANGULAR_VELOCITY),
+        vr::ACCELERATION..vr::ANGULAR_ACCELERATION => v3(&m.acceleration, vr::ACCELERATION),
+        vr::ANGULAR_ACCELERATION..vr::TENSION_ANCHOR => v3(&m.angular_acceleration, vr::ANGULAR_ACCELERATION),
         vr::TENSION_ANCHOR..vr::TENSION_CABIN => d.tensions[(vr - vr::TENSION_ANCHOR) as usize].0,
         vr::TENSION_CABIN..vr::DAMPING_RATIO => d.tensions[(vr - vr::TENSION_CABIN) as usize].1,
         _ => return None,

@@ -57,6 +57,24 @@ pub fn rotation_of_quaternion_change(q: &nalgebra::Quaternion<f64>, dq: &nalgebr
     (dn * n.conjugate()).imag() * 2.0
 }
 
+/// A small change of a rigid body's motion ([`RigidMotion`]), world frame; `rotation` is a world
+/// rotation vector (`R' = exp([δθ]×) R`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MotionChange {
+    pub position: Vec3,
+    pub rotation: Vec3,
+    pub velocity: Vec3,
+    pub angular_velocity: Vec3,
+    pub acceleration: Vec3,
+    pub angular_acceleration: Vec3,
+}
+
+/// The change of a quaternion's components `q` under a small world rotation `δθ`:
+/// `δq = ½ [0, δθ] ⊗ q`.
+pub fn quaternion_change(rotation: &Vec3, q: &nalgebra::Quaternion<f64>) -> nalgebra::Quaternion<f64> {
+    nalgebra::Quaternion::from_imag(rotation * 0.5) * q
+}
+
 /// Mass, centre of mass and inertia (about the centre of mass) of a rigid body or a rigid
 /// assembly, all expressed in one frame.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -39,7 +39,7 @@ pub use error::StewartError;
 pub use path::CirclePath;
 pub use reactions::LegReactions;
 pub use relative::{RelativeState, Stroke};
-pub use sensitivity::{ActuatorRates, CabinChange};
+pub use sensitivity::ActuatorRates;
 pub use wrench::{CabinMotion, RigidMotion, Wrench, WrenchJacobians};
 
 /// A leg this close to its first Hooke axis (sine of the angle) locks the Hooke joint.

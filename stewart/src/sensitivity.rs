@@ -4,23 +4,11 @@
 //! error are made of.
 
 use feedcore::Vec3;
-use feedcore::rigid::{RigidMotion, left_jacobian_so3, skew};
+use feedcore::rigid::{MotionChange, RigidMotion, left_jacobian_so3, quaternion_change, skew};
 use feedcore::scene::LEGS;
 use nalgebra::{Matrix3x6, Quaternion, Vector6};
 
 use crate::{CabinMotion, Compensation, PathPoint, Stewart, StewartError, WrenchJacobians};
-
-/// A small change of the cabin's motion, world frame; `rotation` is a world rotation vector
-/// (`R' = exp([δθ]×) R`).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct CabinChange {
-    pub position: Vec3,
-    pub rotation: Vec3,
-    pub velocity: Vec3,
-    pub angular_velocity: Vec3,
-    pub acceleration: Vec3,
-    pub angular_acceleration: Vec3,
-}
 
 fn stack(a: Vec3, b: Vec3) -> Vector6<f64> {
     Vector6::new(a.x, a.y, a.z, b.x, b.y, b.z)
@@ -28,7 +16,7 @@ fn stack(a: Vec3, b: Vec3) -> Vector6<f64> {
 
 impl WrenchJacobians {
     /// The wrench's change.
-    pub fn change(&self, d: &CabinChange) -> Vector6<f64> {
+    pub fn change(&self, d: &MotionChange) -> Vector6<f64> {
         self.pose * stack(d.position, d.rotation)
             + self.velocity * stack(d.velocity, d.angular_velocity)
             + self.acceleration * stack(d.acceleration, d.angular_acceleration)
@@ -84,7 +72,7 @@ impl Stewart {
 impl ActuatorRates {
     /// The actuator forces' change. A rotation acts by turning the cabin-frame components of
     /// the acceleration against gravity, the angular acceleration and the angular velocity.
-    pub fn change(&self, cabin: &CabinMotion, gravity: &Vec3, d: &CabinChange) -> Vector6<f64> {
+    pub fn change(&self, cabin: &CabinMotion, gravity: &Vec3, d: &MotionChange) -> Vector6<f64> {
         let th_a = skew(&(cabin.acceleration - gravity)) * d.rotation;
         let th_al = skew(&cabin.angular_acceleration) * d.rotation;
         let th_w = skew(&cabin.angular_velocity) * d.rotation;
@@ -96,10 +84,10 @@ impl ActuatorRates {
 
 /// The change of the platform's pose carried rigidly by the cabin (centre point at
 /// `cabin_position`): its position's and its orientation quaternion's (w, x, y, z).
-pub fn carried_pose_change(cabin_position: &Vec3, platform: &RigidMotion, d: &CabinChange) -> (Vec3, Quaternion<f64>) {
+pub fn carried_pose_change(cabin_position: &Vec3, platform: &RigidMotion, d: &MotionChange) -> (Vec3, Quaternion<f64>) {
     let arm = platform.position - cabin_position;
     let q = platform.orientation.into_inner();
-    (d.position + d.rotation.cross(&arm), Quaternion::from_imag(d.rotation * 0.5) * q)
+    (d.position + d.rotation.cross(&arm), quaternion_change(&d.rotation, &q))
 }
 
 impl Compensation {
@@ -112,7 +100,7 @@ impl Compensation {
         cabin_position: &Vec3,
         platform: &RigidMotion,
         t: f64,
-        d: &CabinChange,
+        d: &MotionChange,
     ) -> Result<(Vec3, Vec3), StewartError> {
         let feed = platform.position + platform.orientation * self.feed_point();
         let (_, phi) = self.feed_error(&platform.position, &platform.orientation, t);

@@ -26,7 +26,7 @@
 
 use std::path::Path;
 
-use feedcore::rigid::rotation_of_quaternion_change;
+use feedcore::rigid::{MotionChange, rotation_of_quaternion_change};
 use feedcore::scene::{Scene, SceneError, Start};
 use feedcore::{Quat, Vec3};
 use fmi2::description::Causality;
@@ -38,9 +38,7 @@ use serde::{Deserialize, Serialize};
 
 use feedcore::scene::SensorKind;
 use stewart::sensitivity::carried_pose_change;
-use stewart::{
-    ActuatorRates, CabinChange, CabinMotion, CommandState, Evaluation, PathPoint, Stewart, Wrench, WrenchJacobians,
-};
+use stewart::{ActuatorRates, CabinMotion, CommandState, Evaluation, PathPoint, Stewart, Wrench, WrenchJacobians};
 
 /// The scene used unless the `scene` parameter names another one.
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
@@ -653,7 +651,7 @@ impl Model for StewartFmu {
         let v3 = |u: &[f64], i: u32| Vec3::new(u[i as usize], u[i as usize + 1], u[i as usize + 2]);
         let q = |u: &[f64]| nalgebra::Quaternion::from_parts(u[vr::Q as usize], v3(u, vr::Q + 1));
         let inputs = self.data.inputs;
-        let d = CabinChange {
+        let d = MotionChange {
             position: v3(&du, vr::R),
             rotation: rotation_of_quaternion_change(&q(&inputs), &q(&du)),
             velocity: v3(&du, vr::V),
