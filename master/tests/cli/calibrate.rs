@@ -36,10 +36,19 @@ fn measure(scenes: &[(Scene, String)], truth: &[(&str, f64)], count: usize, out:
     std::fs::write(out, csv).unwrap();
 }
 
-fn calibrate(args: &[&str]) -> Value {
-    let out = master(&[&["calibrate", "--json"], args].concat());
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_slice(&out.stdout).unwrap()
+/// `master calibrate --json` of `scenes` against the modes in `measured`, the updated scenes to
+/// `out`, fitting `keys`, with `extra` options.
+fn calibrate(scenes: &[&str], measured: impl AsRef<Path>, out: impl AsRef<Path>, keys: &str, extra: &[&str]) -> Value {
+    let (measured, out) = (measured.as_ref().to_str().unwrap(), out.as_ref().to_str().unwrap());
+    let mut args = vec!["calibrate", "--json"];
+    for s in scenes {
+        args.extend(["--scene", s]);
+    }
+    args.extend(["--measured", measured, "--out", out, "--fit", keys]);
+    args.extend(extra);
+    let run = master(&args);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    serde_json::from_slice(&run.stdout).unwrap()
 }
 
 /// Tower radius, tower height and E shared by B and C, six modes of each: found again to 1e-6,
@@ -53,18 +62,7 @@ fn the_geometry_and_the_modulus_are_found_again_from_both_poses() {
     measure(&scenes, &truth, 6, &measured);
     let (b, c) = (&scenes[0].1, &scenes[1].1);
     let out = d.join("out");
-    let fit = calibrate(&[
-        "--scene",
-        b,
-        "--scene",
-        c,
-        "--measured",
-        measured.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--fit",
-        "anchors.radius_m,anchors.z_m,cables.youngs_modulus_pa",
-    ]);
+    let fit = calibrate(&[b, c], &measured, &out, "anchors.radius_m,anchors.z_m,cables.youngs_modulus_pa", &[]);
     for (k, v) in truth {
         let got = fit["fitted"][k].as_f64().unwrap();
         assert!((got - v).abs() <= 1e-6 * v, "{k}: {got} against {v}");
@@ -96,31 +94,11 @@ fn an_unseen_key_is_named_and_the_bounds_hold() {
     measure(&scenes, &[("anchors.radius_m", 31.5)], 6, &measured);
     let c = &scenes[0].1;
     let (m, out) = (measured.to_str().unwrap(), d.join("out"));
-    let fit = calibrate(&[
-        "--scene",
-        c,
-        "--measured",
-        m,
-        "--out",
-        out.to_str().unwrap(),
-        "--fit",
-        "anchors.radius_m,damping.ratio",
-    ]);
+    let fit = calibrate(&[c], m, &out, "anchors.radius_m,damping.ratio", &[]);
     assert_eq!(fit["unidentifiable"], serde_json::json!(["damping.ratio"]));
     assert!(fit["std_error"].is_null());
     assert!((fit["fitted"]["anchors.radius_m"].as_f64().unwrap() - 31.5).abs() < 1e-6 * 31.5, "{fit}");
-    let fit = calibrate(&[
-        "--scene",
-        c,
-        "--measured",
-        m,
-        "--out",
-        out.to_str().unwrap(),
-        "--fit",
-        "anchors.radius_m",
-        "--bounds",
-        "anchors.radius_m=29:31",
-    ]);
+    let fit = calibrate(&[c], m, &out, "anchors.radius_m", &["--bounds", "anchors.radius_m=29:31"]);
     assert_eq!(fit["fitted"]["anchors.radius_m"].as_f64().unwrap(), 31.0);
     assert_eq!(fit["at_bound"], serde_json::json!(["anchors.radius_m"]));
 }
@@ -201,18 +179,7 @@ fn a_tension_statement_is_kept() {
     measure(&scenes, &[("anchors.radius_m", 31.5)], 6, &measured);
     let b = &scenes[0].1;
     let (m, out) = (measured.to_str().unwrap(), d.join("out"));
-    let fit = calibrate(&[
-        "--scene",
-        b,
-        "--measured",
-        m,
-        "--out",
-        out.to_str().unwrap(),
-        "--fit",
-        "anchors.radius_m",
-        "--tension",
-        "lt50m_B:4>=195",
-    ]);
+    let fit = calibrate(&[b], m, &out, "anchors.radius_m", &["--tension", "lt50m_B:4>=195"]);
     let radius = fit["fitted"]["anchors.radius_m"].as_f64().unwrap();
     let updated = Scene::load(out.join("lt50m_B.toml")).unwrap();
     let model = cable::model::CableCabin::build(&master::calibrate::modal_scene(&updated), 0).unwrap();
@@ -284,18 +251,13 @@ fn the_standard_errors_match_the_noise() {
         .collect();
     std::fs::write(&measured, noisy).unwrap();
     let (b, c, out) = (&scenes[0].1, &scenes[1].1, d.join("out"));
-    let fit = calibrate(&[
-        "--scene",
-        b,
-        "--scene",
-        c,
-        "--measured",
-        measured.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--fit",
+    let fit = calibrate(
+        &[b, c],
+        &measured,
+        &out,
         "anchors.radius_m,cabin.attachments.radius_m,cables.youngs_modulus_pa",
-    ]);
+        &[],
+    );
     for (k, v) in truth {
         let (got, sd) = (fit["fitted"][k].as_f64().unwrap(), fit["std_error"][k].as_f64().unwrap());
         assert!((got - v).abs() < 4.0 * sd, "{k}: {got} is {} standard errors ({sd}) from {v}", (got - v).abs() / sd);
@@ -337,18 +299,7 @@ fn measured_shapes_undo_a_swap_of_modes() {
     std::fs::write(&with, format!("scene,mode,f_hz,dx,dy,dz,rx,ry,rz\n{}", rows(true))).unwrap();
     std::fs::write(&without, format!("scene,mode,f_hz\n{}", rows(false))).unwrap();
     let out = d.join("out");
-    let fit = |measured: &Path| {
-        calibrate(&[
-            "--scene",
-            &file,
-            "--measured",
-            measured.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--fit",
-            "anchors.radius_m",
-        ])
-    };
+    let fit = |measured: &Path| calibrate(&[&file], measured, &out, "anchors.radius_m", &[]);
     let by_shape = fit(&with);
     let radius = by_shape["fitted"]["anchors.radius_m"].as_f64().unwrap();
     assert!((radius - 31.5).abs() < 1e-6 * 31.5, "{by_shape}");
@@ -378,16 +329,7 @@ fn measured_damping_ratios_fit_the_rayleigh_ratio() {
     let measured = d.join("measured.csv");
     std::fs::write(&measured, format!("scene,mode,f_hz,zeta\n{rows}")).unwrap();
     let out = d.join("out");
-    let fit = calibrate(&[
-        "--scene",
-        &file,
-        "--measured",
-        measured.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--fit",
-        "anchors.radius_m,damping.ratio",
-    ]);
+    let fit = calibrate(&[&file], &measured, &out, "anchors.radius_m,damping.ratio", &[]);
     for (k, v) in [("anchors.radius_m", 31.5), ("damping.ratio", 0.008)] {
         let got = fit["fitted"][k].as_f64().unwrap();
         assert!((got - v).abs() < 1e-6 * v, "{k}: {got} against {v}: {fit}");
