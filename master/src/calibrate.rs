@@ -150,22 +150,31 @@ pub fn get_key(scene: &Scene, path: &str) -> Result<f64, String> {
 
 /// `scene` (read from `file`) with the real-valued key `path` set to `value`, validated.
 pub fn with_key(scene: &Scene, file: &str, path: &str, value: f64) -> Result<Scene, String> {
+    with_keys(scene, file, &[(path, value)])
+}
+
+/// `scene` (read from `file`) with each real-valued key set to its value, validated once: one
+/// pass through the scene's TOML for all of them.
+pub fn with_keys(scene: &Scene, file: &str, keys: &[(&str, f64)]) -> Result<Scene, String> {
     let mut table: toml::Table = toml::from_str(&scene.to_toml()).map_err(|e| e.to_string())?;
-    let parts: Vec<&str> = path.split('.').collect();
-    let (last, parents) = parts.split_last().ok_or("an empty key")?;
-    let mut here = &mut table;
-    for part in parents {
-        here = here
-            .get_mut(*part)
-            .and_then(toml::Value::as_table_mut)
-            .ok_or_else(|| format!("the scene has no table `{part}` on the way to `{path}`"))?;
-    }
-    match here.get_mut(*last) {
-        Some(v @ toml::Value::Float(_)) => *v = toml::Value::Float(value),
-        _ => return Err(format!("`{path}` is not a real-valued key of the scene")),
+    for &(path, value) in keys {
+        let parts: Vec<&str> = path.split('.').collect();
+        let (last, parents) = parts.split_last().ok_or("an empty key")?;
+        let mut here = &mut table;
+        for part in parents {
+            here = here
+                .get_mut(*part)
+                .and_then(toml::Value::as_table_mut)
+                .ok_or_else(|| format!("the scene has no table `{part}` on the way to `{path}`"))?;
+        }
+        match here.get_mut(*last) {
+            Some(v @ toml::Value::Float(_)) => *v = toml::Value::Float(value),
+            _ => return Err(format!("`{path}` is not a real-valued key of the scene")),
+        }
     }
     let text = toml::to_string(&table).map_err(|e| e.to_string())?;
-    Scene::from_toml(&text, file).map_err(|e| e.to_string())
+    let shown = || keys.iter().map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", ");
+    Scene::from_toml(&text, file).map_err(|e| format!("{}: {e}", shown()))
 }
 
 /// The lowest `count` natural frequencies (Hz) of `scene`, the platform as the scene has it.
@@ -403,11 +412,9 @@ impl Problem {
         self.scenes
             .iter()
             .map(|(s, file)| {
-                let mut s = s.clone();
-                for (k, v) in self.keys.iter().zip(values) {
-                    s = with_key(&s, file, &k.path, *v).map_err(|e| format!("{} = {v}: {e}", k.path))?;
-                }
-                Ok(s)
+                let keys: Vec<(&str, f64)> =
+                    self.keys.iter().map(|k| k.path.as_str()).zip(values.iter().copied()).collect();
+                with_keys(s, file, &keys)
             })
             .collect()
     }
