@@ -1,7 +1,7 @@
 //! The cable–cabin model of a scene: form-found equilibrium, Rayleigh damping fitted to its
 //! modes, and ready-to-run dynamics. This is the entry point for the CLI and the FMU.
 
-use feedcore::scene::{Scene, SceneError};
+use feedcore::scene::{DampingFit, SceneError, ValidScene};
 use nalgebra::Vector6;
 
 use crate::chain_matrix::LinkedChain;
@@ -47,7 +47,7 @@ pub enum Payload {
 /// A scene's cable–cabin model at its static equilibrium.
 #[derive(Clone, Debug)]
 pub struct CableCabin {
-    pub scene: Scene,
+    pub scene: ValidScene,
     pub net: CableNet,
     pub equilibrium: Equilibrium,
     /// Modes of the locked system, if they were needed (damping fit or the scene asked).
@@ -59,12 +59,12 @@ pub struct CableCabin {
 
 impl CableCabin {
     /// Form finding, and the modal analysis the damping fit (and the scene) asks for.
-    pub fn from_scene(scene: &Scene) -> Result<CableCabin, ModelError> {
+    pub fn from_scene(scene: &ValidScene) -> Result<CableCabin, ModelError> {
         Self::build(scene, scene.analyses.modes)
     }
 
     /// As [`CableCabin::from_scene`], with at least `mode_count` modes computed.
-    pub fn build(scene: &Scene, mode_count: usize) -> Result<CableCabin, ModelError> {
+    pub fn build(scene: &ValidScene, mode_count: usize) -> Result<CableCabin, ModelError> {
         let net = CableNet::from_scene(scene);
         let equilibrium =
             form_find(&net, scene.target_position(), scene.target_orientation()).map_err(ModelError::Statics)?;
@@ -78,18 +78,17 @@ impl CableCabin {
         } else {
             None
         };
-        let frequencies_hz = match (d.fit_modes, d.fit_frequencies_hz, &modes) {
-            (Some([a, b]), _, Some(md)) => {
-                if b > md.frequencies_hz.len() {
+        let frequencies_hz = match scene.damping_fit() {
+            DampingFit::Modes([a, b]) => match modes.as_ref().map(|md| &md.frequencies_hz) {
+                Some(f) if b <= f.len() => [f[a - 1], f[b - 1]],
+                found => {
                     return Err(ModelError::Modes(format!(
                         "the system has only {} modes; damping.fit_modes asks for mode {b}",
-                        md.frequencies_hz.len()
+                        found.map_or(0, Vec::len)
                     )));
                 }
-                [md.frequencies_hz[a - 1], md.frequencies_hz[b - 1]]
-            }
-            (_, Some(f), _) => f,
-            _ => unreachable!("a validated scene fits damping at modes or at frequencies"),
+            },
+            DampingFit::Frequencies(f) => f,
         };
         if frequencies_hz[0] <= 0.0 {
             return Err(ModelError::Modes(format!(
@@ -146,15 +145,19 @@ impl CableCabin {
 
     /// The number of modes [`CableCabin::build`] computes for `scene` asked for `mode_count`:
     /// those of the damping fit, or more.
-    pub fn modes_built(scene: &Scene, mode_count: usize) -> usize {
-        scene.damping.fit_modes.map_or(0, |m| m[1]).max(mode_count)
+    pub fn modes_built(scene: &ValidScene, mode_count: usize) -> usize {
+        let fit = match scene.damping_fit() {
+            DampingFit::Modes([_, b]) => b,
+            DampingFit::Frequencies(_) => 0,
+        };
+        fit.max(mode_count)
     }
 
     /// Bytes [`CableCabin::build`] and the dynamics would allocate for `scene` with at least
     /// `mode_count` modes, as a float (it may not fit any integer for absurd sizes). Everything
     /// grows linearly in n, the number of unknowns: the modal analysis
     /// ([`crate::modes::memory_estimate`]), the chain matrices and the states.
-    pub fn memory_estimate(scene: &Scene, mode_count: usize) -> f64 {
+    pub fn memory_estimate(scene: &ValidScene, mode_count: usize) -> f64 {
         let n = 3.0 * scene.cable_count() as f64 * (scene.cables.elements as f64 - 1.0) + 6.0;
         let modal = crate::modes::memory_estimate(n, Self::modes_built(scene, mode_count));
         // chain blocks (3×3 and 3×6 per node) in a handful of matrices and factors, vectors

@@ -3,7 +3,7 @@
 
 use feedcore::Vec3;
 use feedcore::rigid::MassProperties;
-use feedcore::scene::{Scene, StewartMode};
+use feedcore::scene::{StewartMode, ValidScene};
 
 use crate::shooting::CableSpec;
 
@@ -24,7 +24,7 @@ pub struct CableNet {
 }
 
 impl CableNet {
-    pub fn from_scene(scene: &Scene) -> CableNet {
+    pub fn from_scene(scene: &ValidScene) -> CableNet {
         let payload = match scene.analyses.stewart {
             StewartMode::Absent => MassProperties::ZERO,
             StewartMode::Locked | StewartMode::Coupled => {

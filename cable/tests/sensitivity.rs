@@ -32,8 +32,11 @@ fn started(name: &str) -> Dynamics {
     // The Newton tolerance of the co-simulation scenes' cable FMU: differences of re-stepped
     // solutions need an iteration error far below the perturbation's effect (with the scene's
     // 1e-10 m the tension differences carry 1e-6 of round-off noise from the iteration).
-    let mut s = scene(name);
-    s.solver.newton_tol = 1e-12;
+    let s = scene(name)
+        .edited(|s| {
+            s.solver.newton_tol = 1e-12;
+        })
+        .unwrap();
     let model = CableCabin::from_scene(&s).unwrap();
     let mut dy = model.dynamics(Payload::External, 0.0).unwrap();
     for k in 1..=50 {

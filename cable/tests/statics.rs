@@ -5,9 +5,9 @@ use cable::net::CableNet;
 use cable::shooting::{CableSpec, solve_chain};
 use cable::statics::{CableState, form_find};
 use feedcore::Vec3;
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, ValidScene};
 
-fn scene(name: &str) -> Scene {
+fn scene(name: &str) -> ValidScene {
     Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
 }
 
@@ -82,7 +82,7 @@ fn fe_cable_converges_to_the_elastic_catenary_at_any_sag() {
 /// platform locked at its start and the cable end nodes it carries) balances the cable pulls and
 /// its weight, in force and in moment about the centre point. Returns the unstretched lengths and
 /// the cabin-end tensions.
-fn check_equilibrium(s: &Scene) -> (Vec<f64>, Vec<f64>) {
+fn check_equilibrium(s: &ValidScene) -> (Vec<f64>, Vec<f64>) {
     let net = CableNet::from_scene(s);
     let (p, q) = (s.target_position(), s.target_orientation());
     let eq = form_find(&net, p, q).unwrap();
@@ -141,8 +141,11 @@ fn form_finding_at_c_and_b_balances_every_node_and_the_cabin() {
 /// 50° of azimuth (anchors at 50° ± 30°, attachments at 50° ± 20°): all six cables come out alike.
 #[test]
 fn form_finding_at_c_is_symmetric() {
-    let mut s = scene("lt50m_C.toml");
-    s.motion.radius_m = 0.0;
+    let s = scene("lt50m_C.toml")
+        .edited(|s| {
+            s.motion.radius_m = 0.0;
+        })
+        .unwrap();
     let (lengths, tensions) = check_equilibrium(&s);
     for i in 1..6 {
         assert!((lengths[i] - lengths[0]).abs() < 1e-9 * lengths[0], "{lengths:?}");
@@ -160,8 +163,11 @@ fn form_finding_at_c_is_symmetric() {
 /// A pose outside the towers' reach needs a cable to push: reported as infeasible, naming it.
 #[test]
 fn infeasible_pose_names_the_cable() {
-    let mut s = scene("lt50m_C.toml");
-    s.pose.position_m = [0.0, 40.0, 10.0]; // outside the anchor circle (radius 30 m)
+    let s = scene("lt50m_C.toml")
+        .edited(|s| {
+            s.pose.position_m = [0.0, 40.0, 10.0]; // outside the anchor circle (radius 30 m)
+        })
+        .unwrap();
     let net = CableNet::from_scene(&s);
     let err = form_find(&net, s.target_position(), s.target_orientation()).unwrap_err();
     let msg = err.to_string();

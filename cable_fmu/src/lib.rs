@@ -24,7 +24,7 @@
 use std::path::Path;
 
 use feedcore::Vec3;
-use feedcore::scene::{Scene, SceneError};
+use feedcore::scene::{SceneError, ValidScene};
 use fmi2::description::Causality;
 use fmi2::export::{Derivative, Model, ModelError, Reals, Seeds, StepOutcome};
 use fmi2::resources::{FileKind, FileParameter, SavedFile};
@@ -95,7 +95,7 @@ pub mod vr {
 
 /// The momentum of the platform's start relative to the cabin, for a momentum-consistent
 /// start ([`CableCabin::start_twist`]); the other starts do not need the platform's model.
-fn platform_start_momentum(scene: &Scene) -> Result<Vector6<f64>, ModelError> {
+fn platform_start_momentum(scene: &ValidScene) -> Result<Vector6<f64>, ModelError> {
     if scene.motion.start != feedcore::scene::Start::Consistent {
         return Ok(Vector6::zeros());
     }
@@ -104,7 +104,8 @@ fn platform_start_momentum(scene: &Scene) -> Result<Vector6<f64>, ModelError> {
 }
 
 /// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
-static SCENES: FileKind<Scene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
+static SCENES: FileKind<ValidScene, SceneError> =
+    FileKind::new(&feedcore::shipped::SCENES, 1 << 20, feedcore::scene::Scene::from_toml);
 
 /// The scalar parameters that modify the scene; each is the scene's value when not positive
 /// (`damping_ratio`, `rho_inf`: when negative).
@@ -126,7 +127,7 @@ struct Balanced {
 
 pub struct CableFmu {
     /// The scene file as loaded (before the scalar overrides).
-    scene: FileParameter<Scene, SceneError>,
+    scene: FileParameter<ValidScene, SceneError>,
     settings: Settings,
     /// The model for the current scene and settings, in equilibrium under the platform's own
     /// weight (built when first needed, dropped when they change).
@@ -164,7 +165,7 @@ struct SavedMotion<'a> {
 }
 
 /// The static wrench of the scene's Stewart platform at its starting pose (the input start).
-fn static_wrench(scene: &Scene) -> Vector6<f64> {
+fn static_wrench(scene: &ValidScene) -> Vector6<f64> {
     let net = cable::net::CableNet::from_scene(scene);
     net.payload.weight_wrench(&scene.target_orientation(), &net.spec.gravity)
 }
@@ -192,8 +193,8 @@ fn available_memory() -> Option<f64> {
 }
 
 /// The scene with the scalar overrides `st` applied and validated.
-fn effective_scene(scene: &FileParameter<Scene, SceneError>, st: &Settings) -> Result<Scene, ModelError> {
-    let mut s = scene.value().clone();
+fn effective_scene(scene: &FileParameter<ValidScene, SceneError>, st: &Settings) -> Result<ValidScene, ModelError> {
+    let mut s = scene.value().to_scene();
     if st.elements > 0 {
         s.cables.elements = st.elements as usize;
     }
@@ -206,7 +207,7 @@ fn effective_scene(scene: &FileParameter<Scene, SceneError>, st: &Settings) -> R
         s.solver.newton_tol = st.newton_tol;
     }
     let name = scene.label();
-    s.validate(name)?;
+    let s = s.validated(name)?;
     if s.cable_count() != CABLES {
         return Err(format!("scene `{name}` has {} cables; this FMU exposes {CABLES}", s.cable_count()).into());
     }
@@ -230,7 +231,7 @@ fn effective_scene(scene: &FileParameter<Scene, SceneError>, st: &Settings) -> R
 /// The nominal model in `slot`, built for the scene and settings if it is not there.
 fn nominal<'a>(
     slot: &'a mut Option<CableCabin>,
-    scene: &FileParameter<Scene, SceneError>,
+    scene: &FileParameter<ValidScene, SceneError>,
     settings: &Settings,
 ) -> Result<&'a CableCabin, ModelError> {
     let model = match slot.take() {

@@ -6,7 +6,7 @@ use fmi2::ModelInfo;
 use fmi2::export::Model;
 use nalgebra::Vector6;
 
-fn load_scene(name: &str) -> feedcore::scene::Scene {
+fn load_scene(name: &str) -> feedcore::scene::ValidScene {
     feedcore::scene::Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
 }
 

@@ -1,9 +1,10 @@
 //! The scene file: every number of a simulation, read from TOML and validated.
 //!
 //! A scene is parsed into plain structs (unknown keys and missing keys are errors), then
-//! [`Scene::validate`] rejects non-physical values with an error that names the file, the key
-//! and the value. Geometry comes out through accessors ([`Scene::anchors`], ...) so that the
-//! models never re-derive it differently.
+//! [`Scene::validated`] rejects non-physical values with an error that names the file, the key
+//! and the value, and freezes the scene into a [`ValidScene`], what models are built from.
+//! Geometry comes out through accessors ([`Scene::anchors`], ...) so that the models never
+//! re-derive it differently.
 
 use std::io::Read;
 use std::path::Path;
@@ -12,6 +13,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::rigid::MassProperties;
 use crate::{Mat3, Quat, Vec3};
+
+mod valid;
+pub use valid::{ControlTarget, DampingFit, ValidScene};
 
 /// A rejected scene: which file, which key, which value, and why.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -465,7 +469,8 @@ impl Control {
         }
     }
 
-    fn validate(&self, c: &Check) -> Result<(), SceneError> {
+    /// Checks the section and returns its target path.
+    fn validate(&self, c: &Check) -> Result<ControlTarget, SceneError> {
         c.vector("control.feed_point_m", &self.feed_point_m)?;
         // a point on the platform (a metre across): a point kilometres away is a unit mistake,
         // and its squared error would overflow the RMS
@@ -501,6 +506,7 @@ impl Control {
                 c.vector(&format!("control.{key}"), v)?;
             }
         }
+        let mut target = ControlTarget::Hold;
         if circle {
             let offset = self.circle_center_offset_m.ok_or_else(|| {
                 c.err("control.circle_center_offset_m", "", "target = \"circle\" needs the circle's centre")
@@ -517,9 +523,11 @@ impl Control {
                 .circle_speed_m_s
                 .ok_or_else(|| c.err("control.circle_speed_m_s", "", "target = \"circle\" needs a speed"))?;
             c.finite_nonneg("control.circle_speed_m_s", speed)?;
+            target = ControlTarget::Circle { center_offset: Vec3::from(offset), speed };
         }
-        if samples {
-            let t = self.samples_time_s.as_ref().expect("checked above");
+        if let (true, Some(t), Some(x), Some(y), Some(z)) =
+            (samples, &self.samples_time_s, &self.samples_x_m, &self.samples_y_m, &self.samples_z_m)
+        {
             let n = t.len();
             if n == 0 {
                 return Err(c.err("control.samples_time_s", "[]", "at least one sample is needed"));
@@ -527,12 +535,8 @@ impl Control {
             if let Some(i) = (1..n).find(|&i| t[i] <= t[i - 1]) {
                 return Err(c.err(&format!("control.samples_time_s[{i}]"), &show(t[i]), "times must ascend strictly"));
             }
-            for (key, v) in [
-                ("samples_x_m", &self.samples_x_m),
-                ("samples_y_m", &self.samples_y_m),
-                ("samples_z_m", &self.samples_z_m),
-            ] {
-                let len = v.as_ref().expect("checked above").len();
+            for (key, v) in [("samples_x_m", x), ("samples_y_m", y), ("samples_z_m", z)] {
+                let len = v.len();
                 if len != n {
                     return Err(c.err(
                         &format!("control.{key}"),
@@ -541,6 +545,8 @@ impl Control {
                     ));
                 }
             }
+            let displacements = (0..n).map(|i| Vec3::new(x[i], y[i], z[i])).collect();
+            target = ControlTarget::Samples { times: t.clone(), displacements };
         }
         let sampled = self.sensor == SensorKind::Sampled;
         let what = "sensor = \"sampled\"";
@@ -588,7 +594,7 @@ impl Control {
         if let Some(f) = self.force_limit_n {
             c.positive("control.force_limit_n", f)?;
         }
-        Ok(())
+        Ok(target)
     }
 }
 
@@ -681,13 +687,13 @@ pub const LEGS: usize = 6;
 
 impl Scene {
     /// Reads and validates a scene file of at most [`MAX_SCENE_BYTES`].
-    pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+    pub fn load(path: impl AsRef<Path>) -> Result<ValidScene, SceneError> {
         Scene::load_limited(path, MAX_SCENE_BYTES)
     }
 
     /// Reads and validates a scene file of at most `max_bytes`. Only regular files are read (a
     /// FIFO would block, a device never end), and never more than `max_bytes + 1` bytes of them.
-    pub fn load_limited(path: impl AsRef<Path>, max_bytes: u64) -> Result<Scene, SceneError> {
+    pub fn load_limited(path: impl AsRef<Path>, max_bytes: u64) -> Result<ValidScene, SceneError> {
         let path = path.as_ref();
         let file = path.display().to_string();
         let unreadable = |reason: String| SceneError::unreadable(&file, SceneErrorKind::Unreadable, reason);
@@ -729,7 +735,7 @@ impl Scene {
 
     /// Parses and validates scene text; `file` names the source in error messages. Errors quote
     /// at most a short, escaped excerpt of the text, never a whole line.
-    pub fn from_toml(text: &str, file: &str) -> Result<Scene, SceneError> {
+    pub fn from_toml(text: &str, file: &str) -> Result<ValidScene, SceneError> {
         let syntax = |e: &toml::de::Error, key: String| SceneError {
             file: file.to_string(),
             key,
@@ -742,16 +748,16 @@ impl Scene {
             let key = e.path().to_string();
             syntax(e.inner(), if key == "." { String::new() } else { key })
         })?;
-        scene.validate(file)?;
-        Ok(scene)
+        scene.validated(file)
     }
 
     pub fn to_toml(&self) -> String {
         toml::to_string(self).expect("a scene always serializes")
     }
 
-    /// Rejects non-physical values; `file` names the source in error messages.
-    pub fn validate(&self, file: &str) -> Result<(), SceneError> {
+    /// Rejects non-physical values (`file` names the source in error messages); returns what
+    /// the check established: the target orientation and the compensation's target.
+    fn check(&self, file: &str) -> Result<Checked, SceneError> {
         let c = Check { file };
         c.finite_nonneg("gravity_m_s2", self.gravity_m_s2)?;
 
@@ -780,8 +786,8 @@ impl Scene {
         c.ring("cabin.attachments", &self.cabin.attachments, Some(n))?;
 
         c.position("pose.position_m", &self.pose.position_m)?;
-        self.pose_orientation_checked(&c)?;
-        let (p, r) = (self.target_position(), self.target_orientation());
+        let orientation = self.pose_orientation_checked(&c)?;
+        let (p, r) = (self.target_position(), orientation);
         for (i, (a, b)) in self.anchors().iter().zip(self.attachments_body()).enumerate() {
             let attach = p + r * b;
             if (a - attach).norm() < 1e-6 {
@@ -833,7 +839,7 @@ impl Scene {
         if self.damping.ratio >= 1.0 {
             return Err(c.err("damping.ratio", &show(self.damping.ratio), "a damping ratio must be below 1"));
         }
-        match (&self.damping.fit_modes, &self.damping.fit_frequencies_hz) {
+        let damping_fit = match (self.damping.fit_modes, self.damping.fit_frequencies_hz) {
             (Some(m), None) => {
                 if m[0] < 1 || m[1] <= m[0] {
                     return Err(c.err(
@@ -842,6 +848,7 @@ impl Scene {
                         "two ascending 1-based mode numbers are needed, e.g. [1, 6]",
                     ));
                 }
+                DampingFit::Modes(m)
             }
             (None, Some(f)) => {
                 c.positive("damping.fit_frequencies_hz[0]", f[0])?;
@@ -853,9 +860,10 @@ impl Scene {
                         "two ascending frequencies are needed",
                     ));
                 }
+                DampingFit::Frequencies(f)
             }
             _ => return Err(c.err("damping", "", "give exactly one of `fit_modes` and `fit_frequencies_hz`")),
-        }
+        };
 
         c.positive("solver.dt_s", self.solver.dt_s)?;
         c.positive("solver.t_end_s", self.solver.t_end_s)?;
@@ -906,9 +914,7 @@ impl Scene {
             c.vector("disturbance.moment_amplitude_nm", &d.moment_amplitude_nm)?;
             c.finite_nonneg("disturbance.frequency_hz", d.frequency_hz)?;
         }
-        if let Some(control) = &self.control {
-            control.validate(&c)?;
-        }
+        let target = self.control.as_ref().map(|control| control.validate(&c)).transpose()?;
         if let Some(w) = &self.wind {
             c.finite_nonneg("wind.mean_speed_m_s", w.mean_speed_m_s)?;
             c.finite("wind.direction_deg", w.direction_deg)?;
@@ -972,7 +978,7 @@ impl Scene {
                 known(&format!("system.parameters.{key}"), key)?;
             }
         }
-        Ok(())
+        Ok(Checked { orientation, target, damping_fit })
     }
 
     fn pose_orientation_checked(&self, c: &Check) -> Result<Quat, SceneError> {
@@ -1037,11 +1043,6 @@ impl Scene {
         Vec3::from(self.pose.position_m)
     }
 
-    /// Target orientation of the cabin (body to world); the scene must be valid.
-    pub fn target_orientation(&self) -> Quat {
-        self.pose_orientation_checked(&Check { file: "" }).expect("validated scene")
-    }
-
     /// Mass properties of the cabin alone, body frame.
     pub fn cabin_mass_properties(&self) -> MassProperties {
         MassProperties {
@@ -1050,6 +1051,13 @@ impl Scene {
             inertia_com: Mat3::from_row_slice(self.cabin.inertia_kg_m2.as_flattened()),
         }
     }
+}
+
+/// What validation established about a scene, kept by [`ValidScene`].
+struct Checked {
+    orientation: Quat,
+    target: Option<ControlTarget>,
+    damping_fit: DampingFit,
 }
 
 /// Validation helpers that know the file name.

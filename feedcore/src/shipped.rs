@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use crate::scene::Scene;
+use crate::scene::{Scene, ValidScene};
 
 /// (file name, text) of every shipped scene.
 pub const SCENES: [(&str, &str); 3] = [
@@ -19,7 +19,7 @@ pub fn embedded(name: &str) -> Option<&'static str> {
 
 /// The scene a `scene` parameter names: an absolute path, a path relative to `resources`, or
 /// one of the shipped scenes. Errors name the file and what is wrong with it.
-pub fn load_scene_parameter(name: &str, resources: Option<&Path>) -> Result<Scene, String> {
+pub fn load_scene_parameter(name: &str, resources: Option<&Path>) -> Result<ValidScene, String> {
     let p = Path::new(name);
     let path = if p.is_absolute() { Some(p.to_owned()) } else { resources.map(|r| r.join(p)) };
     match (path, embedded(name)) {

@@ -4,7 +4,7 @@
 //! and the Stewart multibody model. Everything here is in the cabin body frame.
 
 use crate::rigid::MassProperties;
-use crate::scene::{LEGS, LegPart, Scene};
+use crate::scene::{LEGS, LegPart, ValidScene};
 use crate::{Mat3, Vec3};
 
 /// The 13 moving bodies, in this order everywhere: platform, upper parts 1–6, lower parts 1–6.
@@ -27,7 +27,7 @@ pub struct StewartGeometry {
 }
 
 impl StewartGeometry {
-    pub fn from_scene(scene: &Scene) -> Self {
+    pub fn from_scene(scene: &ValidScene) -> Self {
         let s = &scene.stewart;
         let nominal_center = Vec3::from(s.platform.nominal_center_m);
         Self {
@@ -114,10 +114,10 @@ fn leg_part(part: &LegPart, com: Vec3, u: &Vec3) -> MassProperties {
 }
 
 fn to_array(points: Vec<Vec3>) -> [Vec3; LEGS] {
-    points.try_into().expect("a validated scene has six Stewart joints")
+    points.try_into().expect("a ValidScene has six joints on each Stewart ring")
 }
 
-impl Scene {
+impl ValidScene {
     pub fn stewart_geometry(&self) -> StewartGeometry {
         StewartGeometry::from_scene(self)
     }

@@ -27,12 +27,13 @@ fn main() {
     let stewart =
         fmi2::package::package_model::<stewart_fmu::StewartFmu>(&dir, &library("stewart_fmu_cdylib")).unwrap();
     let scene_file = PathBuf::from(format!("{}/../scenes/lt50m_C.toml", env!("CARGO_MANIFEST_DIR")));
-    let mut scene = Scene::load(&scene_file).unwrap();
+    let mut scene = Scene::load(&scene_file).unwrap().to_scene();
     for f in &mut scene.system.as_mut().unwrap().fmus {
         f.path = dir.join(format!("{}_fmu.fmu", f.name)).display().to_string();
     }
     let file = dir.join("scene.toml");
     std::fs::write(&file, scene.to_toml()).unwrap();
+    let scene = scene.validated(&file.display().to_string()).unwrap();
 
     println!("FMUs of scene C (20 elements per cable), h = 0.01 s");
     bench("load cable_fmu.fmu (unzip + XML + dlopen)", 2.0, || Fmu::load(&cable).unwrap());

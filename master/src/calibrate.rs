@@ -15,7 +15,7 @@ use std::path::Path;
 
 use cable::model::CableCabin;
 use cable::modes::{Dropped, modes_dropping};
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, SceneError, ValidScene};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
@@ -132,7 +132,7 @@ pub struct Key {
 }
 
 /// The value of the real-valued key `path` of `scene`.
-pub fn get_key(scene: &Scene, path: &str) -> Result<f64, String> {
+pub fn get_key(scene: &ValidScene, path: &str) -> Result<f64, String> {
     let table: toml::Table = toml::from_str(&scene.to_toml()).map_err(|e| e.to_string())?;
     let mut value = toml::Value::Table(table);
     for part in path.split('.') {
@@ -149,13 +149,13 @@ pub fn get_key(scene: &Scene, path: &str) -> Result<f64, String> {
 }
 
 /// `scene` (read from `file`) with the real-valued key `path` set to `value`, validated.
-pub fn with_key(scene: &Scene, file: &str, path: &str, value: f64) -> Result<Scene, String> {
+pub fn with_key(scene: &ValidScene, file: &str, path: &str, value: f64) -> Result<ValidScene, String> {
     with_keys(scene, file, &[(path, value)])
 }
 
 /// `scene` (read from `file`) with each real-valued key set to its value, validated once: one
 /// pass through the scene's TOML for all of them.
-pub fn with_keys(scene: &Scene, file: &str, keys: &[(&str, f64)]) -> Result<Scene, String> {
+pub fn with_keys(scene: &ValidScene, file: &str, keys: &[(&str, f64)]) -> Result<ValidScene, String> {
     let mut table: toml::Table = toml::from_str(&scene.to_toml()).map_err(|e| e.to_string())?;
     for &(path, value) in keys {
         let parts: Vec<&str> = path.split('.').collect();
@@ -178,7 +178,7 @@ pub fn with_keys(scene: &Scene, file: &str, keys: &[(&str, f64)]) -> Result<Scen
 }
 
 /// The lowest `count` natural frequencies (Hz) of `scene`, the platform as the scene has it.
-pub fn frequencies(scene: &Scene, count: usize) -> Result<Vec<f64>, String> {
+pub fn frequencies(scene: &ValidScene, count: usize) -> Result<Vec<f64>, String> {
     Ok(modal_state(scene, count)?.frequencies_hz)
 }
 
@@ -192,15 +192,16 @@ struct ModalState {
 }
 
 /// The lowest `count` modes of `scene`: frequencies (Hz) and the cabin's part of each shape.
-pub fn cabin_modes(scene: &Scene, count: usize) -> Result<(Vec<f64>, Vec<[f64; 6]>), String> {
+pub fn cabin_modes(scene: &ValidScene, count: usize) -> Result<(Vec<f64>, Vec<[f64; 6]>), String> {
     let m = modal_state(scene, count)?;
     Ok((m.frequencies_hz, m.cabin_shapes))
 }
 
 /// The lowest `count` modes of `scene` (frequencies in Hz, the cabin's part of each shape) and
 /// the end tensions of the static equilibrium they are taken about.
-fn modal_state(scene: &Scene, count: usize) -> Result<ModalState, String> {
-    let model = CableCabin::build(&modal_scene(scene), 0).map_err(|e| e.to_string())?;
+fn modal_state(scene: &ValidScene, count: usize) -> Result<ModalState, String> {
+    let model = modal_scene(scene).map_err(|e| e.to_string())?;
+    let model = CableCabin::build(&model, 0).map_err(|e| e.to_string())?;
     let tensions =
         model.equilibrium.cables.iter().map(|c| (c.tension_anchor.min(c.tension_cabin), c.largest_tension())).collect();
     if count == 0 {
@@ -226,7 +227,7 @@ struct Computed {
 
 /// The damping ratio of the scene's Rayleigh damping at each frequency of `f` (its modes, lowest
 /// first: the fit's modes are among them).
-fn damping_ratios(scene: &Scene, f: &[f64]) -> Result<Vec<f64>, String> {
+fn damping_ratios(scene: &ValidScene, f: &[f64]) -> Result<Vec<f64>, String> {
     let d = &scene.damping;
     let band = match (d.fit_modes, d.fit_frequencies_hz) {
         (Some([a, b]), _) => [a, b].map(|k| f.get(k - 1).copied()),
@@ -298,11 +299,11 @@ impl TensionBound {
 
 /// The scene for a modal analysis: its damping fitted at given frequencies, so that building the
 /// model does not compute modes of its own.
-pub fn modal_scene(scene: &Scene) -> Scene {
-    let mut bare = scene.clone();
-    bare.damping.fit_modes = None;
-    bare.damping.fit_frequencies_hz = Some([1.0, 2.0]);
-    bare
+pub fn modal_scene(scene: &ValidScene) -> Result<ValidScene, SceneError> {
+    scene.edited(|bare| {
+        bare.damping.fit_modes = None;
+        bare.damping.fit_frequencies_hz = Some([1.0, 2.0]);
+    })
 }
 
 /// A scaled key moved to one side for a difference, and the residuals there.
@@ -311,7 +312,7 @@ type Side = (f64, DVector<f64>);
 /// The scenes, the measured modes and the keys of one calibration.
 pub struct Problem {
     /// Each scene with the file it was read from.
-    pub scenes: Vec<(Scene, String)>,
+    pub scenes: Vec<(ValidScene, String)>,
     pub measured: Vec<Measured>,
     /// Where the measured modes came from (for messages).
     pub measured_file: String,
@@ -353,7 +354,7 @@ pub struct Fit {
     pub cost: f64,
     pub iterations: usize,
     /// Each scene with the fitted keys.
-    pub scenes: Vec<Scene>,
+    pub scenes: Vec<ValidScene>,
 }
 
 impl Problem {
@@ -408,7 +409,7 @@ impl Problem {
     }
 
     /// The scenes with the keys at `values`.
-    fn scenes_at(&self, values: &[f64]) -> Result<Vec<Scene>, String> {
+    fn scenes_at(&self, values: &[f64]) -> Result<Vec<ValidScene>, String> {
         self.scenes
             .iter()
             .map(|(s, file)| {

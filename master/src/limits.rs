@@ -3,7 +3,7 @@
 //! within the cap), and the memory the models will take, estimated from the scene against what
 //! the machine has.
 
-use feedcore::scene::Scene;
+use feedcore::scene::ValidScene;
 
 /// Default cap on the macro steps of one run: 1000 s at h = 1 ms, or the bench reference
 /// (100 s at 0.625 ms) six times over; about two minutes of IJCSA at ~100 µs per step.
@@ -176,7 +176,7 @@ const NODE_BYTES_CABLE: u64 = 1_500;
 const NODE_BYTES_COUPLED: u64 = 6_000;
 /// Elements per cable the run will build: the scene's, or a larger override set on an FMU
 /// through `[system.parameters]` (`<fmu>.elements_per_cable`).
-pub fn elements_per_cable(scene: &Scene) -> u64 {
+pub fn elements_per_cable(scene: &ValidScene) -> u64 {
     let overridden = scene
         .system
         .iter()
@@ -187,7 +187,7 @@ pub fn elements_per_cable(scene: &Scene) -> u64 {
 
 /// Estimated peak memory (bytes) of a run or analysis of `scene` that computes `modes` natural
 /// modes (0: none; the damping fit's own modes are counted anyway), and what dominates it.
-pub fn memory_needed(scene: &Scene, footprint: Footprint, modes: usize) -> (u64, String) {
+pub fn memory_needed(scene: &ValidScene, footprint: Footprint, modes: usize) -> (u64, String) {
     let cables = scene.cable_count() as u64;
     let elements = elements_per_cable(scene);
     let nodes = cables.saturating_mul(elements);
@@ -226,14 +226,14 @@ pub fn peak_memory() -> Option<u64> {
 }
 
 /// Refuses a run whose estimated memory exceeds the limit (or what is available).
-pub fn check_memory(scene: &Scene, footprint: Footprint, modes: usize, limits: &Limits) -> Result<(), PlanError> {
+pub fn check_memory(scene: &ValidScene, footprint: Footprint, modes: usize, limits: &Limits) -> Result<(), PlanError> {
     check_memory_of(scene, footprint, modes, 1, limits)
 }
 
 /// Refuses `copies` runs at once (parallel workers) whose estimated memory together exceeds
 /// the limit (or what is available).
 pub fn check_memory_of(
-    scene: &Scene,
+    scene: &ValidScene,
     footprint: Footprint,
     modes: usize,
     copies: u64,

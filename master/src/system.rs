@@ -10,7 +10,7 @@ use cosim::error_estimate::Kind;
 use cosim::step_control::{Controller, Limits, REFACTORIZING_HOLD, Tolerances};
 use cosim::system::spec::{Component, Connection, Endpoint, Matching, Parameter, Value};
 use cosim::{Coupled, FmuSystem, Needs, Options, SetupError, SystemSpec};
-use feedcore::scene::{Scene, Start};
+use feedcore::scene::{Start, ValidScene};
 use fmi2::{Causality, VarType};
 
 use crate::limits::{Limits as StepLimits, Plan, Schedule};
@@ -27,7 +27,7 @@ fn relative_to(scene_file: &Path, path: &str) -> PathBuf {
 /// connections by name prefix, parameters as text (`"@scene"`: the scene itself, handed over as
 /// a `data:` URI named after its file, so that the FMUs read exactly this scene, a variant made in
 /// memory included).
-pub fn scene_spec(scene: &Scene, scene_file: &Path) -> Result<SystemSpec, SetupError> {
+pub fn scene_spec(scene: &ValidScene, scene_file: &Path) -> Result<SystemSpec, SetupError> {
     let file_error = |message: String| SetupError::File { path: scene_file.to_owned(), message };
     let sys = scene
         .system
@@ -36,7 +36,8 @@ pub fn scene_spec(scene: &Scene, scene_file: &Path) -> Result<SystemSpec, SetupE
     let file_name = scene_file.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     let scene_text = fmi2::uri::data_uri("application/toml", &file_name, &scene.to_toml());
     let endpoint = |text: &str| {
-        let (component, variable) = text.split_once('.').expect("validated scene");
+        let (component, variable) =
+            text.split_once('.').expect("a ValidScene's connection ends and parameters are `fmu.name`");
         Endpoint { component: component.into(), variable: variable.into() }
     };
     Ok(SystemSpec {

@@ -5,7 +5,7 @@ use cable::model::{CableCabin, ModelError, Payload};
 use cable::system::System;
 use feedcore::genalpha::{Integrator, Newton, OptionsError};
 use feedcore::rigid::MassProperties;
-use feedcore::scene::{Scene, SensorKind, WrenchModel};
+use feedcore::scene::{SensorKind, ValidScene, WrenchModel};
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
 use stewart::constraints::{CABIN, CONSTRAINTS, ROWS_PER_LEG, SYSTEM_BODIES};
@@ -57,7 +57,7 @@ pub struct Start {
 }
 
 impl Model {
-    pub fn build(scene: &Scene) -> Result<Start, BuildError> {
+    pub fn build(scene: &ValidScene) -> Result<Start, BuildError> {
         if scene.control.as_ref().is_some_and(|c| c.sensor == SensorKind::Ideal) {
             return Err(BuildError::IdealSensor);
         }

@@ -3,7 +3,7 @@
 use feedcore::Vec3;
 use feedcore::genalpha::{self, Iterate, StepError, StepReport};
 use feedcore::rigid::RigidMotion;
-use feedcore::scene::{LEGS, Scene, SensorKind};
+use feedcore::scene::{LEGS, SensorKind, ValidScene};
 use nalgebra::Vector6;
 use stewart::CommandState;
 use stewart::constraints::{CABIN, DRIVING, ROWS_PER_LEG};
@@ -85,7 +85,7 @@ pub struct Monolithic {
 impl Monolithic {
     /// Builds the model of `scene` at its static equilibrium, from time 0, with consistent
     /// accelerations and multipliers.
-    pub fn new(scene: &Scene) -> Result<Monolithic, MonolithicError> {
+    pub fn new(scene: &ValidScene) -> Result<Monolithic, MonolithicError> {
         let start = Model::build(scene)?;
         let model = start.model;
         let fail = |reason: Fault| MonolithicError::Start { time: 0.0, reason };
@@ -135,6 +135,11 @@ impl Monolithic {
 
     pub fn time(&self) -> f64 {
         self.state.time
+    }
+
+    /// The compensation that commands the platform (an `off` one for a scene without `[control]`).
+    pub fn compensation(&self) -> Option<&stewart::Compensation> {
+        self.model.stewart.compensation()
     }
 
     /// The cable–cabin system (its cables, for element forces).

@@ -1,9 +1,9 @@
 //! The monolithic eq. (7) reference model: rest, constraint drift, and convergence in h.
 
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, ValidScene};
 use monolithic::Monolithic;
 
-fn scene(name: &str) -> Scene {
+fn scene(name: &str) -> ValidScene {
     Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
 }
 
@@ -11,8 +11,11 @@ fn scene(name: &str) -> Scene {
 #[test]
 fn platform_held_still_stays_at_rest() {
     for name in ["lt50m_C.toml", "lt50m_B.toml"] {
-        let mut s = scene(name);
-        s.motion.speed_m_s = 0.0;
+        let s = scene(name)
+            .edited(|s| {
+                s.motion.speed_m_s = 0.0;
+            })
+            .unwrap();
         let mut m = Monolithic::new(&s).unwrap();
         let p0 = m.sample().cabin.position;
         let mut drift = 0.0f64;
@@ -42,10 +45,13 @@ fn constraints_hold_over_100_s() {
 /// cabin-centre position over 3 s, sampled every 0.04 s).
 #[test]
 fn second_order_in_the_step_size() {
-    let mut s = scene("lt50m_C.toml");
-    s.motion.start = feedcore::scene::Start::Ramp; // smooth start: the error is the integrator's
-    s.motion.ramp_time_s = 1.0;
-    s.solver.newton_tol = 1e-13; // the integrator's error, not the solver's
+    let s = scene("lt50m_C.toml")
+        .edited(|s| {
+            s.motion.start = feedcore::scene::Start::Ramp; // smooth start: the error is the integrator's
+            s.motion.ramp_time_s = 1.0;
+            s.solver.newton_tol = 1e-13; // the integrator's error, not the solver's
+        })
+        .unwrap();
     let run = |h: f64| {
         let mut m = Monolithic::new(&s).unwrap();
         let per_sample = (0.04 / h).round() as usize;

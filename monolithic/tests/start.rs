@@ -2,16 +2,17 @@
 //! momentum of the cabin with everything on it is zero, computed here body by body from the
 //! monolithic model's start velocities (not from the formula that set them).
 
-use feedcore::scene::{Scene, Start};
+use feedcore::scene::{Scene, Start, ValidScene};
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Vec3};
 use monolithic::model::Model;
 use stewart::CABIN;
 
-fn scene(name: &str, start: Start) -> Scene {
-    let mut s = Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap();
-    s.motion.start = start;
-    s
+fn scene(name: &str, start: Start) -> ValidScene {
+    Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR")))
+        .unwrap()
+        .edited(|s| s.motion.start = start)
+        .unwrap()
 }
 
 /// Linear momentum and angular momentum about the cabin centre point of the cabin (with the

@@ -7,18 +7,18 @@ use cable::model::{CableCabin, Payload};
 use cable::modes::tangent;
 use feedcore::Vec3;
 use feedcore::rigid::RigidMotion;
-use feedcore::scene::{Scene, Start, WrenchModel};
+use feedcore::scene::{Scene, Start, ValidScene, WrenchModel};
 use monolithic::Monolithic;
 use nalgebra::{DMatrix, Vector6};
 use stewart::Stewart;
 
-fn scene(name: &str) -> Scene {
+fn scene(name: &str) -> ValidScene {
     Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
 }
 
 /// The cable net's stiffness condensed onto the cabin (free nodes in static equilibrium), with
 /// the platform riding on the cabin as at its start.
-fn condensed_stiffness(s: &Scene) -> (nalgebra::Matrix6<f64>, Vec3) {
+fn condensed_stiffness(s: &ValidScene) -> (nalgebra::Matrix6<f64>, Vec3) {
     let model = CableCabin::build(s, 0).unwrap();
     let sys = model.system(Payload::Locked);
     let k: DMatrix<f64> = tangent(&sys, &model.equilibrium_config()).stiffness.to_dense();
@@ -33,10 +33,13 @@ fn condensed_stiffness(s: &Scene) -> (nalgebra::Matrix6<f64>, Vec3) {
 
 #[test]
 fn without_the_weight_shift_the_cabin_follows_the_inertial_wrench_statically() {
-    let mut s = scene("lt50m_C.toml");
-    s.analyses.wrench = WrenchModel::InertialOnly;
-    s.motion.start = Start::Ramp;
-    s.motion.ramp_time_s = 10.0;
+    let s = scene("lt50m_C.toml")
+        .edited(|s| {
+            s.analyses.wrench = WrenchModel::InertialOnly;
+            s.motion.start = Start::Ramp;
+            s.motion.ramp_time_s = 10.0;
+        })
+        .unwrap();
     let (kc, p0) = condensed_stiffness(&s);
     let kc_inv = kc.try_inverse().unwrap();
     let stewart = Stewart::from_scene(&s).unwrap();
@@ -64,9 +67,12 @@ fn without_the_weight_shift_the_cabin_follows_the_inertial_wrench_statically() {
     assert!(peak > 5e-3 && peak < 0.05, "{peak}");
     assert!(worst <= 0.1 * peak, "{worst:e} against {peak:e}");
     // with the weight shift the response is three orders larger
-    let mut full = scene("lt50m_C.toml");
-    full.motion.start = Start::Ramp;
-    full.motion.ramp_time_s = 10.0;
+    let full = scene("lt50m_C.toml")
+        .edited(|full| {
+            full.motion.start = Start::Ramp;
+            full.motion.ramp_time_s = 10.0;
+        })
+        .unwrap();
     let mut m = Monolithic::new(&full).unwrap();
     for _ in 0..3000 {
         m.step(h).unwrap();
@@ -80,9 +86,12 @@ fn without_the_weight_shift_the_cabin_follows_the_inertial_wrench_statically() {
 #[test]
 fn held_still_either_wrench_model_rests_at_the_static_equilibrium() {
     for wrench in [WrenchModel::Full, WrenchModel::InertialOnly] {
-        let mut s = scene("lt50m_B.toml");
-        s.motion.speed_m_s = 0.0;
-        s.analyses.wrench = wrench;
+        let s = scene("lt50m_B.toml")
+            .edited(|s| {
+                s.motion.speed_m_s = 0.0;
+                s.analyses.wrench = wrench;
+            })
+            .unwrap();
         let target = s.target_position();
         let mut m = Monolithic::new(&s).unwrap();
         let mut drift = 0.0f64;

@@ -26,7 +26,7 @@
 use std::collections::VecDeque;
 
 use feedcore::random::SplitMix64;
-use feedcore::scene::{Control, LEGS, Scene, SensorKind, TargetKind};
+use feedcore::scene::{Control, ControlTarget, LEGS, SensorKind, TargetKind, ValidScene};
 use feedcore::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 
@@ -86,30 +86,28 @@ pub struct Compensation {
 }
 
 impl Compensation {
-    /// The compensation of `control` for the platform resting at `rest` (cabin frame), with
-    /// `rest_legs` the leg lengths there; the reference pose is the scene's target pose.
-    pub fn new(scene: &Scene, control: &Control, rest: Vec3, rest_legs: [f64; LEGS]) -> Compensation {
+    /// The compensation of the scene's `[control]` (without one: [`Compensation::uncontrolled`])
+    /// for the platform resting at `rest` (cabin frame), with `rest_legs` the leg lengths there;
+    /// the reference pose is the scene's target pose.
+    pub fn new(scene: &ValidScene, rest: Vec3, rest_legs: [f64; LEGS]) -> Compensation {
+        let uncontrolled = Compensation::uncontrolled();
+        let control = scene.control.as_ref().unwrap_or(&uncontrolled);
         let reference = (scene.target_position(), scene.target_orientation());
         let feed_point = Vec3::from(control.feed_point_m);
         let feed_start = reference.0 + reference.1 * (rest + feed_point);
-        let target = match control.target {
-            TargetKind::Hold => Target::Hold,
-            TargetKind::Circle => {
-                let offset = Vec3::from(control.circle_center_offset_m.expect("validated scene"));
-                let radius = offset.norm();
-                let speed = control.circle_speed_m_s.expect("validated scene");
+        let target = match scene.control_target() {
+            None | Some(ControlTarget::Hold) => Target::Hold,
+            Some(&ControlTarget::Circle { center_offset, speed }) => {
+                let radius = center_offset.norm();
                 Target::Circle {
-                    center: feed_start + offset,
+                    center: feed_start + center_offset,
                     radius,
-                    phase: (-offset.y).atan2(-offset.x),
+                    phase: (-center_offset.y).atan2(-center_offset.x),
                     omega: speed / radius,
                 }
             }
-            TargetKind::Samples => {
-                let v = |x: &Option<Vec<f64>>| x.clone().expect("validated scene");
-                let (x, y, z) = (v(&control.samples_x_m), v(&control.samples_y_m), v(&control.samples_z_m));
-                let displacements = (0..x.len()).map(|i| Vec3::new(x[i], y[i], z[i])).collect();
-                Target::Samples { times: v(&control.samples_time_s), displacements }
+            Some(ControlTarget::Samples { times, displacements }) => {
+                Target::Samples { times: times.clone(), displacements: displacements.clone() }
             }
         };
         let leg_limits = match (control.stroke_m, control.min_leg_m, control.max_leg_m) {
@@ -392,14 +390,13 @@ impl CommandState {
 mod tests {
     use super::*;
 
-    fn scene(extra: &str) -> Scene {
+    fn scene(extra: &str) -> ValidScene {
         let text = feedcore::shipped::embedded("lt50m_C.toml").unwrap().to_string() + extra;
-        Scene::from_toml(&text, "test.toml").unwrap()
+        feedcore::scene::Scene::from_toml(&text, "test.toml").unwrap()
     }
 
     fn compensation(extra: &str) -> Compensation {
-        let s = scene(extra);
-        Compensation::new(&s, s.control.as_ref().unwrap(), Vec3::new(0.1, 0.0, -1.8), [1.5; LEGS])
+        Compensation::new(&scene(extra), Vec3::new(0.1, 0.0, -1.8), [1.5; LEGS])
     }
 
     const SAMPLED: &str = "\n[control]\nfeed_point_m = [0.0, 0.0, -0.3]\ntarget = \"hold\"\nsensor = \"sampled\"\nsample_rate_hz = 20.0\n";

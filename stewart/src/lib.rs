@@ -27,7 +27,7 @@ pub mod sensitivity;
 pub mod wrench;
 
 use feedcore::rigid::MassProperties;
-use feedcore::scene::{LEGS, Motion, Scene};
+use feedcore::scene::{LEGS, Motion, ValidScene};
 use feedcore::stewart_geometry::{BODIES, StewartGeometry};
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{Rotation3, Vector6};
@@ -105,7 +105,7 @@ pub struct Stewart {
 impl Stewart {
     /// The model of a scene; with a `[control]` section the platform rests at its start point
     /// relative to the cabin unless the compensation moves it (`[motion]` is not used).
-    pub fn from_scene(scene: &Scene) -> Result<Stewart, StewartError> {
+    pub fn from_scene(scene: &ValidScene) -> Result<Stewart, StewartError> {
         let mut motion = scene.motion.clone();
         if scene.control.is_some() {
             motion.speed_m_s = 0.0;
@@ -113,8 +113,7 @@ impl Stewart {
         let mut stewart = Self::new(scene.stewart_geometry(), &motion, scene.gravity())?;
         let rest = stewart.path.at_rest();
         let legs = stewart.strokes_at(&rest, 0.0)?.map(|s| s.length);
-        let control = scene.control.clone().unwrap_or_else(Compensation::uncontrolled);
-        stewart.compensation = Some(Compensation::new(scene, &control, rest.position, legs));
+        stewart.compensation = Some(Compensation::new(scene, rest.position, legs));
         Ok(stewart)
     }
 
@@ -125,7 +124,7 @@ impl Stewart {
     }
 
     /// The model for a geometry, a platform motion and gravity (world frame, the scene's
-    /// [`Scene::gravity`]). Checks the whole prescribed motion (rest pose and first revolution)
+    /// [`feedcore::scene::Scene::gravity`]). Checks the whole prescribed motion (rest pose and first revolution)
     /// for leg lengths and singular poses.
     pub fn new(geometry: StewartGeometry, motion: &Motion, gravity: Vec3) -> Result<Stewart, StewartError> {
         if !gravity.iter().all(|g| g.is_finite()) {

@@ -74,8 +74,11 @@ fn jacobian_and_time_derivative_match_central_differences() {
 #[test]
 fn placed_motion_satisfies_every_constraint_for_100_seconds() {
     for (name, start) in [("lt50m_B", Start::Abrupt), ("lt50m_C", Start::Ramp)] {
-        let mut scene = common::scene(name);
-        scene.motion.start = start;
+        let scene = common::scene(name)
+            .edited(|scene| {
+                scene.motion.start = start;
+            })
+            .unwrap();
         let st = Stewart::from_scene(&scene).unwrap();
         let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
         let mut worst = [0.0_f64; 3];

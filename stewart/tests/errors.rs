@@ -8,8 +8,11 @@ use stewart::{CabinMotion, Stewart, StewartError};
 
 #[test]
 fn legs_too_short_for_the_stroke_are_rejected_at_the_start() {
-    let mut scene = common::scene("lt50m_C");
-    scene.stewart.upper_leg.length_m = 1.5; // a leg can be no shorter than its longer part
+    let scene = common::scene("lt50m_C")
+        .edited(|scene| {
+            scene.stewart.upper_leg.length_m = 1.5; // a leg can be no shorter than its longer part
+        })
+        .unwrap();
     let err = Stewart::from_scene(&scene).unwrap_err();
     let StewartError::LegLength { leg, time, length, shortest, .. } = err.clone() else { panic!("{err}") };
     assert_eq!((time, shortest), (0.0, 1.5));
@@ -20,7 +23,7 @@ fn legs_too_short_for_the_stroke_are_rejected_at_the_start() {
 
 #[test]
 fn a_leg_too_long_somewhere_on_the_circle_is_found_with_its_time() {
-    let mut scene = common::scene("lt50m_C");
+    let scene = common::scene("lt50m_C");
     let st = Stewart::from_scene(&scene).unwrap();
     // the longest leg over one revolution, sampled finely
     let end = st.path().revolution_time().unwrap();
@@ -30,7 +33,7 @@ fn a_leg_too_long_somewhere_on_the_circle_is_found_with_its_time() {
     let start_longest = st.relative(0.0).unwrap().strokes.iter().map(|s| s.length).fold(0.0, f64::max);
     assert!(longest > start_longest + 1e-3);
     // parts that reach all but 1 mm of it (upper 0.8 m stays, the lower part is shortened)
-    scene.stewart.lower_leg.length_m = longest - 1e-3 - scene.stewart.upper_leg.length_m;
+    let scene = scene.edited(|s| s.stewart.lower_leg.length_m = longest - 1e-3 - s.stewart.upper_leg.length_m).unwrap();
     let err = Stewart::from_scene(&scene).unwrap_err();
     let StewartError::LegLength { leg, time, length, longest: limit, .. } = err.clone() else { panic!("{err}") };
     assert!(time > 0.0 && length > limit);
@@ -57,10 +60,13 @@ fn a_leg_along_its_hooke_axis_is_singular() {
 
 #[test]
 fn parallel_legs_are_a_singular_pose() {
-    let mut scene = common::scene("lt50m_C");
     // platform joints right below the base joints: all six legs parallel
-    scene.stewart.platform_joints = scene.stewart.base_joints.clone();
-    scene.stewart.platform_joints.z_m = 0.0;
+    let scene = common::scene("lt50m_C")
+        .edited(|s| {
+            s.stewart.platform_joints = s.stewart.base_joints.clone();
+            s.stewart.platform_joints.z_m = 0.0;
+        })
+        .unwrap();
     let err = Stewart::from_scene(&scene).unwrap_err();
     assert!(matches!(err, StewartError::SingularPose { time: 0.0, .. }), "{err}");
     assert!(err.to_string().contains("singular pose"));

@@ -41,10 +41,13 @@ fn the_test_cabin_path_is_self_consistent() {
 fn relative_motion_matches_finite_differences() {
     for name in ["lt50m_B", "lt50m_C"] {
         for start in [Start::Abrupt, Start::Ramp] {
-            let mut scene = common::scene(name);
-            scene.motion.start = start;
-            // A faster circle makes every derivative term count.
-            scene.motion.speed_m_s = 0.3;
+            let scene = common::scene(name)
+                .edited(|scene| {
+                    scene.motion.start = start;
+                    // A faster circle makes every derivative term count.
+                    scene.motion.speed_m_s = 0.3;
+                })
+                .unwrap();
             let st = Stewart::from_scene(&scene).unwrap();
             for t in [0.4, 1.1, 2.9, 4.2, 7.7] {
                 for i in 0..BODIES {
@@ -109,8 +112,11 @@ fn leg_frames_obey_the_joints() {
 
 #[test]
 fn placed_bodies_match_finite_differences_on_a_moving_cabin() {
-    let mut scene = common::scene("lt50m_C");
-    scene.motion.speed_m_s = 0.3;
+    let scene = common::scene("lt50m_C")
+        .edited(|scene| {
+            scene.motion.speed_m_s = 0.3;
+        })
+        .unwrap();
     let st = Stewart::from_scene(&scene).unwrap();
     let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
     for t in [0.5, 2.2, 6.1] {
@@ -123,8 +129,11 @@ fn placed_bodies_match_finite_differences_on_a_moving_cabin() {
 
 #[test]
 fn ramp_start_is_smooth_and_abrupt_start_is_not() {
-    let mut scene = common::scene("lt50m_B");
-    scene.motion.start = Start::Ramp;
+    let scene = common::scene("lt50m_B")
+        .edited(|scene| {
+            scene.motion.start = Start::Ramp;
+        })
+        .unwrap();
     let ramp = Stewart::from_scene(&scene).unwrap();
     let cabin = common::cabin_at_target(&scene);
     let eps = 1e-9;
@@ -143,8 +152,7 @@ fn ramp_start_is_smooth_and_abrupt_start_is_not() {
         assert!(jump < 1e-6, "wrench jumps at t = {t0} by {jump:e}");
     }
     // the abrupt start jumps to full speed at t = 0
-    scene.motion.start = Start::Abrupt;
-    let abrupt = Stewart::from_scene(&scene).unwrap();
+    let abrupt = Stewart::from_scene(&scene.edited(|s| s.motion.start = Start::Abrupt).unwrap()).unwrap();
     let (a, b) = (abrupt.relative(-eps).unwrap(), abrupt.relative(0.0).unwrap());
     assert!((a.bodies[0].velocity - b.bodies[0].velocity).norm() > 0.019);
     let (wa, wb) = (abrupt.wrench(&cabin, -eps).unwrap(), abrupt.wrench(&cabin, 0.0).unwrap());

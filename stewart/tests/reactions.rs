@@ -6,7 +6,7 @@ mod common;
 
 use common::CabinPath;
 use feedcore::rigid::exp_so3;
-use feedcore::scene::{LEGS, Scene};
+use feedcore::scene::{LEGS, ValidScene};
 use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{DMatrix, DVector, Matrix6, Vector6};
@@ -16,8 +16,11 @@ use stewart::{CabinMotion, Evaluation, Stewart};
 #[test]
 fn hooke_reactions_add_up_to_the_momentum_wrench() {
     for name in ["lt50m_B", "lt50m_C"] {
-        let mut scene = common::scene(name);
-        scene.motion.speed_m_s = 0.3;
+        let scene = common::scene(name)
+            .edited(|scene| {
+                scene.motion.speed_m_s = 0.3;
+            })
+            .unwrap();
         let st = Stewart::from_scene(&scene).unwrap();
         let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
         for t in [0.0, 1.5, 7.0, 19.0, 33.0] {
@@ -86,8 +89,11 @@ fn multipliers_solve_the_full_system_of_eq_5() {
 
 #[test]
 fn every_body_is_in_newton_euler_balance_with_its_joint_reactions() {
-    let mut scene = common::scene("lt50m_C");
-    scene.motion.speed_m_s = 0.3;
+    let scene = common::scene("lt50m_C")
+        .edited(|scene| {
+            scene.motion.speed_m_s = 0.3;
+        })
+        .unwrap();
     let st = Stewart::from_scene(&scene).unwrap();
     let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
     let t = 5.5;
@@ -132,7 +138,7 @@ fn every_body_is_in_newton_euler_balance_with_its_joint_reactions() {
 
 /// Gravity potential of the platform and legs with the platform at (c, R) in the cabin frame, and
 /// the six leg lengths, written from the scene numbers alone.
-fn potential_and_lengths(scene: &Scene, c: &Vec3, r: &Mat3, gravity_cabin: &Vec3) -> (f64, [f64; 6]) {
+fn potential_and_lengths(scene: &ValidScene, c: &Vec3, r: &Mat3, gravity_cabin: &Vec3) -> (f64, [f64; 6]) {
     let s = &scene.stewart;
     let base = s.base_joints.points();
     let plat = s.platform_joints.points();
@@ -152,7 +158,7 @@ fn potential_and_lengths(scene: &Scene, c: &Vec3, r: &Mat3, gravity_cabin: &Vec3
 
 /// Actuator tensions holding the platform at rest at `center` by virtual work:
 /// Σ −T_k δℓ_k − δV = 0 for every pose change, i.e. T = −J⁻ᵀ ∇V, both by 4th-order differences.
-fn virtual_work_tensions(scene: &Scene, center: &Vec3, gravity_cabin: &Vec3) -> [f64; 6] {
+fn virtual_work_tensions(scene: &ValidScene, center: &Vec3, gravity_cabin: &Vec3) -> [f64; 6] {
     let h = 1e-4;
     let mut grad = Vector6::zeros();
     let mut jac = Matrix6::zeros();
@@ -178,10 +184,14 @@ fn virtual_work_tensions(scene: &Scene, center: &Vec3, gravity_cabin: &Vec3) -> 
 }
 
 /// The scene's platform held at rest at `offset` from its nominal centre (no motion).
-fn at_rest(mut scene: Scene, offset: Vec3) -> (Scene, Stewart) {
-    let c = Vec3::from(scene.stewart.platform.nominal_center_m) + offset;
-    scene.stewart.platform.nominal_center_m = c.into();
-    scene.motion.radius_m = 0.0;
+fn at_rest(scene: ValidScene, offset: Vec3) -> (ValidScene, Stewart) {
+    let scene = scene
+        .edited(|s| {
+            let c = Vec3::from(s.stewart.platform.nominal_center_m) + offset;
+            s.stewart.platform.nominal_center_m = c.into();
+            s.motion.radius_m = 0.0;
+        })
+        .unwrap();
     let st = Stewart::from_scene(&scene).unwrap();
     (scene, st)
 }

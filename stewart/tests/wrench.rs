@@ -74,9 +74,12 @@ fn reversed_wrench_plus_gravity_is_the_rate_of_momentum() {
     for (name, start, speed) in
         [("lt50m_B", Start::Abrupt, 0.02), ("lt50m_C", Start::Ramp, 0.02), ("lt50m_B", Start::Ramp, 0.5)]
     {
-        let mut scene = common::scene(name);
-        scene.motion.start = start;
-        scene.motion.speed_m_s = speed;
+        let scene = common::scene(name)
+            .edited(|scene| {
+                scene.motion.start = start;
+                scene.motion.speed_m_s = speed;
+            })
+            .unwrap();
         let st = Stewart::from_scene(&scene).unwrap();
         let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
         let origin = scene.target_position() + Vec3::new(0.3, -0.2, 0.1);
@@ -133,8 +136,11 @@ fn split(x: &Vector6<f64>) -> (Vec3, Vec3) {
 #[test]
 fn jacobians_match_central_differences() {
     for (name, speed) in [("lt50m_B", 0.02), ("lt50m_C", 0.02), ("lt50m_B", 0.5)] {
-        let mut scene = common::scene(name);
-        scene.motion.speed_m_s = speed;
+        let scene = common::scene(name)
+            .edited(|scene| {
+                scene.motion.speed_m_s = speed;
+            })
+            .unwrap();
         let st = Stewart::from_scene(&scene).unwrap();
         let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
         for t in [0.0, 1.9, 8.4, 23.0] {

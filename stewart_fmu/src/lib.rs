@@ -27,7 +27,7 @@
 use std::path::Path;
 
 use feedcore::rigid::{MotionChange, rotation_of_quaternion_change};
-use feedcore::scene::{Scene, SceneError, Start};
+use feedcore::scene::{Scene, SceneError, Start, ValidScene};
 use feedcore::{Quat, Vec3};
 use fmi2::description::Causality;
 use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
@@ -48,7 +48,7 @@ pub const GUID: &str = "{3c1e9f27-84b5-4a6d-9e02-5f7d1b8c6a43}";
 pub const INPUTS: usize = fmi2::table::count(vr::TABLE, Causality::Input);
 
 /// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
-static SCENES: FileKind<Scene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
+static SCENES: FileKind<ValidScene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
 
 /// The variables: value references (separate spaces per type) and, for the Real ones, the table
 /// the description and the names come from.
@@ -118,7 +118,7 @@ struct Cache {
 }
 
 pub struct StewartFmu {
-    scene: FileParameter<Scene, SceneError>,
+    scene: FileParameter<ValidScene, SceneError>,
     /// The settings, inputs and time, saved as they are.
     data: Data,
     model: Option<Stewart>,
@@ -152,7 +152,7 @@ pub struct SavedStewart<'a> {
 }
 
 /// The scene's static pose at rest, as input values.
-fn rest_inputs(scene: &Scene) -> [f64; INPUTS] {
+fn rest_inputs(scene: &ValidScene) -> [f64; INPUTS] {
     let mut u = [0.0; INPUTS];
     let (p, q) = (scene.target_position(), scene.target_orientation());
     u[0..3].copy_from_slice(p.as_slice());
@@ -168,7 +168,7 @@ const POSE_WARNING_TOLERANCE: f64 = 1e-6;
 /// Why the cabin pose held at the start does not look like the scene's: an importer that left
 /// the cabin inputs at their declared start values (scene C's) while running another scene
 /// computes the platform on a cabin where the scene does not put it.
-fn pose_mismatch(scene_name: &str, scene: &Scene, u: &[f64; INPUTS]) -> Option<String> {
+fn pose_mismatch(scene_name: &str, scene: &ValidScene, u: &[f64; INPUTS]) -> Option<String> {
     let rest = rest_inputs(scene);
     let held = cabin_motion(u).ok()?;
     let target = cabin_motion(&rest).ok()?;
@@ -244,7 +244,7 @@ impl StewartFmu {
         let model = match self.model.take() {
             Some(m) if self.built_for == Some(key) => m,
             _ => {
-                let mut s = self.scene.value().clone();
+                let mut s = self.scene.value().to_scene();
                 let st = &self.data.settings;
                 for (value, target) in [(st.radius, &mut s.motion.radius_m), (st.speed, &mut s.motion.speed_m_s)] {
                     if value >= 0.0 {
@@ -259,14 +259,16 @@ impl StewartFmu {
                     2 => s.motion.start = Start::Ramp,
                     _ => {}
                 }
-                s.validate(self.scene.label())?;
                 // Before the start the platform rests at its start pose: the motion (and an
                 // abrupt start's jump) begins at the start time, so that a consistent
                 // initialization puts the cable net in its static equilibrium under the
                 // platform's weight.
-                let mut held = s.clone();
-                held.motion.speed_m_s = 0.0;
-                let model = Stewart::from_scene(if self.data.initialized { &s } else { &held })?;
+                let moving = s.validated(self.scene.label())?;
+                let model = if self.data.initialized {
+                    Stewart::from_scene(&moving)?
+                } else {
+                    Stewart::from_scene(&moving.edited(|held| held.motion.speed_m_s = 0.0)?)?
+                };
                 self.built_for = Some(key);
                 self.cache = Cache::default();
                 model

@@ -1,13 +1,13 @@
 //! The FMU adapter (called in-process through the `fmi2::Model` trait) against the library and
 //! against central differences.
 
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, ValidScene};
 use fmi2::ModelInfo;
 use fmi2::export::Model;
 use stewart::{CabinMotion, Stewart};
 use stewart_fmu::{INPUTS, StewartFmu, vr};
 
-fn scene(name: &str) -> Scene {
+fn scene(name: &str) -> ValidScene {
     if std::path::Path::new(name).is_absolute() {
         return Scene::load(name).unwrap();
     }

@@ -3,13 +3,13 @@
 
 use cable::net::CableNet;
 use cable::statics::{Equilibrium, form_find};
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, ValidScene};
 
-pub(crate) fn scene(name: &str) -> Scene {
+pub(crate) fn scene(name: &str) -> ValidScene {
     Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
 }
 
-pub(crate) fn equilibrium(scene: &Scene) -> (CableNet, Equilibrium) {
+pub(crate) fn equilibrium(scene: &ValidScene) -> (CableNet, Equilibrium) {
     let net = CableNet::from_scene(scene);
     let eq = form_find(&net, scene.target_position(), scene.target_orientation()).unwrap();
     (net, eq)

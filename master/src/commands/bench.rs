@@ -153,7 +153,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             bail!("--dts: {d} does not divide the coarsest step {coarse}");
         }
     }
-    scene.outputs.sample_interval_s = coarse;
+    scene = scene.edited(|s| s.outputs.sample_interval_s = coarse).context("--dts")?;
     let reference_dt = args.reference_dt.unwrap_or(dts.iter().cloned().fold(f64::INFINITY, f64::min) / 4.0);
 
     // every run is checked before the first one starts
@@ -172,8 +172,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let (reference_scene, reference_file) = if args.adaptive_rtols.is_empty() {
         (variant.clone(), file.clone())
     } else {
-        let mut fine = variant.clone();
-        fine.outputs.sample_interval_s = reference_dt;
+        let fine = variant.edited(|s| s.outputs.sample_interval_s = reference_dt).context("--reference-dt")?;
         (fine, file.clone())
     };
     let reference = Run::prepare(

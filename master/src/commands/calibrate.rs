@@ -4,7 +4,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, ValidScene};
 use master::calibrate::{Key, Problem, TensionBound, get_key, read_measured};
 use master::table::Table;
 use serde_json::json;
@@ -72,8 +72,8 @@ fn bounds_of(key: &str, start: f64, given: &[String]) -> anyhow::Result<(f64, f6
 }
 
 /// `scene` (read from `file`) with the FMU paths of its [system] absolute.
-fn portable(scene: &Scene, file: &Path) -> anyhow::Result<Scene> {
-    let mut s = scene.clone();
+fn portable(scene: &ValidScene, file: &Path) -> anyhow::Result<Scene> {
+    let mut s = scene.to_scene();
     if let Some(sys) = s.system.as_mut() {
         let base = file.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let base = std::fs::canonicalize(base).with_context(|| format!("{}: its folder", file.display()))?;
@@ -91,7 +91,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut inputs = vec![args.measured.clone()];
     for file in &args.scenes {
         let s = load_scene(file)?;
-        if scenes.iter().any(|(o, _): &(Scene, String)| o.name == s.name) {
+        if scenes.iter().any(|(o, _): &(ValidScene, String)| o.name == s.name) {
             bail!(
                 "--scene {}: another scene is also named `{}`; the measured modes name scenes by `name`",
                 file.display(),

@@ -3,6 +3,7 @@
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
+use anyhow::Context;
 use master::simulate::{Run, RunError};
 use master::table::Table;
 use serde_json::json;
@@ -50,8 +51,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
     // errors at every step: every run samples every step
-    let mut sampled = scene.clone();
-    sampled.outputs.sample_interval_s = dt;
+    let sampled = scene.edited(|s| s.outputs.sample_interval_s = dt).context("--dt")?;
     let limits = caps().run;
     let prepare = |options: &SchemeOptions, name: SchemeName| -> anyhow::Result<Run> {
         Ok(Run::prepare(&sampled, &args.scene, options.method(name)?, dt, t_end, &limits)?)

@@ -16,7 +16,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use feedcore::Vec3;
-use feedcore::scene::{Scene, SensorKind};
+use feedcore::scene::{Scene, SceneError, SensorKind, ValidScene};
 use master::interrupt;
 use master::journal::{self, Journal};
 use master::limits::{Footprint, PlanError, check_memory};
@@ -81,7 +81,7 @@ fn step_for(period: f64) -> f64 {
 
 /// The steps of a run over `t_end` at `h`, refused before anything runs when `h` is not a
 /// positive finite number or the steps exceed --max-steps, or the model would not fit in memory.
-fn checked_steps(scene: &Scene, h: f64, t_end: f64, what: &str) -> anyhow::Result<usize> {
+fn checked_steps(scene: &ValidScene, h: f64, t_end: f64, what: &str) -> anyhow::Result<usize> {
     let limits = caps().run;
     if !(h > 0.0 && h.is_finite()) {
         bail!("{what}: the step h = {h} s the sensor's rate gives is not a positive finite number");
@@ -116,7 +116,7 @@ fn rms_peak(x: &[f64]) -> (f64, f64) {
 /// Runs `scene` in the monolithic model with step `h` to `t_end`; the feed is placed by `comp`
 /// (the scene's own compensation); `replay`: a sampled compensation to replay on the poses.
 fn history(
-    scene: &Scene,
+    scene: &ValidScene,
     comp: &Compensation,
     h: f64,
     steps: usize,
@@ -152,12 +152,14 @@ fn history(
 }
 
 /// The scene with its sensor switched off (the uncompensated reference).
-fn uncompensated(scene: &Scene) -> Scene {
-    let mut s = scene.clone();
-    let c = s.control.as_mut().expect("checked");
-    c.sensor = SensorKind::Off;
-    (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz, c.seed) = (None, 0.0, 0.0, 0.0, None, None);
-    s
+fn uncompensated(scene: &ValidScene) -> Result<ValidScene, SceneError> {
+    scene.edited(|s| {
+        if let Some(c) = s.control.as_mut() {
+            c.sensor = SensorKind::Off;
+            (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz, c.seed) =
+                (None, 0.0, 0.0, 0.0, None, None);
+        }
+    })
 }
 
 /// One case of the sweep: whether it stayed stable, and its feed error RMS and peak (mm).
@@ -189,15 +191,18 @@ impl Verdict {
 pub(crate) fn run(args: &Args) -> CmdResult {
     let mut scene = load_scene(&args.scene)?;
     let shown = args.scene.display();
-    if let (Some(b), Some(c)) = (args.bandwidth, scene.control.as_mut()) {
-        c.bandwidth_hz = Some(b);
-        scene.validate(&shown.to_string()).context("--bandwidth")?;
+    if let Some(b) = args.bandwidth {
+        let with_bandwidth = |s: &mut Scene| {
+            if let Some(c) = s.control.as_mut() {
+                c.bandwidth_hz = Some(b);
+            }
+        };
+        scene = scene.edited(with_bandwidth).context("--bandwidth")?;
     }
-    let period = match &scene.control {
-        Some(c) if c.sensor == SensorKind::Sampled => c.sample_period().expect("validated scene"),
-        Some(c) => bail!(
-            "{shown}: [control] sensor = {:?}; `master compensation` studies a sampled sensor (set sensor = \"sampled\")",
-            c.sensor
+    let period = match scene.control.as_ref().map(|c| (c.sensor, c.sample_period())) {
+        Some((_, Some(period))) => period,
+        Some((sensor, None)) => bail!(
+            "{shown}: [control] sensor = {sensor:?}; `master compensation` studies a sampled sensor (set sensor = \"sampled\")"
         ),
         None => bail!("{shown}: the scene has no [control] section (the second level): nothing to compensate"),
     };
@@ -212,7 +217,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let jobs = args.jobs.map(usize::from);
 
     // the uncompensated run (its poses also feed the decoupled replay) and the coupled one
-    let off = uncompensated(&scene);
+    let off = uncompensated(&scene)?;
     eprintln!("{shown}: uncompensated, compensated and decoupled runs over {} s at h = {h} s …", args.t_end);
     let mains = master::parallel::map_in_order(&[true, false], jobs, |_, &is_off| {
         if is_off { history(&off, &comp, h, steps, Some(&comp)) } else { history(&scene, &comp, h, steps, None) }
@@ -233,11 +238,13 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut cases = Vec::new();
     for &rate in &args.rates {
         for &delay in &args.delays {
-            let mut s = scene.clone();
-            let c = s.control.as_mut().expect("checked");
-            (c.sample_rate_hz, c.delay_s) = (Some(rate), delay);
             let case = format!("sweep case {rate} Hz, delay {delay} s");
-            s.validate(&shown.to_string()).with_context(|| case.clone())?;
+            let at_case = |s: &mut Scene| {
+                if let Some(c) = s.control.as_mut() {
+                    (c.sample_rate_hz, c.delay_s) = (Some(rate), delay);
+                }
+            };
+            let s = scene.edited(at_case).with_context(|| case.clone())?;
             let steps = checked_steps(&s, step_for(1.0 / rate), args.sweep_t_end, &case)?;
             cases.push((rate, delay, s, steps));
         }
@@ -253,7 +260,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let journal = Journal::open(&journal::path(&args.out, "sweep.csv"), &identity, args.resume)?;
     eprintln!("sweep: {} runs over {} s ({} done before) …", cases.len(), args.sweep_t_end, journal.resumed());
     let quiet = !std::io::stderr().is_terminal();
-    let case = |(rate, delay, s, steps): &(f64, f64, Scene, usize)| {
+    let case = |(rate, delay, s, steps): &(f64, f64, ValidScene, usize)| {
         let c = Stewart::from_scene(s).map(|st| st.compensation().cloned().expect("has [control]"));
         let c = match c {
             Ok(c) => c,
@@ -391,7 +398,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
 fn sweep_figure(
     name: &str,
     args: &Args,
-    cases: &[(f64, f64, Scene, usize)],
+    cases: &[(f64, f64, ValidScene, usize)],
     results: &[Verdict],
 ) -> Result<String, Box<dyn std::error::Error + Send + Sync>> {
     let stable_max = results.iter().filter(|v| v.stable).map(|v| v.rms).fold(0.0, f64::max);

@@ -6,7 +6,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use anyhow::Context;
-use feedcore::scene::{Scene, SceneErrorKind};
+use feedcore::scene::{Scene, SceneErrorKind, ValidScene};
 use master::limits::Limits;
 
 pub(crate) mod bench;
@@ -60,13 +60,13 @@ pub(crate) fn caps() -> Caps {
 
 /// The digest of a scene as parsed: parts of one sweep, and a journal and the work it belongs
 /// to, must share it.
-pub(crate) fn fingerprint(scene: &Scene) -> String {
+pub(crate) fn fingerprint(scene: &ValidScene) -> String {
     format!("{:016x}", fmi2::digest::digest(scene.to_toml().as_bytes()))
 }
 
 /// One run of a scene within the caps of the command line (what `master run` checks).
 pub(crate) fn simulate(
-    scene: &Scene,
+    scene: &ValidScene,
     scene_file: &Path,
     method: master::simulate::Method,
     dt: f64,
@@ -77,7 +77,7 @@ pub(crate) fn simulate(
 }
 
 /// Reads a scene within the size cap; a file over it names the flag that raises it.
-pub(crate) fn load_scene(path: &Path) -> anyhow::Result<Scene> {
+pub(crate) fn load_scene(path: &Path) -> anyhow::Result<ValidScene> {
     match Scene::load_limited(path, caps().scene_bytes) {
         Ok(s) => Ok(s),
         Err(e) if matches!(e.kind, SceneErrorKind::TooLarge { .. }) => {

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use cable::model::CableCabin;
 use cable::modes::{Dropped, modes_dropping, straight_cable_frequencies};
-use feedcore::scene::{Scene, StewartMode};
+use feedcore::scene::{SceneError, StewartMode, ValidScene};
 use master::limits::{Footprint, check_memory, memory_needed, peak_memory};
 use master::table::Table;
 use nalgebra::Vector6;
@@ -82,33 +82,38 @@ pub(crate) enum Platform {
 }
 
 /// The scene as a modal case sees it: the platform as `platform` says, E replaced.
-pub(crate) fn case_scene(scene: &Scene, platform: Platform, youngs_modulus: Option<f64>) -> Scene {
-    let mut s = scene.clone();
-    if let Some(e) = youngs_modulus {
-        s.cables.youngs_modulus_pa = e;
-    }
-    match platform {
-        Platform::Locked => {}
-        Platform::AddedMass => {
-            s.cabin.mass_kg += s.stewart_geometry().total_mass();
-            s.analyses.stewart = StewartMode::Absent;
+pub(crate) fn case_scene(
+    scene: &ValidScene,
+    platform: Platform,
+    youngs_modulus: Option<f64>,
+) -> Result<ValidScene, SceneError> {
+    let platform_mass = scene.stewart_geometry().total_mass();
+    scene.edited(|s| {
+        if let Some(e) = youngs_modulus {
+            s.cables.youngs_modulus_pa = e;
         }
-        Platform::Absent => s.analyses.stewart = StewartMode::Absent,
-    }
-    s
+        match platform {
+            Platform::Locked => {}
+            Platform::AddedMass => {
+                s.cabin.mass_kg += platform_mass;
+                s.analyses.stewart = StewartMode::Absent;
+            }
+            Platform::Absent => s.analyses.stewart = StewartMode::Absent,
+        }
+    })
 }
 
 /// The lowest `count` frequencies (Hz) of `scene` under a hypothesis, platform and modulus
 /// (the straight-cable models have six).
 pub(crate) fn case_frequencies(
-    scene: &Scene,
+    scene: &ValidScene,
     hypothesis: Hypothesis,
     platform: Platform,
     youngs_modulus: Option<f64>,
     count: usize,
 ) -> anyhow::Result<Vec<f64>> {
-    let s = case_scene(scene, platform, youngs_modulus);
-    let model = CableCabin::build(&master::calibrate::modal_scene(&s), 0)?;
+    let s = case_scene(scene, platform, youngs_modulus)?;
+    let model = CableCabin::build(&master::calibrate::modal_scene(&s)?, 0)?;
     let sys = model.system(cable::model::Payload::Locked);
     let cfg = model.equilibrium_config();
     let dropped = |cable_end_rotation, weight_rotation| Dropped { cable_end_rotation, weight_rotation };
@@ -128,7 +133,7 @@ pub(crate) fn case_frequencies(
 }
 
 /// `master modes` with a hypothesis, another platform or another E: the frequencies alone.
-fn run_case(args: &Args, scene: &Scene, count: usize) -> CmdResult {
+fn run_case(args: &Args, scene: &ValidScene, count: usize) -> CmdResult {
     let f = case_frequencies(scene, args.hypothesis, args.platform, args.youngs_modulus, count)?;
     let platform = clap::ValueEnum::to_possible_value(&args.platform).map_or("?".into(), |v| v.get_name().to_owned());
     let e = args.youngs_modulus.unwrap_or(scene.cables.youngs_modulus_pa);

@@ -6,7 +6,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use cable::model::{CableCabin, Payload};
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, ValidScene};
 use nalgebra::Vector6;
 
 use super::BoxResult as CmdResult;
@@ -72,7 +72,7 @@ pub(crate) fn run(args: &Args) -> anyhow::Result<()> {
 fn replay(args: &Args, f: &mut dyn Write) -> CmdResult {
     let mut scene = Scene::load(&args.scene)?;
     if let Some(tol) = args.newton_tol {
-        scene.solver.newton_tol = tol;
+        scene = scene.edited(|s| s.solver.newton_tol = tol)?;
     }
     let (header, rows) = read_csv(&args.inputs)?;
     if header.first().map(String::as_str) != Some("time") || rows.len() < 2 {
@@ -96,7 +96,7 @@ fn head(outputs: Vec<String>) -> String {
     std::iter::once("time".to_owned()).chain(outputs).collect::<Vec<_>>().join(",")
 }
 
-fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], f: &mut dyn Write) -> CmdResult {
+fn replay_cable(scene: &ValidScene, header: &[String], rows: &[Vec<f64>], f: &mut dyn Write) -> CmdResult {
     let cols = columns(header, &cable_fmu::input_names())?;
     let wrench = |r: &[f64]| Vector6::from_iterator(cols.iter().map(|&c| r[c]));
     let model = CableCabin::from_scene(scene)?;
@@ -128,7 +128,7 @@ fn replay_cable(scene: &Scene, header: &[String], rows: &[Vec<f64>], f: &mut dyn
     Ok(())
 }
 
-fn replay_stewart(scene: &Scene, header: &[String], rows: &[Vec<f64>], f: &mut dyn Write) -> CmdResult {
+fn replay_stewart(scene: &ValidScene, header: &[String], rows: &[Vec<f64>], f: &mut dyn Write) -> CmdResult {
     let cols = columns(header, &stewart_fmu::input_names())?;
     let model = stewart::Stewart::from_scene(scene)?;
     writeln!(f, "{}", head(stewart_fmu::output_names()))?;

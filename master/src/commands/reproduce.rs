@@ -18,7 +18,7 @@ use cable::model::{CableCabin, Payload};
 use cable::modes::tangent;
 use feedcore::Vec3;
 use feedcore::rigid::RigidMotion;
-use feedcore::scene::{Scene, Start, WrenchModel};
+use feedcore::scene::{Start, ValidScene, WrenchModel};
 use master::simulate::{Method, Trace};
 use nalgebra::{DMatrix, Matrix6, Vector6};
 use plotters::prelude::*;
@@ -184,7 +184,7 @@ fn analyse(scene: &'static str, case: ResponseCase, trace: Trace) -> Response {
 /// cabin at rest (the Stewart model with gravity off) over one revolution, through the cable
 /// net's stiffness condensed onto the cabin: largest |δ| with force and moment, the force
 /// alone, the moment alone; and the largest force (N) and moment (N·m).
-fn static_inertial(scene: &Scene) -> anyhow::Result<[f64; 5]> {
+fn static_inertial(scene: &ValidScene) -> anyhow::Result<[f64; 5]> {
     let model = CableCabin::build(scene, 0)?;
     let sys = model.system(Payload::Locked);
     let k: DMatrix<f64> = tangent(&sys, &model.equilibrium_config()).stiffness.to_dense();
@@ -262,9 +262,10 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut responses = Vec::new();
     for (name, scene, path) in &scenes {
         for case in RESPONSES {
-            let mut s = scene.clone();
-            s.motion.start = case.start;
-            s.analyses.wrench = case.wrench;
+            let s = scene.edited(|s| {
+                s.motion.start = case.start;
+                s.analyses.wrench = case.wrench;
+            })?;
             let trace = simulate(&s, path, Method::Monolithic, s.solver.dt_s, t_end, true)
                 .with_context(|| format!("{name}, {}", case.name))?;
             responses.push(analyse(name, case, trace));

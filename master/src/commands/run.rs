@@ -5,7 +5,7 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use feedcore::scene::Scene;
+use feedcore::scene::ValidScene;
 use master::limits::num;
 use master::plot::{History, time_history};
 use master::simulate::{Run, Trace};
@@ -58,7 +58,7 @@ pub(crate) struct Args {
 
 /// JSON summary of a trace: every figure from every step (`dt` and `sample_interval_s` null
 /// for an adaptive run).
-pub(crate) fn summary(scene: &Scene, t: &Trace) -> serde_json::Value {
+pub(crate) fn summary(scene: &ValidScene, t: &Trace) -> serde_json::Value {
     let fixed = |x: f64| if t.is_adaptive() { None } else { Some(x) };
     let mut v = json!({
         "scene": scene.name,
@@ -95,7 +95,7 @@ pub(crate) fn plot_traces(outputs: &Outputs, id: OutputId, traces: &[&Trace], ti
 
 /// Each cable's larger end tension over its breaking load at the static equilibrium of the
 /// target pose, if the scene gives a breaking load.
-fn static_utilisation(scene: &Scene) -> anyhow::Result<Option<Vec<f64>>> {
+fn static_utilisation(scene: &ValidScene) -> anyhow::Result<Option<Vec<f64>>> {
     if scene.cables.breaking_load_n.is_none() {
         return Ok(None);
     }

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, bail};
-use feedcore::scene::Scene;
+use feedcore::scene::ValidScene;
 use master::plot::{PALETTE, PlotError};
 use master::simulate::Run;
 use plotters::prelude::*;
@@ -57,8 +57,8 @@ impl Drop for RemovedOnDrop {
 
 /// Writes `scene` (a variant of the one read from `scene_file`) to `path` for a run in another
 /// process, the FMU paths of its `[system]` made absolute; returns the scene as written.
-fn write_case_scene(scene: &Scene, scene_file: &Path, path: &Path) -> std::io::Result<Scene> {
-    let mut s = scene.clone();
+fn write_case_scene(scene: &ValidScene, scene_file: &Path, path: &Path) -> anyhow::Result<ValidScene> {
+    let mut s = scene.to_scene();
     if let Some(sys) = s.system.as_mut() {
         let base = scene_file.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         for f in &mut sys.fmus {
@@ -72,7 +72,7 @@ fn write_case_scene(scene: &Scene, scene_file: &Path, path: &Path) -> std::io::R
         std::fs::create_dir_all(dir)?;
     }
     std::fs::write(path, s.to_toml())?;
-    Ok(s)
+    Ok(s.validated(&path.display().to_string())?)
 }
 
 /// GNU time, which reports the peak resident memory of a process.
@@ -138,8 +138,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         inputs.extend(run_inputs(file, &base));
         let method = options.method(scheme)?;
         for &n in &args.elements {
-            let mut s = base.clone();
-            s.cables.elements = n as usize;
+            let s = base.edited(|s| s.cables.elements = n as usize)?;
             let path = case_scenes.0.join(format!("{}-{n}.toml", scheme.as_str()));
             let variant = write_case_scene(&s, file, &path)
                 .with_context(|| format!("{}: writing the scene of a case", path.display()))?;

@@ -113,7 +113,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     // every variant is form-found and every run checked before the first one starts
     let mut scaled_scenes = Vec::new();
     for &f in ratios {
-        let (variant, file) = (master::sweep::with_platform_mass_factor(&scene, f), args.scene.clone());
+        let variant = scene.edited(|s| master::sweep::scale_platform_mass(s, f));
+        let variant = variant.with_context(|| format!("the platform's mass ×{f}"))?;
+        let file = args.scene.clone();
         let net = CableNet::from_scene(&variant);
         let feasible = match form_find(&net, variant.target_position(), variant.target_orientation()) {
             Ok(_) => true,

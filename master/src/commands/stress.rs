@@ -87,12 +87,6 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         }
         eprintln!("{case}: done");
     };
-    let variant = |s: &Scene, edit: &dyn Fn(&mut Scene)| -> Scene {
-        let mut v = s.clone();
-        edit(&mut v);
-        v
-    };
-
     report(
         &format!("{} s, ijcsa, C", long(1000.0)),
         (|| {
@@ -124,7 +118,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         report(
             &format!("{case}, {} s", short(20.0)),
             (|| {
-                let (v, f) = (variant(&c, edit), &args.scene_c);
+                let (v, f) = (c.edited(edit)?, &args.scene_c);
                 let m = simulate(&v, f, Method::Monolithic, 0.01, 20.0 * scale.max(0.1), quiet)?;
                 let j = simulate(&v, f, ijcsa(), 0.01, 20.0 * scale.max(0.1), quiet)?;
                 Ok(format!(
@@ -152,7 +146,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         &format!("abrupt against ramp start (5 s), monolithic, C, {} s", short(60.0)),
         (|| {
             let a = simulate(&c, &args.scene_c, Method::Monolithic, 0.01, 60.0 * scale.max(0.1), quiet)?;
-            let v = variant(&c, &|s: &mut Scene| s.motion.start = Start::Ramp);
+            let v = c.edited(|s| s.motion.start = Start::Ramp)?;
             let r = simulate(&v, &args.scene_c, Method::Monolithic, 0.01, 60.0 * scale.max(0.1), quiet)?;
             Ok(format!(
                 "vibration above 0.2 Hz (RMS): abrupt {:.2e} mm, ramp {:.2e} mm; peaks {:.3} / {:.3} mm",
@@ -166,7 +160,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     report(
         &format!("platform held still, ijcsa and monolithic, B, {} s", long(100.0)),
         (|| {
-            let v = variant(&b, &|s: &mut Scene| s.motion.speed_m_s = 0.0);
+            let v = b.edited(|s| s.motion.speed_m_s = 0.0)?;
             let j = simulate(&v, &args.scene_b, ijcsa(), 0.01, 100.0 * scale, quiet)?;
             let m = simulate(&v, &args.scene_b, Method::Monolithic, 0.01, 100.0 * scale, quiet)?;
             Ok(format!("drift: ijcsa {:.1e} mm, monolithic {:.1e} mm", j.peak_mm(), m.peak_mm()))

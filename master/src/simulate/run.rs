@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use feedcore::scene::{Scene, SensorKind, StewartMode};
+use feedcore::scene::{SensorKind, StewartMode, ValidScene};
 use stewart::Stewart;
 
 use super::Method;
@@ -19,7 +19,7 @@ use crate::stepping::{Flow, Request, drive};
 /// A run checked whole, ready to start.
 #[derive(Clone, Debug)]
 pub struct Run<'a> {
-    scene: &'a Scene,
+    scene: &'a ValidScene,
     scene_file: &'a Path,
     method: Method,
     schedule: Schedule,
@@ -31,7 +31,7 @@ impl<'a> Run<'a> {
     /// and the step cap, the memory the models need, and what the method needs from the scene.
     /// `dt` is the fixed step; an adaptive run ([`Method::CosimAdaptive`]) chooses its own.
     pub fn prepare(
-        scene: &'a Scene,
+        scene: &'a ValidScene,
         scene_file: &'a Path,
         method: Method,
         dt: f64,
@@ -156,26 +156,25 @@ impl<'a> Run<'a> {
             origin: None,
             method: name,
         };
-        // the feed (scenes with [control]): placed by the scene's compensation
-        let comp = match &scene.control {
-            Some(_) if self.method != Method::CableOnly => {
-                Stewart::from_scene(scene).map_err(|e| RunError::setup(name, &e))?.compensation().cloned()
-            }
-            _ => None,
+        // the feed of a co-simulation (scenes with [control]): placed by the scene's compensation,
+        // which the monolithic model carries itself
+        let comp = || match &scene.control {
+            Some(_) => Ok(Stewart::from_scene(scene).map_err(|e| RunError::setup(name, &e))?.compensation().cloned()),
+            None => Ok(None),
         };
-        rec.trace.feed = comp.as_ref().map(FeedTrace::new);
         let start = Instant::now();
         let file = self.scene_file;
         let mut stepper: Box<dyn Stepper> = match &self.method {
             Method::CableOnly => Box::new(CableStepper::new(scene, name)?),
-            Method::Monolithic => Box::new(MonolithicStepper::new(scene, None, comp, name)?),
-            Method::MonolithicAdaptive(a) => Box::new(MonolithicStepper::new(scene, Some(a), comp, name)?),
-            Method::Cosim(o) => Box::new(CosimStepper::new(scene, file, Coupling::Fixed(*o), comp, name)?),
+            Method::Monolithic => Box::new(MonolithicStepper::new(scene, None, name)?),
+            Method::MonolithicAdaptive(a) => Box::new(MonolithicStepper::new(scene, Some(a), name)?),
+            Method::Cosim(o) => Box::new(CosimStepper::new(scene, file, Coupling::Fixed(*o), comp()?, name)?),
             Method::CosimAdaptive(o, a) => {
-                Box::new(CosimStepper::new(scene, file, Coupling::Adaptive(*o, a), comp, name)?)
+                Box::new(CosimStepper::new(scene, file, Coupling::Adaptive(*o, a), comp()?, name)?)
             }
-            Method::Decoupled(o) => Box::new(CosimStepper::new(scene, file, Coupling::Decoupled(*o), comp, name)?),
+            Method::Decoupled(o) => Box::new(CosimStepper::new(scene, file, Coupling::Decoupled(*o), comp()?, name)?),
         };
+        rec.trace.feed = stepper.compensation().map(FeedTrace::new);
         let first = stepper.probe()?;
         self.drive(&mut rec, quiet, first, |r| Ok(Flow::Stepped(stepper.step(r)?)))?;
         rec.trace.wall_time_s = start.elapsed().as_secs_f64();
@@ -233,7 +232,7 @@ impl Run<'_> {
 /// Runs `scene` (read from `scene_file`) with `method` at step `dt` to `t_end`, within the
 /// default [`Limits`].
 pub fn simulate(
-    scene: &Scene,
+    scene: &ValidScene,
     scene_file: &Path,
     method: Method,
     dt: f64,

@@ -19,7 +19,7 @@ use cable::model::CableCabin;
 use cable::net::CableNet;
 use cable::statics::{CableState, StaticsError, form_find};
 use feedcore::Vec3;
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, ValidScene};
 use thiserror::Error;
 
 use crate::limits::Limits;
@@ -246,8 +246,12 @@ pub struct Placement {
 }
 
 /// The scene of one point and its macro step.
-pub fn point_scene(base: &Scene, placement: &Placement, values: &[(Axis, f64)]) -> Result<(Scene, f64), String> {
-    let mut s = base.clone();
+pub fn point_scene(
+    base: &ValidScene,
+    placement: &Placement,
+    values: &[(Axis, f64)],
+) -> Result<(ValidScene, f64), String> {
+    let mut s = base.to_scene();
     let mut dt = base.solver.dt_s;
     let mut p = Vec3::from(base.pose.position_m);
     for &(axis, v) in values {
@@ -255,7 +259,7 @@ pub fn point_scene(base: &Scene, placement: &Placement, values: &[(Axis, f64)]) 
             Axis::X => p.x = v,
             Axis::Y => p.y = v,
             Axis::Z => p.z = v,
-            Axis::Mass => s = with_platform_mass_factor(&s, v),
+            Axis::Mass => scale_platform_mass(&mut s, v),
             Axis::Dt => dt = v,
         }
     }
@@ -280,14 +284,13 @@ pub fn point_scene(base: &Scene, placement: &Placement, values: &[(Axis, f64)]) 
         }
     }
     s.pose.position_m = [p.x, p.y, p.z];
-    s.validate(&base.name).map_err(|e| e.to_string())?;
-    Ok((s, dt))
+    Ok((s.validated(&base.name).map_err(|e| e.to_string())?, dt))
 }
 
-/// `scene` with every mass and inertia of the Stewart platform scaled by `f`.
-pub fn with_platform_mass_factor(scene: &Scene, f: f64) -> Scene {
-    let mut s = scene.clone();
-    let st = &mut s.stewart;
+/// Scales every mass and inertia of the scene's Stewart platform by `f` (an edit: validate the
+/// scene afterwards, e.g. through [`ValidScene::edited`]).
+pub fn scale_platform_mass(scene: &mut Scene, f: f64) {
+    let st = &mut scene.stewart;
     st.platform.mass_kg *= f;
     for row in st.platform.inertia_kg_m2.iter_mut() {
         row.iter_mut().for_each(|x| *x *= f);
@@ -297,7 +300,6 @@ pub fn with_platform_mass_factor(scene: &Scene, f: f64) -> Scene {
         part.inertia_transverse_kg_m2 *= f;
         part.inertia_axial_kg_m2 *= f;
     }
-    s
 }
 
 /// A cable longer than this many times its chord hangs in a loop (sag/span ≈ 0.4 and more):
@@ -348,7 +350,7 @@ pub struct Outcome {
 /// Evaluates the sweep's point at `values` (`base` read from `base_file`). Never fails: what
 /// cannot be computed is left out and named in the note.
 pub fn evaluate(
-    base: &Scene,
+    base: &ValidScene,
     base_file: &Path,
     placement: &Placement,
     request: &Request,

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, ValidScene};
 use master::calibrate::{frequencies, with_key, with_keys};
 use serde_json::Value;
 
@@ -16,13 +16,13 @@ fn dir(tag: &str) -> PathBuf {
     d
 }
 
-fn scene(name: &str) -> (Scene, String) {
+fn scene(name: &str) -> (ValidScene, String) {
     let path = crate::common::scene_path(name);
     (Scene::load(&path).unwrap(), path.display().to_string())
 }
 
 /// Writes the lowest `count` modes of each scene, with `truth` (key, value) set, as measured.
-fn measure(scenes: &[(Scene, String)], truth: &[(&str, f64)], count: usize, out: &Path) {
+fn measure(scenes: &[(ValidScene, String)], truth: &[(&str, f64)], count: usize, out: &Path) {
     let mut csv = String::from("scene,mode,f_hz\n");
     for (s, file) in scenes {
         let t = with_keys(s, file, truth).unwrap();
@@ -179,7 +179,7 @@ fn a_tension_statement_is_kept() {
     let fit = calibrate(&[b], m, &out, "anchors.radius_m", &["--tension", "lt50m_B:4>=195"]);
     let radius = fit["fitted"]["anchors.radius_m"].as_f64().unwrap();
     let updated = Scene::load(out.join("lt50m_B.toml")).unwrap();
-    let model = cable::model::CableCabin::build(&master::calibrate::modal_scene(&updated), 0).unwrap();
+    let model = cable::model::CableCabin::build(&master::calibrate::modal_scene(&updated).unwrap(), 0).unwrap();
     let cable4 = &model.equilibrium.cables[4];
     let low = cable4.tension_anchor.min(cable4.tension_cabin);
     assert!((195.0..197.0).contains(&low), "cable 4 at the fit: {low} N");

@@ -189,7 +189,7 @@ fn heavy_platform_iqn_ils_converges_where_the_fixed_point_fails() {
     assert!(iqn.mean_iterations() <= 6.0);
 }
 
-fn fmu_system(scene: &feedcore::scene::Scene, file: &std::path::Path, o: Options) -> Coupled<FmuSystem> {
+fn fmu_system(scene: &feedcore::scene::ValidScene, file: &std::path::Path, o: Options) -> Coupled<FmuSystem> {
     let spec = master::system::scene_spec(scene, file).unwrap();
     Coupled::new(FmuSystem::load(&spec, &master::system::needs(&o, true)).unwrap(), o).unwrap()
 }
@@ -234,7 +234,7 @@ fn adaptive_rejections_leave_no_trace() {
     }
 }
 
-fn rejections_leave_no_trace(scene: &feedcore::scene::Scene, file: &std::path::Path, o: Options) {
+fn rejections_leave_no_trace(scene: &feedcore::scene::ValidScene, file: &std::path::Path, o: Options) {
     let mut c = fmu_system(scene, file, o);
     let mut ctl =
         cosim::step_control::Controller::new(cosim::step_control::Limits { h_min: 1e-5, h_max: 0.1, h_init: 1e-4 })

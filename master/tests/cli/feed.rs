@@ -1,14 +1,14 @@
 //! The second level (`[control]`): the feed's error in the world frame, its JSON figures against
 //! its CSV columns, and limits reported when reached.
 
-use feedcore::scene::{Control, Scene, SensorKind, TargetKind};
+use feedcore::scene::{Control, SensorKind, TargetKind, ValidScene};
 use master::cosim::{Options, Scheme};
 use master::simulate::{Method, Trace, simulate};
 
 use crate::{common, master};
 
 /// Scene C with the feed on a target, compensated by the given sensor.
-fn controlled(tag: &str, edit: impl FnOnce(&mut Control)) -> (Scene, std::path::PathBuf) {
+fn controlled(tag: &str, edit: impl FnOnce(&mut Control)) -> (ValidScene, std::path::PathBuf) {
     common::scene("lt50m_C_compensated.toml", tag, |s| edit(s.control.as_mut().unwrap()))
 }
 

@@ -252,7 +252,7 @@ fn small_misuses_are_refused_clearly() {
 /// `master stability` on a scene whose FMU is missing is an error, not a map of "unstable".
 #[test]
 fn stability_reports_a_missing_fmu_as_an_error() {
-    let mut scene = feedcore::scene::Scene::load(common::scene_path("lt50m_B.toml")).unwrap();
+    let mut scene = feedcore::scene::Scene::load(common::scene_path("lt50m_B.toml")).unwrap().to_scene();
     scene.system.as_mut().unwrap().fmus[0].path = "/nonexistent/cable_fmu.fmu".into();
     let file = common::fmu_dir().join("misuse-stability.toml");
     std::fs::write(&file, scene.to_toml()).unwrap();

@@ -51,7 +51,7 @@ fn modes_json(args: &[&str]) -> Vec<f64> {
     v["frequencies_hz"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
 }
 
-fn library_modes(scene: &feedcore::scene::Scene, count: usize) -> Vec<f64> {
+fn library_modes(scene: &feedcore::scene::ValidScene, count: usize) -> Vec<f64> {
     let m = cable::model::CableCabin::build(scene, count).unwrap();
     m.modes.unwrap().frequencies_hz[..count].to_vec()
 }
@@ -65,13 +65,15 @@ fn modal_options_equal_the_edited_scenes() {
     let p = path.to_str().unwrap();
     let scene = feedcore::scene::Scene::load(&path).unwrap();
     let base = library_modes(&scene, 4);
-    let mut heavy = scene.clone();
-    heavy.cabin.mass_kg += 184.8;
-    heavy.analyses.stewart = feedcore::scene::StewartMode::Absent;
-    let mut bare = scene.clone();
-    bare.analyses.stewart = feedcore::scene::StewartMode::Absent;
-    let mut soft = scene.clone();
-    soft.cables.youngs_modulus_pa = 1e9;
+    let absent = feedcore::scene::StewartMode::Absent;
+    let heavy = scene
+        .edited(|s| {
+            s.cabin.mass_kg += 184.8;
+            s.analyses.stewart = absent;
+        })
+        .unwrap();
+    let bare = scene.edited(|s| s.analyses.stewart = absent).unwrap();
+    let soft = scene.edited(|s| s.cables.youngs_modulus_pa = 1e9).unwrap();
     for (flags, edited) in [
         (vec!["--platform", "added-mass"], heavy),
         (vec!["--platform", "absent"], bare),

@@ -82,7 +82,7 @@ fn an_fmu_error_names_the_fmu() {
 
 #[test]
 fn missing_fmus_say_how_to_build_them() {
-    let mut s = feedcore::scene::Scene::load(common::scene_path("lt50m_C.toml")).unwrap();
+    let mut s = feedcore::scene::Scene::load(common::scene_path("lt50m_C.toml")).unwrap().to_scene();
     s.system.as_mut().unwrap().fmus[0].path = "/nonexistent/cable_fmu.fmu".into();
     let file = common::fmu_dir().join("missing.toml");
     std::fs::write(&file, s.to_toml()).unwrap();
@@ -193,7 +193,7 @@ fn compensation_honours_the_caps() {
     assert!(e.contains("exceed the cap of 1000 steps") && e.contains("--max-steps"), "{e}");
     assert!(!out_dir.join("compensation.csv").exists(), "nothing written");
     for (k, rate) in [5e-324, 5e10].into_iter().enumerate() {
-        let (_, bad) = common::scene("lt50m_C_compensated.toml", &format!("comp-rate-{k}"), |s| {
+        let bad = common::scene_file("lt50m_C_compensated.toml", &format!("comp-rate-{k}"), |s| {
             s.control.as_mut().unwrap().sample_rate_hz = Some(rate)
         });
         let out = master(&["compensation", "--scene", bad.to_str().unwrap(), "--out", out_dir.to_str().unwrap()]);

@@ -20,13 +20,13 @@ use cable::element::Bar;
 use feedcore::scene::Scene;
 use master::cosim::{Options, Scheme};
 use master::simulate::{Method, simulate};
-use master::sweep::with_platform_mass_factor;
+use master::sweep::scale_platform_mass;
 use monolithic::Monolithic;
 
 /// The platform `f` times heavier, on a circle of radius `r` at speed `v`.
 fn heavier_and_wider(s: &mut Scene) {
     let (f, r, v) = (8.0, 0.4, 0.4);
-    *s = with_platform_mass_factor(s, f);
+    scale_platform_mass(s, f);
     s.motion.radius_m = r;
     s.motion.speed_m_s = v;
 }

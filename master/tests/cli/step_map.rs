@@ -21,13 +21,14 @@ fn ijcsa_with_the_extension_and_with_finite_differences_agree() {
     fmi2::package::write_fmu(&plain, &description, &library, &resources).unwrap();
     assert!(!fmi2::import::Fmu::load(&plain).unwrap().description().flags.provides_step_map_derivative);
     let plain_file = file.with_file_name("stepmap-plain.toml");
-    let mut plain_scene = scene.clone();
+    let mut plain_scene = scene.to_scene();
     for f in &mut plain_scene.system.as_mut().unwrap().fmus {
         if f.name == "cable" {
             f.path = plain.display().to_string();
         }
     }
     std::fs::write(&plain_file, plain_scene.to_toml()).unwrap();
+    let plain_scene = plain_scene.validated(&plain_file.display().to_string()).unwrap();
 
     let options = Options { scheme: Scheme::Ijcsa, ..Options::default() };
     let t_end = 5.0;

@@ -10,7 +10,7 @@ use cable::statics::form_find;
 use feedcore::scene::Scene;
 use master::simulate::{Method, simulate};
 use master::sweep::table::Table;
-use master::sweep::{Axis, Placement, point_scene, with_platform_mass_factor};
+use master::sweep::{Axis, Placement, point_scene, scale_platform_mass};
 
 use crate::master;
 
@@ -137,7 +137,7 @@ fn coupled_runs_per_point_are_the_librarys() {
     for &i in t.rows.keys() {
         let f: f64 = cell(&t, i, "mass_factor").parse().unwrap();
         let dt: f64 = cell(&t, i, "dt_s").parse().unwrap();
-        let s = with_platform_mass_factor(&base, f);
+        let s = base.edited(|s| scale_platform_mass(s, f)).unwrap();
         let trace = simulate(&s, Path::new(&scene), Method::Monolithic, dt, 0.3, true).unwrap();
         assert_eq!(cell(&t, i, "run_peak_mm"), format!("{:?}", trace.peak_mm()), "point {i}");
         assert_eq!(cell(&t, i, "run_iterations"), format!("{:?}", trace.mean_iterations()));
@@ -237,9 +237,9 @@ fn scene_variants_are_handed_over_without_files() {
 fn the_fmus_run_the_variant_held_in_memory() {
     use master::simulate::{Method, simulate};
     let (base, file) = crate::common::scene("lt50m_C.toml", "in-memory", |_| {});
-    let heavy = master::sweep::with_platform_mass_factor(&base, 2.0);
+    let heavy = base.edited(|s| master::sweep::scale_platform_mass(s, 2.0)).unwrap();
     let ijcsa = Method::Cosim(master::cosim::Options { tol: 1e-10, ..Default::default() });
-    let run = |s: &feedcore::scene::Scene, m: Method| simulate(s, &file, m, 0.01, 2.0, true).unwrap();
+    let run = |s: &feedcore::scene::ValidScene, m: Method| simulate(s, &file, m, 0.01, 2.0, true).unwrap();
     let (mono, cosim) = (run(&heavy, Method::Monolithic), run(&heavy, ijcsa.clone()));
     let base_mono = run(&base, Method::Monolithic);
     let (agree, moved) = (cosim.error_against(&mono).0, base_mono.error_against(&mono).0);

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, ValidScene};
 
 /// The directory holding `lib<crate>.so`: next to the test binary's `deps/` (cargo puts both
 /// in `target/<profile>/`).
@@ -38,8 +38,14 @@ pub(crate) fn scene_path(name: &str) -> PathBuf {
 
 /// A reference scene, edited by `edit`, written to a private file whose [system] names the
 /// packaged FMUs; returns the scene and its file.
-pub(crate) fn scene(name: &str, tag: &str, edit: impl FnOnce(&mut Scene)) -> (Scene, PathBuf) {
-    let mut s = Scene::load(scene_path(name)).unwrap();
+pub(crate) fn scene(name: &str, tag: &str, edit: impl FnOnce(&mut Scene)) -> (ValidScene, PathBuf) {
+    let file = scene_file(name, tag, edit);
+    (Scene::load(&file).unwrap(), file)
+}
+
+/// As [`scene`], without validating the edited scene (for scenes the command must refuse).
+pub(crate) fn scene_file(name: &str, tag: &str, edit: impl FnOnce(&mut Scene)) -> PathBuf {
+    let mut s = Scene::load(scene_path(name)).unwrap().to_scene();
     edit(&mut s);
     let dir = fmu_dir();
     for f in &mut s.system.as_mut().unwrap().fmus {
@@ -47,5 +53,5 @@ pub(crate) fn scene(name: &str, tag: &str, edit: impl FnOnce(&mut Scene)) -> (Sc
     }
     let file = dir.join(format!("{tag}-{name}"));
     std::fs::write(&file, s.to_toml()).unwrap();
-    (s, file)
+    file
 }

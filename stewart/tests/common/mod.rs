@@ -2,11 +2,11 @@
 #![allow(dead_code)]
 
 use feedcore::rigid::exp_so3;
-use feedcore::scene::Scene;
+use feedcore::scene::{Scene, ValidScene};
 use feedcore::{Quat, Vec3};
 use stewart::{CabinMotion, Stewart};
 
-pub(crate) fn scene(name: &str) -> Scene {
+pub(crate) fn scene(name: &str) -> ValidScene {
     let path = format!("{}/../scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"));
     Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -16,7 +16,7 @@ pub(crate) fn stewart(name: &str) -> Stewart {
 }
 
 /// The cabin at the scene's target pose, at rest.
-pub(crate) fn cabin_at_target(scene: &Scene) -> CabinMotion {
+pub(crate) fn cabin_at_target(scene: &ValidScene) -> CabinMotion {
     CabinMotion::at_rest(scene.target_position(), scene.target_orientation())
 }
 

@@ -2,7 +2,7 @@
 
 use cable::dynamics::{Dynamics, DynamicsError};
 use cable::model::{CableCabin, Payload};
-use feedcore::scene::Scene;
+use feedcore::scene::ValidScene;
 use nalgebra::Vector6;
 
 use super::{Stepper, fixed, stopped, vec6};
@@ -19,7 +19,7 @@ pub(in crate::simulate) struct CableStepper {
 }
 
 impl CableStepper {
-    pub(in crate::simulate) fn new(scene: &Scene, method: &'static str) -> Result<CableStepper, RunError> {
+    pub(in crate::simulate) fn new(scene: &ValidScene, method: &'static str) -> Result<CableStepper, RunError> {
         let setup = |e: &(dyn std::error::Error + 'static)| RunError::setup(method, e);
         let model = CableCabin::build(scene, 0).map_err(|e| setup(&e))?;
         let disturbance = scene.disturbance.clone();

@@ -6,7 +6,7 @@ use std::path::Path;
 use cosim::step_control::{Controller, Tolerances};
 use cosim::{Coupled, FmuSystem, Options, Scheme};
 use feedcore::Vec3;
-use feedcore::scene::{LEGS, Quantity, Scene};
+use feedcore::scene::{LEGS, Quantity, Scene, ValidScene};
 use stewart::Compensation;
 
 use super::{Stepper, fixed, stopped};
@@ -43,7 +43,7 @@ pub(in crate::simulate) struct CosimStepper {
 
 impl CosimStepper {
     pub(in crate::simulate) fn new(
-        scene: &Scene,
+        scene: &ValidScene,
         scene_file: &Path,
         coupling: Coupling<'_>,
         compensation: Option<Compensation>,
@@ -56,8 +56,15 @@ impl CosimStepper {
             Coupling::Fixed(o) => (o, None),
             Coupling::Adaptive(o, a) => (o, Some(a)),
             Coupling::Decoupled(mut o) => {
-                let sys = sc.system.as_mut().ok_or_else(|| refused("the scene has no [system]".into()))?;
-                sys.connections.retain(|c| !c.to.starts_with("stewart."));
+                if scene.system.is_none() {
+                    return Err(refused("the scene has no [system]".into()));
+                }
+                let one_way = |s: &mut Scene| {
+                    if let Some(sys) = s.system.as_mut() {
+                        sys.connections.retain(|c| !c.to.starts_with("stewart."));
+                    }
+                };
+                sc = scene.edited(one_way).map_err(|e| setup(&e))?;
                 o.scheme = Scheme::Sequential;
                 (o, None)
             }
@@ -87,6 +94,10 @@ impl CosimStepper {
 }
 
 impl Stepper for CosimStepper {
+    fn compensation(&self) -> Option<&Compensation> {
+        self.probe.feed.as_ref().map(|(_, c)| c)
+    }
+
     fn probe(&mut self) -> Result<Probe, RunError> {
         let t = self.coupled.time();
         self.probe.read(&mut self.coupled).map_err(|e| stopped(self.method, t, e.to_string()))

@@ -9,6 +9,8 @@ pub use cosimulation::CABIN_POSE;
 pub(super) use cosimulation::{CosimStepper, Coupling};
 pub(super) use monolithic::MonolithicStepper;
 
+use stewart::Compensation;
+
 use super::RunError;
 use super::record::{Observed, Probe};
 use crate::stepping::{Request, Step};
@@ -19,6 +21,10 @@ pub(super) trait Stepper {
     fn probe(&mut self) -> Result<Probe, RunError>;
     /// The step the loop asks for, and what it left.
     fn step(&mut self, request: Request) -> Result<Step<Observed>, RunError>;
+    /// The compensation that places the feed (scenes with `[control]`).
+    fn compensation(&self) -> Option<&Compensation> {
+        None
+    }
 }
 
 /// The step and its end time of a method without an adaptive step (the run's preparation gives

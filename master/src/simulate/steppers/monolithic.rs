@@ -3,7 +3,7 @@
 use cosim::error_estimate::ErrorEstimate;
 use cosim::step_control::{Controller, Tolerances};
 use feedcore::genalpha::StepError as IntegratorError;
-use feedcore::scene::Scene;
+use feedcore::scene::ValidScene;
 use stewart::Compensation;
 
 use super::{Stepper, fixed, stopped, vec6};
@@ -33,12 +33,12 @@ pub(in crate::simulate) struct MonolithicStepper {
 
 impl MonolithicStepper {
     pub(in crate::simulate) fn new(
-        scene: &Scene,
+        scene: &ValidScene,
         adaptive: Option<&Adaptive>,
-        compensation: Option<Compensation>,
         method: &'static str,
     ) -> Result<MonolithicStepper, RunError> {
         let model = Monolithic::new(scene).map_err(|e| RunError::setup(method, &e))?;
+        let compensation = scene.control.as_ref().and(model.compensation().cloned());
         let adaptive = match adaptive {
             Some(a) => {
                 let ctl = a.controller().map_err(|reason| RunError::Refused { method, reason })?;
@@ -63,6 +63,10 @@ impl MonolithicStepper {
 }
 
 impl Stepper for MonolithicStepper {
+    fn compensation(&self) -> Option<&Compensation> {
+        self.compensation.as_ref()
+    }
+
     fn probe(&mut self) -> Result<Probe, RunError> {
         let s = self.model.model.sample();
         Ok(self.probe_of(&s))
