@@ -5,6 +5,8 @@
 //! * [`limits`]: what a run may cost (steps, memory), checked before anything is built;
 //! * [`plot`]: SVG figures (time histories like the paper's Figs. 4–5, log–log work–precision,
 //!   stability maps);
+//! * [`options`]: the scheme names and options, as the command line and the Python package take them;
+//! * [`report`]: what `statics`, `modes` and `run` report (their `--json`), for the CLI and Python;
 //! * [`simulate`]: one run of a method (monolithic, a co-simulation scheme, decoupled) as a trace;
 //! * [`feed`]: the feed's error in the world frame and the platform's limits (`[control]`);
 //! * [`stepping`]: the step loop of every run (fixed or adaptive steps, caps, totals);
@@ -24,9 +26,11 @@ pub mod feed;
 pub mod interrupt;
 pub mod journal;
 pub mod limits;
+pub mod options;
 pub mod parallel;
 pub mod plot;
 pub mod progress;
+pub mod report;
 pub mod simulate;
 pub mod stepping;
 pub mod sweep;

@@ -22,7 +22,7 @@ pub(crate) mod reproduce;
 pub(crate) mod run;
 pub(crate) mod run_system;
 pub(crate) mod scaling;
-pub(crate) mod scheme_args;
+pub(crate) use master::options as scheme_args;
 pub(crate) mod stability;
 pub(crate) mod statics;
 pub(crate) mod stewart;

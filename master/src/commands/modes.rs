@@ -7,9 +7,9 @@ use anyhow::Context;
 use cable::model::CableCabin;
 use cable::modes::{Dropped, modes_dropping, straight_cable_frequencies};
 use feedcore::scene::{SceneError, StewartMode, ValidScene};
-use master::limits::{Footprint, check_memory, memory_needed, peak_memory};
+use master::limits::{Footprint, check_memory};
+use master::report::Modal;
 use master::table::Table;
-use nalgebra::Vector6;
 use serde_json::json;
 
 use super::{CmdResult, caps, load_scene};
@@ -160,16 +160,6 @@ fn run_case(args: &Args, scene: &ValidScene, count: usize) -> CmdResult {
     Ok(())
 }
 
-/// Share of the modal kinetic energy carried by the cabin, and a name for its main motion.
-fn describe(cabin_mass: &nalgebra::Matrix6<f64>, shape: &Vector6<f64>) -> (f64, String) {
-    let share = shape.dot(&(cabin_mass * shape));
-    let names = ["x", "y", "z", "rx", "ry", "rz"];
-    // compare translations (m) with rotations times the cabin radius (1 m)
-    let k = (0..6).max_by(|a, b| shape[*a].abs().total_cmp(&shape[*b].abs())).unwrap_or(0);
-    let what = if share < 0.2 { "cables".to_string() } else { format!("cabin {}", names[k]) };
-    (share, what)
-}
-
 pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let mut out = std::io::stdout().lock();
@@ -183,43 +173,10 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let built = CableCabin::modes_built(&scene, count);
     check_memory(&scene, Footprint::CableModel, built, &caps().run)
         .with_context(|| format!("{}: the modal analysis cannot start", args.scene.display()))?;
-    let (estimate, _) = memory_needed(&scene, Footprint::CableModel, built);
-    let start = std::time::Instant::now();
-    let model = CableCabin::build(&scene, count)?;
-    let setup_s = start.elapsed().as_secs_f64();
-    let peak = peak_memory();
-    let modes = model.modes.as_ref().expect("modes were asked for");
-    let sys = model.system(cable::model::Payload::Locked);
-    let cabin_mass = sys
-        .body
-        .transformed(&model.equilibrium.orientation.to_rotation_matrix().into_inner(), &model.equilibrium.position)
-        .spatial_matrix_about(&model.equilibrium.position);
-    let rows: Vec<_> = (0..count.min(modes.frequencies_hz.len()))
-        .map(|k| {
-            let part = modes.cabin_part(k);
-            let (share, what) = describe(&cabin_mass, &part);
-            (modes.frequencies_hz[k], share, what, part)
-        })
-        .collect();
+    let modal = Modal::of(&scene, count)?;
+    let (model, modes) = (&modal.model, modal.model.modes.as_ref().expect("modes were asked for"));
     if args.json {
-        let list: Vec<_> = rows
-            .iter()
-            .map(|(f, share, what, part)| json!({"frequency_hz": f, "cabin_share": share, "motion": what, "cabin_shape": part.as_slice()}))
-            .collect();
-        let json_out = json!({
-            "scene": scene.name,
-            "frequencies_hz": rows.iter().map(|r| r.0).collect::<Vec<_>>(),
-            "modes": list,
-            "damping": {"ratio": model.damping.ratio, "fit_frequencies_hz": model.damping.frequencies_hz,
-                        "alpha_per_s": model.damping.alpha, "beta_s": model.damping.beta},
-            "eigen_solver": {"method": "shift-invert Lanczos (M inner product) with a Sturm count",
-                             "relative_residual": modes.residual, "stiffness_asymmetry": modes.stiffness_asymmetry,
-                             "solves": modes.stats.solves, "passes": modes.stats.passes},
-            "setup_s": setup_s,
-            "peak_memory_bytes": peak,
-            "memory_estimate_bytes": estimate,
-        });
-        writeln!(out, "{}", serde_json::to_string_pretty(&json_out)?)?;
+        writeln!(out, "{}", serde_json::to_string_pretty(&modal.json())?)?;
         return Ok(());
     }
     writeln!(out, "Natural modes about the static equilibrium: {} ({})", scene.name, args.scene.display())?;
@@ -230,8 +187,15 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     )?;
     writeln!(out)?;
     let mut t = Table::new(["mode", "f Hz", "period s", "cabin share", "main motion"]);
-    for (k, (f, share, what, _)) in rows.iter().enumerate() {
-        t.row([(k + 1).to_string(), format!("{f:.5}"), format!("{:.3}", 1.0 / f), format!("{share:.2}"), what.clone()]);
+    for (k, m) in modal.modes.iter().enumerate() {
+        let f = m.frequency_hz;
+        t.row([
+            (k + 1).to_string(),
+            format!("{f:.5}"),
+            format!("{:.3}", 1.0 / f),
+            format!("{:.2}", m.cabin_share),
+            m.motion.clone(),
+        ]);
     }
     write!(out, "{}", t.render())?;
     writeln!(out)?;
@@ -257,7 +221,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         0.5 * modes.residual,
         modes.stiffness_asymmetry
     )?;
-    let peak = peak.map_or("unknown".to_string(), |b| format!("{:.1} MB", b as f64 / 1e6));
+    let (setup_s, estimate) = (modal.setup_s, modal.memory_estimate_bytes);
+    let peak = modal.peak_memory_bytes.map_or("unknown".to_string(), |b| format!("{:.1} MB", b as f64 / 1e6));
     writeln!(
         out,
         "Form-finding and modal analysis {setup_s:.3} s; peak memory of the process {peak} (estimated before \

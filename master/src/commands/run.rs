@@ -5,11 +5,9 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use feedcore::scene::ValidScene;
 use master::limits::num;
 use master::plot::{History, time_history};
 use master::simulate::{Run, Trace};
-use serde_json::json;
 
 use super::output::{OutputId, Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions};
@@ -56,52 +54,11 @@ pub(crate) struct Args {
     pub(crate) system_files: super::run_system::FileArgs,
 }
 
-/// JSON summary of a trace: every figure from every step (`dt` and `sample_interval_s` null
-/// for an adaptive run).
-pub(crate) fn summary(scene: &ValidScene, t: &Trace) -> serde_json::Value {
-    let fixed = |x: f64| if t.is_adaptive() { None } else { Some(x) };
-    let mut v = json!({
-        "scene": scene.name,
-        "scheme": t.method,
-        "adaptive": t.is_adaptive(),
-        "dt": fixed(t.dt),
-        "t_end": t.t_end,
-        "steps": t.steps,
-        "rejected_steps": t.summary.rejected_steps,
-        "h_min_used": t.summary.h_min_used,
-        "h_max_used": t.summary.h_max_used,
-        "sample_interval_s": fixed(t.sample_interval_s),
-        "wall_time_s": t.wall_time_s,
-        "max_abs_disp_mm": t.max_abs_disp_mm(),
-        "peak_disp_mm": t.peak_mm(),
-        "peak_time_s": t.summary.peak_time_s,
-        "mean_iterations": t.mean_iterations(),
-        "max_interface_residual": t.max_residual(),
-        "max_constraint_residual_m": t.constraint_residual(),
-    });
-    // the feed (scenes with [control]): its error figures and the limits reached
-    if let (Some(feed), Some(map)) = (&t.feed, v.as_object_mut()) {
-        map.extend(feed.json().as_object().cloned().unwrap_or_default());
-    }
-    v
-}
-
 /// The displacement histories as three stacked panels, into output `id`.
 pub(crate) fn plot_traces(outputs: &Outputs, id: OutputId, traces: &[&Trace], title: &str) -> CmdResult {
     let runs: Vec<History> = traces.iter().map(|t| History { name: &t.method, t: &t.t, disp_mm: &t.disp_mm }).collect();
     let svg = time_history(title, &runs).context("drawing the time histories")?;
     outputs.write(id, |w| w.write_all(svg.as_bytes()))
-}
-
-/// Each cable's larger end tension over its breaking load at the static equilibrium of the
-/// target pose, if the scene gives a breaking load.
-fn static_utilisation(scene: &ValidScene) -> anyhow::Result<Option<Vec<f64>>> {
-    if scene.cables.breaking_load_n.is_none() {
-        return Ok(None);
-    }
-    let net = cable::net::CableNet::from_scene(scene);
-    let eq = cable::statics::form_find(&net, scene.target_position(), scene.target_orientation())?;
-    Ok(Some(eq.cables.iter().filter_map(|c| scene.cables.utilisation(c.largest_tension())).collect()))
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
@@ -141,7 +98,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     outputs.open()?;
 
     let trace = run.execute(quiet)?;
-    let utilisation = static_utilisation(&scene)?;
+    let utilisation = master::report::static_utilisation(&scene)?;
     if let Some(id) = csv {
         outputs.write(id, |w| trace.write_csv(w, &scene.outputs.quantities))?;
     }
@@ -174,10 +131,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         );
     }
     if args.json {
-        let mut s = summary(&scene, &trace);
-        if let Some(u) = &utilisation {
-            s["cable_utilisation_static"] = json!(u);
-        }
+        let s = master::report::run_summary(&scene, &trace, utilisation.as_deref());
         writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?;
         return Ok(());
     }

@@ -4,12 +4,11 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use cable::net::CableNet;
-use cable::statics::{CableState, form_find};
+use cable::statics::CableState;
 use feedcore::scene::ELASTIC_STRAIN_LIMIT;
 use master::limits::{Footprint, check_memory};
+use master::report::Statics;
 use master::table::Table;
-use serde_json::json;
 
 use super::{CmdResult, caps, load_scene};
 
@@ -32,43 +31,13 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut out = std::io::stdout().lock();
     check_memory(&scene, Footprint::CableModel, 0, &caps().run)
         .with_context(|| format!("{}: the form-finding cannot start", args.scene.display()))?;
-    let net = CableNet::from_scene(&scene);
-    let eq = form_find(&net, scene.target_position(), scene.target_orientation())?;
+    let statics = Statics::of(&scene)?;
+    let (net, eq) = (&statics.net, &statics.equilibrium);
     let q = eq.orientation;
-    let utilisation = |c: &cable::statics::CableReport| scene.cables.utilisation(c.largest_tension());
-    let overloaded: Vec<usize> =
-        (0..eq.cables.len()).filter(|&i| utilisation(&eq.cables[i]).is_some_and(|u| u > 1.0)).collect();
+    let utilisation = |c: &cable::statics::CableReport| statics.utilisation(c);
+    let overloaded = statics.overloaded();
     if args.json {
-        let cables: Vec<_> = eq
-            .cables
-            .iter()
-            .enumerate()
-            .map(|(i, c)| {
-                json!({
-                    "cable": i,
-                    "anchor_azimuth_deg": scene.anchors.angle_deg[i],
-                    "unstretched_length_m": c.unstretched_length,
-                    "tension_anchor_n": c.tension_anchor,
-                    "tension_cabin_n": c.tension_cabin,
-                    "slack": c.state == CableState::Slack,
-                    "nearly_slack": c.state == CableState::NearlySlack,
-                    "state": c.state,
-                    "lowest_point_z_m": c.lowest_point_z,
-                    "utilisation": utilisation(c),
-                    "overloaded": overloaded.contains(&i),
-                    "strain": scene.cables.strain(c.largest_tension()),
-                })
-            })
-            .collect();
-        let json_out = json!({
-            "scene": scene.name,
-            "cabin_position": eq.position.as_slice(),
-            "cabin_orientation": [q.w, q.i, q.j, q.k],
-            "suspended_mass_kg": net.suspended().mass,
-            "residual_n": eq.residual,
-            "cables": cables,
-        });
-        writeln!(out, "{}", serde_json::to_string_pretty(&json_out)?)?;
+        writeln!(out, "{}", serde_json::to_string_pretty(&statics.json())?)?;
         return Ok(());
     }
     writeln!(out, "Form-finding statics: {} ({})", scene.name, args.scene.display())?;

@@ -1,17 +1,18 @@
-//! Command-line options that choose and tune a method (shared by run, compare, bench,
-//! stability): the one place for scheme names and scheme options.
+//! The options that choose and tune a method, as the command line and the Python package give
+//! them (`--scheme`, `--tol`, `--adaptive`, ...): the one place for scheme names, scheme options,
+//! their ranges and defaults.
 
+use crate::cosim::error_estimate::Kind;
+use crate::cosim::step_control::Tolerances;
+use crate::cosim::{Extrapolation, IqnOptions, JacobianUpdate, Options, Relaxation, Scheme};
+use crate::simulate::Method;
+use crate::system::Adaptive;
 use anyhow::bail;
 use clap::ValueEnum;
-use master::cosim::error_estimate::Kind;
-use master::cosim::step_control::Tolerances;
-use master::cosim::{Extrapolation, IqnOptions, JacobianUpdate, Options, Relaxation, Scheme};
-use master::simulate::Method;
-use master::system::Adaptive;
 
 /// The methods `--scheme` and `--schemes` know, and what each needs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub(crate) enum SchemeName {
+pub enum SchemeName {
     /// The cable–cabin model alone, platform locked, under the scene's [disturbance]; in-process.
     Cable,
     /// Eq. (7): the whole system in one model, no FMUs; the accuracy reference.
@@ -37,7 +38,7 @@ pub(crate) enum SchemeName {
 impl SchemeName {
     /// The coupling scheme the name selects; none for the methods that are not a co-simulation
     /// of their own (the cable model alone, the monolithic and the decoupled models).
-    pub(crate) fn coupling(self) -> Option<Scheme> {
+    pub fn coupling(self) -> Option<Scheme> {
         match self {
             SchemeName::Cable | SchemeName::Monolithic | SchemeName::Decoupled => None,
             SchemeName::Jacobi => Some(Scheme::Jacobi),
@@ -50,7 +51,7 @@ impl SchemeName {
     }
 
     /// The name as written on the command line (a coupling scheme's is its own name).
-    pub(crate) fn as_str(self) -> &'static str {
+    pub fn as_str(self) -> &'static str {
         match self {
             SchemeName::Cable => "cable",
             SchemeName::Monolithic => "monolithic",
@@ -60,13 +61,13 @@ impl SchemeName {
     }
 
     /// Whether the scheme iterates within a macro step.
-    pub(crate) fn iterates(self) -> bool {
+    pub fn iterates(self) -> bool {
         self.coupling().is_some_and(Scheme::is_implicit)
     }
 
     /// Whether the method has an adaptive step: the monolithic model and the schemes that
     /// iterate (they can take a step back).
-    pub(crate) fn has_adaptive_step(self) -> bool {
+    pub fn has_adaptive_step(self) -> bool {
         self == SchemeName::Monolithic || self.iterates()
     }
 
@@ -74,7 +75,7 @@ impl SchemeName {
     /// (measured at LT50m, README "Run time against error": IJCSA 1.4–1.5×, IQN-ILS 1.4–1.9×
     /// IJCSA, the fixed point 10–20× IJCSA; the explicit schemes step each FMU once, the cable
     /// model and the decoupled model carry one net). An estimate: only the order it gives counts.
-    pub(crate) fn relative_cost(self) -> f64 {
+    pub fn relative_cost(self) -> f64 {
         match self {
             SchemeName::Cable => 0.3,
             SchemeName::Decoupled => 0.5,
@@ -88,7 +89,7 @@ impl SchemeName {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub(crate) enum ExtrapolationArg {
+pub enum ExtrapolationArg {
     /// The last outputs.
     Constant,
     /// Extrapolated from the last two (non-iterating schemes pass the slope to the FMUs
@@ -97,7 +98,7 @@ pub(crate) enum ExtrapolationArg {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub(crate) enum JacobianArg {
+pub enum JacobianArg {
     /// Recomputed every step.
     EveryStep,
     /// Kept across steps and secant-updated (Broyden) from each step's iterates; a unit whose
@@ -109,7 +110,7 @@ pub(crate) enum JacobianArg {
 }
 
 /// `--relaxation`: `aitken` or a factor in (0, 1].
-fn relaxation(text: &str) -> Result<Relaxation, String> {
+pub fn relaxation(text: &str) -> Result<Relaxation, String> {
     if text == "aitken" {
         return Ok(Relaxation::Aitken);
     }
@@ -120,7 +121,7 @@ fn relaxation(text: &str) -> Result<Relaxation, String> {
 }
 
 /// A positive finite number.
-pub(crate) fn positive(text: &str) -> Result<f64, String> {
+pub fn positive(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(x) if x > 0.0 && x.is_finite() => Ok(x),
         Ok(x) => Err(format!("{x} is not a positive finite number")),
@@ -129,7 +130,7 @@ pub(crate) fn positive(text: &str) -> Result<f64, String> {
 }
 
 /// A number in [0, 1).
-fn below_one(text: &str) -> Result<f64, String> {
+pub fn below_one(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(x) if (0.0..1.0).contains(&x) => Ok(x),
         _ => Err(format!("`{text}`: give a number in [0, 1)")),
@@ -137,7 +138,7 @@ fn below_one(text: &str) -> Result<f64, String> {
 }
 
 /// A factor in (0, 1].
-fn factor(text: &str) -> Result<f64, String> {
+pub fn factor(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(x) if x > 0.0 && x <= 1.0 => Ok(x),
         _ => Err(format!("`{text}`: give a factor in (0, 1]")),
@@ -145,7 +146,7 @@ fn factor(text: &str) -> Result<f64, String> {
 }
 
 /// A relative tolerance in (0, 1).
-pub(crate) fn tolerance(text: &str) -> Result<f64, String> {
+pub fn tolerance(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(x) if x > 0.0 && x < 1.0 => Ok(x),
         _ => Err(format!("`{text}`: give a tolerance in (0, 1)")),
@@ -154,58 +155,58 @@ pub(crate) fn tolerance(text: &str) -> Result<f64, String> {
 
 /// Options of the coupling schemes.
 #[derive(clap::Args, Clone, Debug)]
-pub(crate) struct SchemeOptions {
+pub struct SchemeOptions {
     /// First guess of the end-of-step inputs [default: linear for ijcsa (its reused Jacobian
     /// then needs no more iterations than a fresh one), constant for the other schemes].
     #[arg(long, value_enum)]
-    pub(crate) extrapolation: Option<ExtrapolationArg>,
+    pub extrapolation: Option<ExtrapolationArg>,
     /// Interface tolerance of iterating schemes: every |U − C·Y| ≤ tol · s, with s the largest
     /// start value (at least 1) among the inputs of the same FMU and unit (e.g. the weight for
     /// forces).
     #[arg(long, default_value = "1e-8", value_parser = positive)]
-    pub(crate) tol: f64,
+    pub tol: f64,
     /// Iteration limit per macro step of iterating schemes (exceeding it stops the run).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
-    pub(crate) max_iter: u32,
+    pub max_iter: u32,
     /// Relaxation of `iterative`: a fixed factor in (0, 1], or `aitken` (dynamic; it stalls on
     /// the LT50m scenes, whose interface couples several modes of both signs).
     #[arg(long, default_value = "0.5", value_parser = relaxation)]
-    pub(crate) relaxation: Relaxation,
+    pub relaxation: Relaxation,
     /// Interface Jacobian of `ijcsa`.
     #[arg(long, value_enum, default_value_t = JacobianArg::Reuse)]
-    pub(crate) jacobian: JacobianArg,
+    pub jacobian: JacobianArg,
     /// Past steps (time windows) whose residual history `iqn-ils` reuses (0: this step's only).
     #[arg(long, default_value_t = IqnOptions::default().reuse)]
-    pub(crate) iqn_reuse: usize,
+    pub iqn_reuse: usize,
     /// QR filter limit of `iqn-ils` in [0, 1): a history column keeping less than this
     /// fraction of its norm after orthogonalization against newer ones is deleted.
     #[arg(long, default_value_t = IqnOptions::default().filter, value_parser = below_one,
           allow_negative_numbers = true)]
-    pub(crate) iqn_filter: f64,
+    pub iqn_filter: f64,
     /// Relaxation of the first update of `iqn-ils`, while there is no history, in (0, 1].
     #[arg(long, default_value_t = IqnOptions::default().initial_relaxation, value_parser = factor,
           allow_negative_numbers = true)]
-    pub(crate) iqn_relaxation: f64,
+    pub iqn_relaxation: f64,
     /// Adaptive step (monolithic; iterative, ijcsa, iqn-ils): a local error estimate (predictor
     /// against corrector) of the cabin pose (a co-simulation's: of the coupled inputs --watch
     /// names), rejected steps rolled back. The steps are
     /// chosen within [--h-min, --h-max] (the first ones at 10 × --h-min) and the last lands on
     /// the end time; --dt does not apply.
     #[arg(long)]
-    pub(crate) adaptive: bool,
+    pub adaptive: bool,
     /// Relative tolerance of the adaptive step, in (0, 1): error per step ≤ rtol × how far each
     /// watched quantity has moved from its initial value.
     #[arg(long, default_value = "1e-3", value_parser = tolerance, allow_negative_numbers = true)]
-    pub(crate) rtol: f64,
+    pub rtol: f64,
     /// Absolute tolerance of the adaptive step, as a fraction of each coupled quantity's scale.
     #[arg(long, default_value = "1e-6", value_parser = positive, allow_negative_numbers = true)]
-    pub(crate) atol: f64,
+    pub atol: f64,
     /// Smallest step of the adaptive step (s).
     #[arg(long, default_value = "1e-5", value_parser = positive, allow_negative_numbers = true)]
-    pub(crate) h_min: f64,
+    pub h_min: f64,
     /// Largest step of the adaptive step (s).
     #[arg(long, default_value = "0.1", value_parser = positive, allow_negative_numbers = true)]
-    pub(crate) h_max: f64,
+    pub h_max: f64,
     /// The coupled inputs a co-simulation's adaptive step judges its error by (comma-separated;
     /// `component.variable`, or a prefix ending before a `.` or `[`: `stewart.cabin.r` for
     /// `stewart.cabin.r[1]` … `[3]`). Default: a scene's cabin pose (`stewart.cabin.r`,
@@ -213,15 +214,15 @@ pub(crate) struct SchemeOptions {
     /// Name smooth quantities (positions, velocities): an FMU's accelerations and forces may
     /// carry its integrator's step-to-step ripple, which the estimate reads as error.
     #[arg(long, value_delimiter = ',', value_name = "INPUTS")]
-    pub(crate) watch: Vec<String>,
+    pub watch: Vec<String>,
     /// How the adaptive step estimates its local error [default: predictor].
     #[arg(long, value_enum)]
-    pub(crate) estimate: Option<EstimateArg>,
+    pub estimate: Option<EstimateArg>,
 }
 
 /// `--estimate`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub(crate) enum EstimateArg {
+pub enum EstimateArg {
     /// The step against the parabola of the last three steps: no extra step; assumes a
     /// second-order coupled step (the FMUs of this workspace, the monolithic model)
     Predictor,
@@ -233,7 +234,7 @@ pub(crate) enum EstimateArg {
 impl SchemeOptions {
     /// The method of `scheme` with these options; refused: `--adaptive` with a scheme that does
     /// not iterate.
-    pub(crate) fn method(&self, scheme: SchemeName) -> anyhow::Result<Method> {
+    pub fn method(&self, scheme: SchemeName) -> anyhow::Result<Method> {
         if self.adaptive && !scheme.has_adaptive_step() {
             bail!(
                 "--adaptive needs the monolithic model or a scheme that iterates (iterative, ijcsa, iqn-ils); \
@@ -280,7 +281,7 @@ impl SchemeOptions {
     }
 
     /// The same options at a fixed step (e.g. for a reference run).
-    pub(crate) fn fixed_step(&self) -> SchemeOptions {
+    pub fn fixed_step(&self) -> SchemeOptions {
         SchemeOptions { adaptive: false, watch: Vec::new(), estimate: None, ..self.clone() }
     }
 

@@ -1,0 +1,205 @@
+"""feedsim from Python: the runs, statics and modes of the ``master`` tool, in-process.
+
+A scene is a path to a scene file (TOML) or a dict of the same keys. Options are the command
+line's, by their flag names with ``_`` for ``-`` (``t_end``, ``h_min``, ``iqn_reuse``, ...):
+``True`` gives a flag, a list a comma-separated value. Every number the functions return is
+the one the ``master`` command prints for the same scene and options.
+
+Errors: :class:`SceneError` (a ``ValueError``) for a scene that cannot be read or is not valid,
+naming the file, the key and the value; :class:`RunError` (a ``RuntimeError``) for a run that
+cannot start or stops, with the time and the cause; ``ValueError`` for an unknown or bad option.
+The GIL is released while a model computes, so threads run in parallel.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+from typing import Any, Mapping
+
+from . import _feedsim
+
+__all__ = ["Result", "RunError", "SceneError", "modes", "run", "statics", "sweep"]
+
+SceneError = _feedsim.SceneError
+RunError = _feedsim.RunError
+
+#: The label a scene given as a dict carries in error messages.
+DICT_LABEL = "<dict>"
+
+
+def _source(scene: str | os.PathLike | Mapping[str, Any]) -> tuple[str | None, str | None, str]:
+    """(path, TOML text, label) of a scene given as a path or a dict."""
+    if isinstance(scene, Mapping):
+        return None, _toml(scene), DICT_LABEL
+    if isinstance(scene, (str, os.PathLike)):
+        path = os.fspath(scene)
+        return path, None, path
+    raise TypeError(f"scene: give a path or a dict of the scene's keys, not {type(scene).__name__}")
+
+
+def _toml(scene: Mapping[str, Any]) -> str:
+    """The TOML text of a dict of scene keys (tables, arrays of numbers and strings, scalars)."""
+    lines: list[str] = []
+
+    def value(v: Any, key: str) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, int):
+            return str(int(v))
+        if isinstance(v, float):
+            v = float(v)  # numpy's float64 is a float whose repr names numpy
+            return repr(v) if v == v and v not in (float("inf"), float("-inf")) else _nonfinite(v)
+        if isinstance(v, str):
+            return json.dumps(v)
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x, key) for x in v) + "]"
+        if isinstance(v, Mapping):
+            return "{" + ", ".join(f"{json.dumps(str(k))} = {value(x, key)}" for k, x in v.items()) + "}"
+        if hasattr(v, "tolist"):  # numpy scalars and arrays
+            return value(v.tolist(), key)
+        raise SceneError(f"{DICT_LABEL}: key `{key}`: a {type(v).__name__} is not a scene value")
+
+    def table(d: Mapping[str, Any], prefix: str) -> None:
+        scalars = [(k, v) for k, v in d.items() if not isinstance(v, Mapping)]
+        tables = [(k, v) for k, v in d.items() if isinstance(v, Mapping)]
+        if prefix and (scalars or not tables):
+            lines.append(f"[{prefix}]")
+        for k, v in scalars:
+            lines.append(f"{json.dumps(str(k))} = {value(v, f'{prefix}.{k}' if prefix else str(k))}")
+        for k, v in tables:
+            name = json.dumps(str(k))
+            table(v, f"{prefix}.{name}" if prefix else name)
+
+    table(scene, "")
+    return "\n".join(lines) + "\n"
+
+
+def _nonfinite(v: float) -> str:
+    return "nan" if v != v else ("inf" if v > 0 else "-inf")
+
+
+def _argv(options: Mapping[str, Any]) -> list[str]:
+    """Command-line flags of keyword options: ``t_end=5`` → ``--t-end 5``."""
+    argv: list[str] = []
+    for key, v in options.items():
+        if v is None or v is False:
+            continue
+        flag = "--" + key.replace("_", "-")
+        if v is True:
+            argv.append(flag)
+        elif isinstance(v, (list, tuple)):
+            argv += [flag, ",".join(str(x) for x in v)]
+        else:
+            argv += [flag, repr(v) if isinstance(v, float) else str(v)]
+    return argv
+
+
+def _columns(csv: str) -> dict[str, Any]:
+    """The CSV's columns as numpy arrays, in order (every value as printed: round-trip exact)."""
+    import numpy as np
+
+    header, _, body = csv.partition("\n")
+    names = header.split(",")
+    data = np.loadtxt(io.StringIO(body), delimiter=",", ndmin=2) if body.strip() else np.empty((0, len(names)))
+    return {name: data[:, k].copy() for k, name in enumerate(names)}
+
+
+class Result:
+    """A finished run: ``summary`` (the keys of ``master run --json``), ``csv`` (the text of
+    ``--out``), ``frame`` (a pandas DataFrame of the CSV's columns) and ``arrays()``."""
+
+    def __init__(self, summary: dict[str, Any], csv: str):
+        self.summary = summary
+        self.csv = csv
+        self._frame = None
+
+    def arrays(self) -> dict[str, Any]:
+        """The time histories as numpy arrays by column name (``t`` first), without pandas."""
+        return _columns(self.csv)
+
+    @property
+    def frame(self):
+        """The time histories as a pandas DataFrame, the CSV's columns in its order."""
+        if self._frame is None:
+            import pandas as pd
+
+            self._frame = pd.DataFrame(self.arrays())
+        return self._frame
+
+    def __repr__(self) -> str:
+        s = self.summary
+        return f"<feedsim.Result {s.get('scene')} {s.get('scheme')}: {s.get('steps')} steps, peak {s.get('peak_disp_mm')} mm>"
+
+
+def run(scene, scheme: str = "ijcsa", *, dt: float | None = None, t_end: float | None = None, **options) -> Result:
+    """One run of a scene, as ``master run --scene F --scheme S``.
+
+    ``scheme``: ``monolithic``, ``jacobi``, ``gauss-seidel``, ``gauss-seidel-reversed``,
+    ``iterative``, ``ijcsa``, ``iqn-ils``, ``decoupled`` or ``cable``. ``dt`` and ``t_end``
+    default to the scene's ``solver.dt_s`` and ``solver.t_end_s``. ``options``: the command
+    line's scheme options (``adaptive=True``, ``rtol``, ``atol``, ``h_min``, ``h_max``,
+    ``watch=[...]``, ``estimate``, ``tol``, ``max_iter``, ``relaxation``, ``jacobian``,
+    ``extrapolation``, ``iqn_reuse``, ``iqn_filter``, ``iqn_relaxation``). The co-simulation
+    schemes load the FMUs the scene's ``[system]`` names (relative to the scene file; for a
+    dict, to the working folder).
+    """
+    path, toml, label = _source(scene)
+    argv = _argv({"scheme": scheme, "dt": dt, "t_end": t_end, **options})
+    summary, csv = _feedsim.run(path, toml, label, argv)
+    return Result(json.loads(summary), csv)
+
+
+def statics(scene) -> dict[str, Any]:
+    """The form-finding statics of the scene's target pose: the dict of ``master statics --json``."""
+    path, toml, label = _source(scene)
+    return json.loads(_feedsim.statics(path, toml, label))
+
+
+def modes(scene, count: int = 6) -> dict[str, Any]:
+    """The lowest ``count`` natural modes (platform locked): the dict of
+    ``master modes --count N --json`` (``frequencies_hz``, per mode its cabin share and shape,
+    the damping fit)."""
+    path, toml, label = _source(scene)
+    return json.loads(_feedsim.modes(path, toml, label, int(count)))
+
+
+def sweep(
+    scene,
+    grid: Mapping[str, Any],
+    *,
+    run: str | None = None,
+    t_end: float = 2.0,
+    modes: int = 3,
+    jobs: int | None = None,
+    surface: str | None = None,
+    tilt_share: float | None = None,
+    **options,
+):
+    """Statics, the first ``modes`` frequencies and, with ``run`` (a scheme), a short run of
+    ``t_end`` s at every point of a grid, on ``jobs`` threads (default: every core), as
+    ``master sweep``: a pandas DataFrame of the columns of its ``sweep.csv``, one row per point.
+
+    ``grid``: axis name → values (a list, or ``"start:stop:count"``); names ``x``, ``y``, ``z``
+    (m, the cabin centre's world position), ``mass`` (factor on the platform's masses and
+    inertias), ``dt`` (s, the run's step). Points are all combinations, the first axis varying
+    slowest. ``surface``, ``tilt_share`` and ``options``: as the command's flags.
+    """
+    import pandas as pd
+
+    specs = []
+    for name, values in grid.items():
+        text = values if isinstance(values, str) else ",".join(repr(float(v)) for v in values)
+        specs.append(f"{name}={text}")
+    path, toml, label = _source(scene)
+    flags = {"run": run, "t_end": t_end, "modes": modes, "jobs": jobs, "surface": surface, "tilt_share": tilt_share}
+    argv = [a for spec in specs for a in ("--grid", spec)] + _argv({**flags, **options})
+    columns, rows = _feedsim.sweep(path, toml, label, argv)
+    frame = pd.DataFrame(rows, columns=columns)
+    for name in columns:
+        if name == "feasible":
+            frame[name] = frame[name] == "true"
+        elif name != "note":
+            frame[name] = pd.to_numeric(frame[name].replace("", float("nan")))
+    return frame

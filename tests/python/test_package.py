@@ -1,0 +1,182 @@
+"""The Python package feedsim against the master command: the same scene and options give the
+same CSV, the same --json, the same statics and modes; errors are exceptions naming the key."""
+
+import json
+import os
+import pathlib
+import subprocess
+import threading
+import time
+import tomllib
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import feedsim
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+MASTER = REPO / os.environ.get("CARGO_TARGET_DIR", "target") / "release" / "master"
+C = REPO / "scenes" / "lt50m_C.toml"
+B = REPO / "scenes" / "lt50m_B.toml"
+
+# what differs between two runs of the same thing: the clock and the process's memory
+VOLATILE = {"wall_time_s", "setup_s", "peak_memory_bytes"}
+
+
+def master(*args):
+    out = subprocess.run([str(MASTER), *map(str, args)], capture_output=True, text=True, cwd=REPO)
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
+def stable(d):
+    return {k: v for k, v in d.items() if k not in VOLATILE}
+
+
+@pytest.mark.parametrize(
+    "scene, scheme, flags",
+    [
+        (C, "ijcsa", {"t_end": 2.0}),
+        (B, "iqn-ils", {"t_end": 1.0, "dt": 0.02}),
+        (C, "monolithic", {"t_end": 2.0, "adaptive": True, "rtol": 1e-4}),
+        (REPO / "scenes" / "lt50m_C_compensated.toml", "monolithic", {"t_end": 1.0}),
+    ],
+    ids=["C-ijcsa", "B-iqn-dt", "C-monolithic-adaptive", "C-compensated"],
+)
+def test_run_equals_the_command(tmp_path, scene, scheme, flags):
+    r = feedsim.run(scene, scheme, **flags)
+    argv = feedsim._argv(flags)
+    csv = tmp_path / "out.csv"
+    cli = json.loads(master("run", "--scene", scene, "--scheme", scheme, *argv, "--out", csv, "--json", "--quiet"))
+    assert r.csv == csv.read_text()
+    pd.testing.assert_frame_equal(r.frame, pd.read_csv(csv), check_exact=True)
+    assert list(r.frame.columns) == csv.read_text().splitlines()[0].split(",")
+    assert stable(r.summary) == stable(cli)
+    for name, column in r.arrays().items():
+        np.testing.assert_array_equal(column, r.frame[name].to_numpy())
+
+
+def test_statics_and_modes_equal_the_command():
+    assert feedsim.statics(B) == json.loads(master("statics", "--scene", B, "--json"))
+    mine = feedsim.modes(C, count=4)
+    cli = json.loads(master("modes", "--scene", C, "--count", 4, "--json"))
+    assert stable(mine) == stable(cli)
+    assert len(mine["frequencies_hz"]) == 4
+
+
+def test_a_dict_is_the_scene_file():
+    scene = tomllib.loads(C.read_text())
+    assert feedsim.statics(scene) == {**feedsim.statics(C), "scene": scene["name"]}
+    a = feedsim.run(scene, "monolithic", t_end=0.5)
+    b = feedsim.run(C, "monolithic", t_end=0.5)
+    assert a.csv == b.csv and stable(a.summary) == stable(b.summary)
+    # numpy values are scene values too
+    scene["cables"]["youngs_modulus_pa"] = np.float64(scene["cables"]["youngs_modulus_pa"] * 2)
+    assert feedsim.modes(scene, 1)["frequencies_hz"][0] > feedsim.modes(C, 1)["frequencies_hz"][0]
+
+
+def test_scene_errors_name_the_key():
+    scene = tomllib.loads(C.read_text())
+    scene["cables"]["area_m2"] = -1.0
+    with pytest.raises(feedsim.SceneError, match=r"cables\.area_m2") as e:
+        feedsim.statics(scene)
+    assert isinstance(e.value, ValueError) and "-1" in str(e.value)
+    scene = tomllib.loads(C.read_text())
+    scene["cabin"]["colour"] = "red"
+    with pytest.raises(feedsim.SceneError, match="colour"):
+        feedsim.run(scene, "monolithic", t_end=0.1)
+    scene = tomllib.loads(C.read_text())
+    scene["cables"]["area_m2"] = float("nan")
+    with pytest.raises(feedsim.SceneError, match=r"cables\.area_m2"):
+        feedsim.modes(scene)
+    with pytest.raises(feedsim.SceneError, match="no-such-scene.toml"):
+        feedsim.run(REPO / "scenes" / "no-such-scene.toml")
+    with pytest.raises(TypeError):
+        feedsim.run(42)
+
+
+def test_runs_that_cannot_go_on_raise_run_error():
+    with pytest.raises(feedsim.RunError, match="stopped at t = ") as e:
+        feedsim.run(C, "jacobi", t_end=2.0)
+    assert isinstance(e.value, RuntimeError) and "diverged" in str(e.value)
+    with pytest.raises(feedsim.RunError, match="whole number of steps"):
+        feedsim.run(C, "monolithic", dt=0.03, t_end=0.1)
+
+
+def test_bad_options_raise_value_error():
+    with pytest.raises(ValueError, match="nonsense"):
+        feedsim.run(C, "nonsense")
+    with pytest.raises(ValueError, match="unexpected argument"):
+        feedsim.run(C, "ijcsa", colour="red")
+    with pytest.raises(ValueError, match="adaptive"):
+        feedsim.run(C, "jacobi", adaptive=True)
+    with pytest.raises(ValueError, match="tolerance"):
+        feedsim.run(C, "ijcsa", adaptive=True, rtol=2.0)
+    with pytest.raises(ValueError, match="count"):
+        feedsim.modes(C, 0)
+
+
+def test_two_threads_run_in_parallel():
+    """The GIL is released while a run steps: two runs in two threads take measurably less than
+    twice one run (medians of three; this machine has at least two cores)."""
+    if (os.cpu_count() or 1) < 2:
+        pytest.skip("one core")
+
+    def one():
+        feedsim.run(C, "monolithic", t_end=100.0)
+
+    def timed(f):
+        t0 = time.perf_counter()
+        f()
+        return time.perf_counter() - t0
+
+    def two():
+        threads = [threading.Thread(target=one) for _ in range(2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+
+    single = sorted(timed(one) for _ in range(3))[1]
+    double = sorted(timed(two) for _ in range(3))[1]
+    print(f"one run {single:.3f} s, two in parallel {double:.3f} s ({double / single:.2f}x)")
+    assert double < 1.6 * single
+
+
+def test_sweep_equals_the_command(tmp_path):
+    grid = ["--grid", "x=0,2", "--grid", "mass=1,2"]
+    master("sweep", "--scene", C, *grid, "--modes", 2, "--run", "monolithic", "--t-end", 0.5, "--out", tmp_path, "--quiet")
+    cli = pd.read_csv(tmp_path / "sweep.csv", comment="#", keep_default_na=False)
+    mine = feedsim.sweep(C, {"x": [0, 2], "mass": [1, 2]}, modes=2, run="monolithic", t_end=0.5, jobs=2)
+    assert list(mine.columns) == list(cli.columns)
+    assert len(mine) == 4 and mine["feasible"].all()
+    for name in cli.columns:
+        if name in ("wall_s", "run_wall_s", "feasible", "note"):
+            continue
+        np.testing.assert_array_equal(mine[name].to_numpy(float), cli[name].to_numpy(float), err_msg=name)
+    assert (mine["note"] == cli["note"]).all()
+    # a bad axis is an option error naming it
+    with pytest.raises(ValueError, match="colour"):
+        feedsim.sweep(C, {"colour": [1, 2]})
+
+
+def test_a_dask_sweep_equals_the_runs_one_by_one():
+    """The docs' dask example in small: runs of dict scenes mapped by dask's local scheduler
+    (threads; the GIL is released while each steps) equal the same runs one by one."""
+    dask = pytest.importorskip("dask")
+    base = tomllib.loads(C.read_text())
+
+    def with_mass(f):
+        scene = json.loads(json.dumps(base))
+        scene["stewart"]["platform"]["mass_kg"] *= f
+        return scene
+
+    def peak(f):
+        return feedsim.run(with_mass(f), "monolithic", t_end=1.0).summary["peak_disp_mm"]
+
+    factors = [0.5, 1.0, 2.0]
+    tasks = [dask.delayed(peak)(f) for f in factors]
+    parallel = dask.compute(*tasks, scheduler="threads", num_workers=2)
+    assert list(parallel) == [peak(f) for f in factors]
+    assert parallel[0] != parallel[2]
