@@ -17,6 +17,9 @@ use crate::limits::{Limits as StepLimits, Plan, Schedule};
 use crate::simulate::RunError;
 use crate::stepping::{Flow, Request, Step, drive};
 
+mod file;
+pub use file::SystemFile;
+
 /// Resolves a scene-relative path.
 fn relative_to(scene_file: &Path, path: &str) -> PathBuf {
     let p = Path::new(path);

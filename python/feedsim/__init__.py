@@ -16,11 +16,11 @@ from __future__ import annotations
 import io
 import json
 import os
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 from . import _feedsim
 
-__all__ = ["Result", "RunError", "SceneError", "modes", "run", "statics", "sweep"]
+__all__ = ["Result", "RunError", "SceneError", "modes", "run", "run_system", "statics", "sweep"]
 
 SceneError = _feedsim.SceneError
 RunError = _feedsim.RunError
@@ -97,13 +97,22 @@ def _argv(options: Mapping[str, Any]) -> list[str]:
 
 
 def _columns(csv: str) -> dict[str, Any]:
-    """The CSV's columns as numpy arrays, in order (every value as printed: round-trip exact)."""
+    """The CSV's columns as numpy arrays, in order: float64 where every cell is a number (as
+    printed: round-trip exact; an empty cell is NaN), else the text (a system's String outputs)."""
+    import csv as csvlib
+
     import numpy as np
 
-    header, _, body = csv.partition("\n")
-    names = header.split(",")
-    data = np.loadtxt(io.StringIO(body), delimiter=",", ndmin=2) if body.strip() else np.empty((0, len(names)))
-    return {name: data[:, k].copy() for k, name in enumerate(names)}
+    rows = list(csvlib.reader(io.StringIO(csv)))
+    names, body = (rows[0], rows[1:]) if rows else ([], [])
+    columns: dict[str, Any] = {}
+    for k, name in enumerate(names):
+        cells = [row[k] for row in body]
+        try:
+            columns[name] = np.array([float(c) if c else float("nan") for c in cells], dtype=np.float64)
+        except ValueError:
+            columns[name] = np.array(cells, dtype=object)
+    return columns
 
 
 class Result:
@@ -130,10 +139,19 @@ class Result:
 
     def __repr__(self) -> str:
         s = self.summary
-        return f"<feedsim.Result {s.get('scene')} {s.get('scheme')}: {s.get('steps')} steps, peak {s.get('peak_disp_mm')} mm>"
+        peak = f", peak {s['peak_disp_mm']} mm" if "peak_disp_mm" in s else ""
+        return f"<feedsim.Result {s.get('scene', s.get('system'))} {s.get('scheme')}: {s.get('steps')} steps{peak}>"
 
 
-def run(scene, scheme: str = "ijcsa", *, dt: float | None = None, t_end: float | None = None, **options) -> Result:
+def run(
+    scene,
+    scheme: str = "ijcsa",
+    *,
+    dt: float | None = None,
+    t_end: float | None = None,
+    progress: Callable[[float, float], Any] | None = None,
+    **options,
+) -> Result:
     """One run of a scene, as ``master run --scene F --scheme S``.
 
     ``scheme``: ``monolithic``, ``jacobi``, ``gauss-seidel``, ``gauss-seidel-reversed``,
@@ -144,10 +162,28 @@ def run(scene, scheme: str = "ijcsa", *, dt: float | None = None, t_end: float |
     ``extrapolation``, ``iqn_reuse``, ``iqn_filter``, ``iqn_relaxation``). The co-simulation
     schemes load the FMUs the scene's ``[system]`` names (relative to the scene file; for a
     dict, to the working folder).
+
+    ``progress(t, t_end)``, if given, is called about ten times a second of wall time with the
+    simulated time reached; an exception it raises stops the run and propagates, and so does
+    Ctrl-C (``KeyboardInterrupt``).
     """
     path, toml, label = _source(scene)
     argv = _argv({"scheme": scheme, "dt": dt, "t_end": t_end, **options})
-    summary, csv = _feedsim.run(path, toml, label, argv)
+    summary, csv = _feedsim.run(path, toml, label, argv, progress)
+    return Result(json.loads(summary), csv)
+
+
+def run_system(path, scheme: str = "ijcsa", *, dt: float | None = None, t_end: float | None = None, **options) -> Result:
+    """A run of an SSP 1.0 system (an ``.ssp`` archive, or an ``.ssd`` with its FMUs beside it),
+    as ``master run --system``: ``summary`` holds the keys of its ``--json``, ``frame`` the
+    columns of its ``--out`` (``time``, with the adaptive step then ``h_s``, and every output as
+    ``<component>.<variable>``). ``dt`` is the macro step (not with ``adaptive=True``); ``t_end``
+    defaults to the system's DefaultExperiment stopTime. ``options``: the scheme options of
+    :func:`run`, and ``allow_external_fmus``, ``max_archive_entries``, ``max_unpacked_mb``."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path: give the path of an .ssp or .ssd file, not {type(path).__name__}")
+    argv = _argv({"scheme": scheme, "dt": dt, "t_end": t_end, **options})
+    summary, csv = _feedsim.run_system(os.fspath(path), argv)
     return Result(json.loads(summary), csv)
 
 

@@ -7,8 +7,19 @@ class SceneError(ValueError):
 class RunError(RuntimeError):
     """A run that cannot start, or stopped: the time and the cause."""
 
-def run(path: str | None, toml: str | None, label: str, argv: list[str]) -> tuple[str, str]:
-    """`master run`: (the --json summary, the --out CSV)."""
+from typing import Any, Callable
+
+def run(
+    path: str | None,
+    toml: str | None,
+    label: str,
+    argv: list[str],
+    progress: Callable[[float, float], Any] | None = None,
+) -> tuple[str, str]:
+    """`master run`: (the --json summary, the --out CSV); `progress(t, t_end)` about every 0.1 s."""
+
+def run_system(path: str, argv: list[str]) -> tuple[str, str]:
+    """`master run --system`: (the --json summary, the --out CSV)."""
 
 def statics(path: str | None, toml: str | None, label: str) -> str:
     """`master statics --json`."""

@@ -5,14 +5,17 @@
 //! turns them into dicts, numpy arrays and data frames.
 
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use clap::Parser;
+use cosim::ssp::read::ReadLimits;
 use feedcore::scene::{MAX_SCENE_BYTES, Scene, SceneError as InvalidScene, ValidScene};
 use master::limits::{Footprint, Limits, check_memory};
 use master::options::{SchemeName, SchemeOptions, positive};
 use master::report::{Modal, Statics, run_summary, static_utilisation};
 use master::simulate::{Method, Run};
 use master::sweep;
+use master::system::SystemFile;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -92,15 +95,18 @@ fn option_error(e: clap::Error) -> PyErr {
     PyValueError::new_err(first)
 }
 
-/// One run: (the `--json` summary, the `--out` CSV).
+/// One run: (the `--json` summary, the `--out` CSV). `progress(t, t_end)` is called at most every
+/// [`PROGRESS_PERIOD`] of wall time; an exception it raises, or a pending signal (Ctrl-C), stops
+/// the run and is raised.
 #[pyfunction]
-#[pyo3(signature = (path, toml, label, argv))]
+#[pyo3(signature = (path, toml, label, argv, progress=None))]
 fn run(
     py: Python<'_>,
     path: Option<String>,
     toml: Option<String>,
     label: String,
     argv: Vec<String>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, String)> {
     let source = Source::new(path, toml, label)?;
     let args = RunArgs::try_parse_from(&argv).map_err(option_error)?;
@@ -115,13 +121,47 @@ fn run(
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let file = source.file();
-    py.detach(|| run_scene(&scene, &file, method, dt, t_end))
+    py.detach(|| run_scene(&scene, &file, method, dt, t_end, progress))
 }
 
-fn run_scene(scene: &ValidScene, file: &Path, method: Method, dt: f64, t_end: f64) -> PyResult<(String, String)> {
-    let trace = Run::prepare(scene, file, method, dt, t_end, &Limits::default())
-        .and_then(|r| r.execute(true))
-        .map_err(|e| run_error(&e))?;
+/// How often a run looks at the interpreter (signals, the progress callback): rarely enough to
+/// cost nothing against the steps, often enough for Ctrl-C to feel immediate.
+const PROGRESS_PERIOD: Duration = Duration::from_millis(100);
+
+fn run_scene(
+    scene: &ValidScene,
+    file: &Path,
+    method: Method,
+    dt: f64,
+    t_end: f64,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(String, String)> {
+    let run = Run::prepare(scene, file, method, dt, t_end, &Limits::default()).map_err(|e| run_error(&e))?;
+    let mut raised: Option<PyErr> = None;
+    let mut last = Instant::now();
+    let mut watch = |t: f64| -> Result<(), String> {
+        if last.elapsed() < PROGRESS_PERIOD {
+            return Ok(());
+        }
+        last = Instant::now();
+        let looked = Python::attach(|py| {
+            py.check_signals()?;
+            if let Some(callback) = &progress {
+                callback.call1(py, (t, t_end))?;
+            }
+            Ok::<(), PyErr>(())
+        });
+        looked.map_err(|e| {
+            let text = e.to_string();
+            raised = Some(e);
+            text
+        })
+    };
+    let trace = run.execute_watched(true, &mut watch);
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    let trace = trace.map_err(|e| run_error(&e))?;
     let utilisation = static_utilisation(scene).map_err(|e| run_error(&e))?;
     let summary = run_summary(scene, &trace, utilisation.as_deref());
     let mut csv = Vec::new();
@@ -155,6 +195,50 @@ fn modes(py: Python<'_>, path: Option<String>, toml: Option<String>, label: Stri
         check_memory(&scene, Footprint::CableModel, built, &Limits::default()).map_err(|e| run_error(&e))?;
         let m = Modal::of(&scene, count).map_err(|e| run_error(&e))?;
         Ok(m.json().to_string())
+    })
+}
+
+/// The options of `master run --system` the package passes on.
+#[derive(Parser)]
+#[command(name = "feedsim.run_system", no_binary_name = true)]
+struct SystemArgs {
+    #[arg(long, value_enum)]
+    scheme: SchemeName,
+    #[arg(long, value_parser = positive)]
+    dt: Option<f64>,
+    #[arg(long, value_parser = positive)]
+    t_end: Option<f64>,
+    #[arg(long)]
+    allow_external_fmus: bool,
+    #[arg(long)]
+    max_archive_entries: Option<usize>,
+    #[arg(long)]
+    max_unpacked_mb: Option<u64>,
+    #[command(flatten)]
+    options: SchemeOptions,
+}
+
+/// A run of an SSP system file: (the `--json` summary, the `--out` CSV).
+#[pyfunction]
+#[pyo3(signature = (path, argv))]
+fn run_system(py: Python<'_>, path: String, argv: Vec<String>) -> PyResult<(String, String)> {
+    let args = SystemArgs::try_parse_from(&argv).map_err(option_error)?;
+    let method = args.options.method(args.scheme).map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
+    let default = ReadLimits::default();
+    let read = ReadLimits {
+        max_entries: args.max_archive_entries.unwrap_or(default.max_entries),
+        max_unpacked_bytes: args.max_unpacked_mb.map_or(default.max_unpacked_bytes, |mb| mb.saturating_mul(1 << 20)),
+        allow_external: args.allow_external_fmus,
+    };
+    py.detach(|| {
+        let file = Path::new(&path);
+        let system = SystemFile::prepare(file, method, args.dt, args.t_end, &read, &Limits::default())
+            .map_err(|e| RunError::new_err(format!("{e:#}")))?;
+        let mut csv = Vec::new();
+        let sinks = master::system::Sinks { csv: Some(&mut csv), real: None };
+        let outcome = system.execute(true, sinks).map_err(|e| run_error(&e))?;
+        let csv = String::from_utf8(csv).map_err(|e| run_error(&e))?;
+        Ok((system.summary(&outcome).to_string(), csv))
     })
 }
 
@@ -240,6 +324,7 @@ fn _feedsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(statics, m)?)?;
     m.add_function(wrap_pyfunction!(modes, m)?)?;
     m.add_function(wrap_pyfunction!(sweep_grid, m)?)?;
+    m.add_function(wrap_pyfunction!(run_system, m)?)?;
     m.add("SceneError", m.py().get_type::<SceneError>())?;
     m.add("RunError", m.py().get_type::<RunError>())?;
     Ok(())

@@ -5,6 +5,7 @@ import json
 import os
 import pathlib
 import subprocess
+import sys
 import threading
 import time
 import tomllib
@@ -180,3 +181,63 @@ def test_a_dask_sweep_equals_the_runs_one_by_one():
     parallel = dask.compute(*tasks, scheduler="threads", num_workers=2)
     assert list(parallel) == [peak(f) for f in factors]
     assert parallel[0] != parallel[2]
+
+
+@pytest.mark.parametrize("flags", [{"dt": 0.01, "t_end": 1.0}, {"t_end": 1.0, "adaptive": True}], ids=["fixed", "adaptive"])
+def test_run_system_equals_the_command(tmp_path, flags):
+    ssp = tmp_path / "C.ssp"
+    master("export-ssp", "--scene", C, "--out", ssp)
+    r = feedsim.run_system(ssp, "ijcsa", **flags)
+    csv = tmp_path / "out.csv"
+    argv = feedsim._argv(flags)
+    cli = json.loads(master("run", "--system", ssp, "--scheme", "ijcsa", *argv, "--out", csv, "--json", "--quiet"))
+    assert r.csv == csv.read_text()
+    assert stable(r.summary) == stable(cli)
+    assert r.frame.columns[0] == "time" and "cable.cabin.r[1]" in r.frame.columns
+    # the scene's run with the same scheme: the same cabin motion, bit for bit
+    if not flags.get("adaptive"):
+        scene = feedsim.run(C, "ijcsa", dt=0.01, t_end=1.0).frame
+        dx = (r.frame["cable.cabin.r[1]"] - r.frame["cable.cabin.r[1]"][0]) * 1e3
+        np.testing.assert_allclose(dx.to_numpy(), scene["dx_mm"].to_numpy(), rtol=0, atol=1e-12)
+
+
+def test_run_system_errors():
+    with pytest.raises(feedsim.RunError, match="no-such.ssp"):
+        feedsim.run_system(REPO / "no-such.ssp", "ijcsa", dt=0.01, t_end=1.0)
+    with pytest.raises(feedsim.RunError, match="coupling scheme"):
+        feedsim.run_system(REPO / "no-such.ssp", "monolithic", dt=0.01, t_end=1.0)
+    with pytest.raises(TypeError):
+        feedsim.run_system({"a": 1})
+
+
+def test_progress_is_reported_and_an_exception_in_it_stops_the_run():
+    seen = []
+    r = feedsim.run(C, "monolithic", t_end=100.0, progress=lambda t, end: seen.append((t, end)))
+    assert seen and all(end == 100.0 for _, end in seen)
+    assert [t for t, _ in seen] == sorted(t for t, _ in seen) and 0 < seen[-1][0] <= 100.0
+    assert r.summary["steps"] == 10000
+
+    class Enough(Exception):
+        pass
+
+    def stop(t, end):
+        raise Enough(f"stopped at {t}")
+
+    with pytest.raises(Enough):
+        feedsim.run(C, "monolithic", t_end=100.0, progress=stop)
+
+
+def test_ctrl_c_stops_a_run():
+    """Ctrl-C during a run raises KeyboardInterrupt within a moment, as in any Python code."""
+    import signal
+
+    code = f"import feedsim; print('started', flush=True); feedsim.run({str(C)!r}, 'monolithic', t_end=3000.0)"
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert p.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    p.send_signal(signal.SIGINT)
+    t0 = time.perf_counter()
+    _, err = p.communicate(timeout=30)
+    print(f"stopped {time.perf_counter() - t0:.2f} s after Ctrl-C")
+    assert p.returncode != 0 and "KeyboardInterrupt" in err, err
+    assert time.perf_counter() - t0 < 5.0

@@ -7,13 +7,10 @@
 use std::io::{IsTerminal, Write};
 use std::path::Path;
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use cosim::ssp::read::ReadLimits;
-use master::limits::num;
 use master::plot::{Line, PALETTE, Panel, stacked};
-use master::simulate::Method;
-use master::system::{RealHistory, Sinks, SystemRun};
-use serde_json::json;
+use master::system::{RealHistory, Sinks, SystemFile};
 
 use super::output::Outputs;
 use super::run::Args;
@@ -61,49 +58,10 @@ impl FileArgs {
 }
 
 pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
-    let (options, adaptive) = match args.options.method(args.scheme)? {
-        Method::Cosim(o) => (o, None),
-        Method::CosimAdaptive(o, a) => (o, Some(a)),
-        other => bail!(
-            "--scheme {}: runs only the LT50m scene (--scene); a --system runs with a coupling scheme \
-             (jacobi, gauss-seidel, iterative, ijcsa, iqn-ils)",
-            other.name()
-        ),
-    };
-    let loaded = cosim::ssp::read::load_within(file, &args.system_files.limits())?;
-    let dt = match (&adaptive, args.dt) {
-        (None, Some(dt)) => dt,
-        (None, None) => bail!("--dt: give the macro step of the system (s)"),
-        (Some(_), Some(_)) => bail!(
-            "--dt: the adaptive step chooses its own steps within [--h-min, --h-max] and lands on the end time; \
-             drop --dt, or --adaptive for fixed steps"
-        ),
-        // not used: the adaptive step chooses
-        (Some(_), None) => f64::NAN,
-    };
-    let start = loaded.start_time.unwrap_or(0.0);
-    if start != 0.0 {
-        bail!("{}: DefaultExperiment startTime = {start}; the master starts at 0", file.display());
-    }
-    let Some(t_end) = args.t_end.or(loaded.stop_time) else {
-        bail!("--t-end: give the end time (the system description has no DefaultExperiment stopTime)");
-    };
-    let run =
-        SystemRun::prepare(&loaded.spec, options, adaptive.clone(), dt, t_end, &caps().run).with_context(|| {
-            let from = if args.t_end.is_some() { "--t-end" } else { "the DefaultExperiment" };
-            match &adaptive {
-                Some(a) => format!(
-                    "{}: adaptive steps within [{}, {}] s, end time {} s from {from}",
-                    file.display(),
-                    num(a.h_min),
-                    num(a.h_max),
-                    num(t_end)
-                ),
-                None => format!("{}: h = {} s, end time {} s from {from}", file.display(), num(dt), num(t_end)),
-            }
-        })?;
-    let inputs = std::iter::once(file.to_owned()).chain(loaded.spec.components.iter().map(|c| c.source.clone()));
-    let mut outputs = Outputs::new(inputs);
+    let method = args.options.method(args.scheme)?;
+    let system = SystemFile::prepare(file, method, args.dt, args.t_end, &args.system_files.limits(), &caps().run)?;
+    let (dt, t_end, adaptive) = (system.dt, system.t_end, system.adaptive());
+    let mut outputs = Outputs::new(system.inputs());
     let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
     outputs.open()?;
@@ -112,43 +70,26 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
     let mut writer = csv.map(|id| outputs.stream(id)).transpose()?;
     let mut history = RealHistory::default();
     let sinks = Sinks { csv: writer.as_mut().map(|w| w as &mut dyn Write), real: svg.map(|_| &mut history) };
-    let outcome = run.execute(quiet, sinks)?;
+    let outcome = system.execute(quiet, sinks)?;
     if let (Some(id), Some(w)) = (csv, writer) {
         outputs.finish(id, w)?;
     }
     if let Some((t, why)) = &outcome.stopped_early {
         eprintln!("note: the run ended early at t = {t} s: {why}");
     }
-    let steps = match &adaptive {
+    let steps = match adaptive {
         Some(a) => format!("the adaptive step (rtol {:e})", a.tolerances.rtol),
         None => format!("h = {dt} s"),
     };
     if let Some(id) = svg {
-        let svg = plot_outputs(&history, &format!("{}: {} at {steps}", file.display(), options.scheme.name()))?;
+        let svg = plot_outputs(&history, &format!("{}: {} at {steps}", file.display(), system.scheme()))?;
         outputs.write(id, |w| w.write_all(svg.as_bytes()))?;
     }
     outputs.commit()?;
 
     let mut out = std::io::stdout().lock();
     if args.json {
-        let v = json!({
-            "system": file.display().to_string(),
-            "scheme": options.scheme.name(),
-            "adaptive": adaptive.is_some(),
-            "dt": adaptive.is_none().then_some(dt),
-            "t_end": t_end,
-            "steps": outcome.steps,
-            "rejected_steps": outcome.rejected_steps,
-            "h_min_used": outcome.h_min_used,
-            "h_max_used": outcome.h_max_used,
-            "wall_time_s": outcome.wall_time_s,
-            "mean_iterations": outcome.mean_iterations,
-            "max_interface_residual": outcome.max_residual,
-            "outputs": outcome.columns.len() - 1,
-            "stopped_early": outcome.stopped_early.is_some(),
-            "stopped_at": outcome.stopped_early.as_ref().map(|s| s.0),
-            "note": outcome.stopped_early.as_ref().map(|s| s.1.clone()),
-        });
+        let v = system.summary(&outcome);
         writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
         return Ok(());
     }
@@ -156,7 +97,7 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
         out,
         "{} — {} at {steps} to {t_end} s: {} steps in {:.3} s, {:.2} iterations per step, largest interface residual {:.2e}",
         file.display(),
-        options.scheme.name(),
+        system.scheme(),
         outcome.steps,
         outcome.wall_time_s,
         outcome.mean_iterations,

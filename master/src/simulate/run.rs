@@ -138,6 +138,16 @@ impl<'a> Run<'a> {
 
     /// Runs it; `quiet`: no progress bar.
     pub fn execute(&self, quiet: bool) -> Result<Trace, RunError> {
+        self.execute_watched(quiet, &mut |_| Ok(()))
+    }
+
+    /// As [`Run::execute`], showing the time after every step to `watch`, which stops the run
+    /// by returning the reason (e.g. an interrupt from the caller's side).
+    pub fn execute_watched(
+        &self,
+        quiet: bool,
+        watch: &mut dyn FnMut(f64) -> Result<(), String>,
+    ) -> Result<Trace, RunError> {
         let scene = self.scene;
         let name = self.method.name();
         let (dt, sample_interval_s) = match self.schedule {
@@ -176,7 +186,7 @@ impl<'a> Run<'a> {
         };
         rec.trace.feed = stepper.compensation().map(FeedTrace::new);
         let first = stepper.probe()?;
-        self.drive(&mut rec, quiet, first, |r| Ok(Flow::Stepped(stepper.step(r)?)))?;
+        self.drive(&mut rec, quiet, first, watch, |r| Ok(Flow::Stepped(stepper.step(r)?)))?;
         rec.trace.wall_time_s = start.elapsed().as_secs_f64();
         Ok(rec.trace)
     }
@@ -190,6 +200,7 @@ impl Run<'_> {
         rec: &mut Recorder,
         quiet: bool,
         first: Probe,
+        watch: &mut dyn FnMut(f64) -> Result<(), String>,
         step: impl FnMut(Request) -> Result<Flow<Observed>, RunError>,
     ) -> Result<(), RunError> {
         let adaptive = matches!(self.schedule, Schedule::Adaptive { .. });
@@ -214,7 +225,7 @@ impl Run<'_> {
                 if adaptive {
                     rec.trace.h.push(s.h);
                 }
-                Ok(())
+                watch(t).map_err(|reason| RunError::Stopped { method, time: t, reason })
             },
         )?;
         let summary = &mut rec.trace.summary;
