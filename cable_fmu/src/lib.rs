@@ -481,6 +481,21 @@ impl Model for CableFmu {
         }
     }
 
+    /// The outputs computed once for all of them.
+    fn get_reals(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), (usize, ModelError)> {
+        let y = match vrs.iter().position(|&r| (vr::POSITION..vr::DAMPING_RATIO).contains(&r)) {
+            Some(k) => Some(self.output_values().map_err(|e| (k, e))?),
+            None => None,
+        };
+        for (k, (&r, o)) in vrs.iter().zip(out.iter_mut()).enumerate() {
+            *o = match (r, &y) {
+                (vr::POSITION..vr::DAMPING_RATIO, Some(y)) => y[(r - vr::POSITION) as usize],
+                _ => self.get_real(r).map_err(|e| (k, e))?,
+            };
+        }
+        Ok(())
+    }
+
     /// `elements_per_cable`, the only Integer (the layer has checked the value reference).
     fn set_integer(&mut self, _vr: u32, value: i32) -> Result<(), ModelError> {
         if value < 0 {

@@ -425,8 +425,25 @@ fn finite(x: f64) -> Option<String> {
 /// # Safety
 /// As the module's contract; `vr` and `value` hold `n` elements.
 pub unsafe fn get_real<M: Model>(c: fmi2Component, vr: *const u32, n: usize, value: *mut f64) -> fmi2Status {
-    // SAFETY: the contract is get's.
-    unsafe { get::<M, f64>(c, "fmi2GetReal", VarType::Real, vr, n, value, |m, r| m.get_real(r), |x| finite(*x)) }
+    // SAFETY: `c` and the two arrays as the contract says.
+    unsafe {
+        call::<M>(c, "fmi2GetReal", GETTABLE, |inst| {
+            let (vrs, out) = (slice(vr, n, "vr")?, slice_mut(value, n, "value")?);
+            for &r in vrs {
+                inst.find(VarType::Real, r)?;
+            }
+            if let Err((k, e)) = inst.model.get_reals(vrs, out) {
+                let v = inst.find(VarType::Real, vrs[k])?;
+                return Err(format!("{}: {}", describe(v), error_chain(&*e)));
+            }
+            for (&r, x) in vrs.iter().zip(out.iter()) {
+                if let Some(why) = finite(*x) {
+                    return Err(format!("{} = {why} at t = {}", describe(inst.find(VarType::Real, r)?), inst.time));
+                }
+            }
+            Ok(fmi2OK)
+        })
+    }
 }
 /// # Safety
 /// As [`get_real`].

@@ -105,6 +105,16 @@ pub trait Model: Sized + Send + 'static {
     /// outputs from the current parameters and inputs). A non-finite value is reported by the
     /// layer as an error naming the variable and the time.
     fn get_real(&mut self, vr: u32) -> Result<f64, ModelError>;
+    /// The Reals `vrs` (value references the layer has checked) into `out`, for one
+    /// `fmi2GetReal`: by default one [`Model::get_real`] each. A model whose outputs come from
+    /// one computation overrides it to make that once. An error names the position of the
+    /// variable it concerns.
+    fn get_reals(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), (usize, ModelError)> {
+        for (k, (&vr, o)) in vrs.iter().zip(out.iter_mut()).enumerate() {
+            *o = self.get_real(vr).map_err(|e| (k, e))?;
+        }
+        Ok(())
+    }
     fn set_integer(&mut self, _vr: u32, _value: i32) -> Result<(), ModelError> {
         Err("the model has no settable Integer variables".into())
     }
