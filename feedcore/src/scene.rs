@@ -461,6 +461,14 @@ pub struct Control {
 }
 
 impl Control {
+    /// Switches the compensation off (the uncompensated reference): the platform holds its start
+    /// pose relative to the cabin, the feed error is still reported; the sensor's keys go with it.
+    pub fn switch_off(&mut self) {
+        self.sensor = SensorKind::Off;
+        (self.sample_rate_hz, self.delay_s, self.noise_m, self.noise_rad, self.bandwidth_hz, self.seed) =
+            (None, 0.0, 0.0, 0.0, None, None);
+    }
+
     /// Sample period of a sampled sensor, s.
     pub fn sample_period(&self) -> Option<f64> {
         match self.sensor {

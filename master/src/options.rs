@@ -9,6 +9,7 @@ use crate::simulate::Method;
 use crate::system::Adaptive;
 use anyhow::bail;
 use clap::ValueEnum;
+use feedcore::scene::{Control, ValidScene};
 
 /// The methods `--scheme` and `--schemes` know, and what each needs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -150,6 +151,33 @@ pub fn tolerance(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(x) if x > 0.0 && x < 1.0 => Ok(x),
         _ => Err(format!("`{text}`: give a tolerance in (0, 1)")),
+    }
+}
+
+/// `--compensation`: the second level as the scene has it, or switched off.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum CompensationArg {
+    /// As the scene's `[control]` says.
+    #[default]
+    On,
+    /// Switched off: the uncompensated reference of the same scene (the platform holds its start
+    /// pose relative to the cabin; the feed error is still reported).
+    Off,
+}
+
+impl CompensationArg {
+    /// The scene to run; `off` needs a scene with `[control]`.
+    pub fn apply(self, scene: &ValidScene) -> anyhow::Result<ValidScene> {
+        match (self, &scene.control) {
+            (CompensationArg::On, _) => Ok(scene.clone()),
+            (CompensationArg::Off, None) => bail!(
+                "--compensation off: {} has no [control] section, so there is no compensation to switch off",
+                scene.file()
+            ),
+            (CompensationArg::Off, Some(_)) => {
+                Ok(scene.edited(|s| s.control.as_mut().into_iter().for_each(Control::switch_off))?)
+            }
+        }
     }
 }
 

@@ -11,7 +11,7 @@ use clap::Parser;
 use cosim::ssp::read::ReadLimits;
 use feedcore::scene::{MAX_SCENE_BYTES, Scene, SceneError as InvalidScene, ValidScene};
 use master::limits::{Footprint, Limits, check_memory};
-use master::options::{SchemeName, SchemeOptions, positive};
+use master::options::{CompensationArg, SchemeName, SchemeOptions, positive};
 use master::report::{Modal, Statics, run_summary, static_utilisation};
 use master::simulate::{Method, Run};
 use master::sweep;
@@ -84,6 +84,8 @@ struct RunArgs {
     dt: Option<f64>,
     #[arg(long, value_parser = positive)]
     t_end: Option<f64>,
+    #[arg(long, value_enum, default_value_t = CompensationArg::On)]
+    compensation: CompensationArg,
     #[command(flatten)]
     options: SchemeOptions,
 }
@@ -111,6 +113,7 @@ fn run(
     let source = Source::new(path, toml, label)?;
     let args = RunArgs::try_parse_from(&argv).map_err(option_error)?;
     let scene = source.load().map_err(scene_error)?;
+    let scene = args.compensation.apply(&scene).map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
     let method = args.options.method(args.scheme).map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
     if args.options.adaptive && args.dt.is_some() {
         return Err(PyValueError::new_err(

@@ -42,8 +42,9 @@ def stable(d):
         (B, "iqn-ils", {"t_end": 1.0, "dt": 0.02}),
         (C, "monolithic", {"t_end": 2.0, "adaptive": True, "rtol": 1e-4}),
         (REPO / "scenes" / "lt50m_C_compensated.toml", "monolithic", {"t_end": 1.0}),
+        (REPO / "scenes" / "lt50m_C_compensated.toml", "ijcsa", {"t_end": 1.0, "compensation": "off"}),
     ],
-    ids=["C-ijcsa", "B-iqn-dt", "C-monolithic-adaptive", "C-compensated"],
+    ids=["C-ijcsa", "B-iqn-dt", "C-monolithic-adaptive", "C-compensated", "C-compensation-off"],
 )
 def test_run_equals_the_command(tmp_path, scene, scheme, flags):
     r = feedsim.run(scene, scheme, **flags)
@@ -116,6 +117,8 @@ def test_bad_options_raise_value_error():
         feedsim.run(C, "ijcsa", adaptive=True, rtol=2.0)
     with pytest.raises(ValueError, match="count"):
         feedsim.modes(C, 0)
+    with pytest.raises(ValueError, match="no compensation to switch off"):
+        feedsim.run(C, "monolithic", compensation="off")
 
 
 def test_two_threads_run_in_parallel():

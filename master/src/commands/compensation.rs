@@ -16,7 +16,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use feedcore::Vec3;
-use feedcore::scene::{Scene, SceneError, SensorKind, ValidScene};
+use feedcore::scene::{Control, Scene, SceneError, ValidScene};
 use master::interrupt;
 use master::journal::{self, Journal};
 use master::limits::{Footprint, PlanError, check_memory};
@@ -153,13 +153,7 @@ fn history(
 
 /// The scene with its sensor switched off (the uncompensated reference).
 fn uncompensated(scene: &ValidScene) -> Result<ValidScene, SceneError> {
-    scene.edited(|s| {
-        if let Some(c) = s.control.as_mut() {
-            c.sensor = SensorKind::Off;
-            (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz, c.seed) =
-                (None, 0.0, 0.0, 0.0, None, None);
-        }
-    })
+    scene.edited(|s| s.control.as_mut().into_iter().for_each(Control::switch_off))
 }
 
 /// One case of the sweep: whether it stayed stable, and its feed error RMS and peak (mm).

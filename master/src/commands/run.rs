@@ -10,7 +10,7 @@ use master::plot::{History, time_history};
 use master::simulate::{Run, Trace};
 
 use super::output::{OutputId, Outputs, run_inputs};
-use super::scheme_args::{SchemeName, SchemeOptions};
+use super::scheme_args::{CompensationArg, SchemeName, SchemeOptions};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
@@ -48,6 +48,10 @@ pub(crate) struct Args {
     /// No progress bar (it is also off when stderr is not a terminal).
     #[arg(long)]
     pub(crate) quiet: bool,
+    /// The second level (scenes with [control]): `off` runs the same scene with its compensation
+    /// switched off, the uncompensated reference of its feed error.
+    #[arg(long, value_enum, default_value_t = CompensationArg::On)]
+    pub(crate) compensation: CompensationArg,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
     #[command(flatten)]
@@ -70,7 +74,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     if let Some(option) = args.system_files.given() {
         bail!("{option} applies to --system (an SSP archive or .ssd); a --scene names its FMUs in [system]");
     }
-    let scene = load_scene(scene_file)?;
+    let scene = args.compensation.apply(&load_scene(scene_file)?)?;
     let method = args.options.method(args.scheme)?;
     if args.options.adaptive && args.dt.is_some() {
         bail!(

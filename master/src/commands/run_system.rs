@@ -7,7 +7,7 @@
 use std::io::{IsTerminal, Write};
 use std::path::Path;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use cosim::ssp::read::ReadLimits;
 use master::plot::{Line, PALETTE, Panel, stacked};
 use master::system::{RealHistory, Sinks, SystemFile};
@@ -58,6 +58,9 @@ impl FileArgs {
 }
 
 pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
+    if args.compensation != super::scheme_args::CompensationArg::On {
+        bail!("--compensation applies to a --scene with [control]; a --system runs its FMUs as they are");
+    }
     let method = args.options.method(args.scheme)?;
     let system = SystemFile::prepare(file, method, args.dt, args.t_end, &args.system_files.limits(), &caps().run)?;
     let (dt, t_end, adaptive) = (system.dt, system.t_end, system.adaptive());

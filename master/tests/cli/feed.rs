@@ -252,3 +252,43 @@ fn the_compensation_command_writes_its_figures_and_agrees_with_run() {
     // at the scene's 0.01 s sample interval over 2 s
     assert_eq!(csv.lines().count(), 1 + 200, "{}", csv.lines().next().unwrap());
 }
+
+/// `run --compensation off` is the scene with its sensor switched off, written out by hand: the
+/// same CSV byte for byte; its feed error is the uncompensated one, larger than compensated.
+#[test]
+fn compensation_off_is_the_scene_with_its_sensor_off() {
+    let (_, file) = controlled("comp-on", |_| {});
+    let (_, by_hand) = controlled("comp-off-by-hand", |c| {
+        c.sensor = feedcore::scene::SensorKind::Off;
+        (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz, c.seed) =
+            (None, 0.0, 0.0, 0.0, None, None);
+    });
+    let dir = std::env::temp_dir().join(format!("master-comp-off-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let run_csv = |file: &std::path::Path, extra: &[&str], name: &str| {
+        let csv = dir.join(name);
+        let mut args = vec!["run", "--scene", file.to_str().unwrap(), "--scheme", "ijcsa", "--t-end", "5", "--json"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--out", csv.to_str().unwrap()]);
+        let out = master(&args);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        (v["feed_err_rms_mm"].as_f64().unwrap(), std::fs::read(&csv).unwrap())
+    };
+    let (off_rms, off) = run_csv(&file, &["--compensation", "off"], "off.csv");
+    let (hand_rms, hand) = run_csv(&by_hand, &[], "hand.csv");
+    let (on_rms, _) = run_csv(&file, &[], "on.csv");
+    assert_eq!(off, hand);
+    assert_eq!(off_rms, hand_rms);
+    assert!(off_rms > 2.0 * on_rms, "off {off_rms} mm, on {on_rms} mm");
+
+    // a scene without [control] and a --system have nothing to switch off
+    let plain = common::scene_path("lt50m_C.toml");
+    let out = master(&["run", "--scene", plain.to_str().unwrap(), "--scheme", "monolithic", "--compensation", "off"]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && e.contains("--compensation off") && e.contains("no [control]"), "{e}");
+    let out = master(&["run", "--system", "x.ssp", "--scheme", "ijcsa", "--dt", "0.1", "--compensation", "off"]);
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && e.contains("--compensation applies to a --scene"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
