@@ -7,9 +7,12 @@
 //! The factorization is kept from step to step while Newton converges quickly with it; it is
 //! part of the state, so a rollback reproduces the same bits.
 
+use std::sync::Arc;
+
 use feedcore::genalpha::{self, Failure, Integrator, Iterate, IterationMatrix, Newton, OptionsError, StepError};
 use feedcore::rigid::{MotionChange, left_jacobian_so3};
 use feedcore::{Quat, Vec3};
+
 use nalgebra::{Matrix3x6, Vector6};
 
 use crate::chain_matrix::{ChainFactor, ChainMatrix, FactorError};
@@ -84,6 +87,8 @@ pub enum SavedStateError {
     TooShort { found: usize, expected: usize },
     #[error("state has trailing numbers")]
     Trailing,
+    #[error("a state of a model with {found} unknowns; this one has {expected}")]
+    OtherModel { found: usize, expected: usize },
     #[error("{0}")]
     Factor(#[from] FactorError),
 }
@@ -93,11 +98,22 @@ pub enum SavedStateError {
 pub struct State {
     /// Time, configuration, velocities and accelerations.
     pub motion: genalpha::State<Config>,
-    /// The kept iteration matrix factorization and the step size it was built for.
-    factor: ChainFactor,
+    /// The kept iteration matrix factorization and the step size it was built for; shared with
+    /// the states saved in memory since it was built ([`Dynamics::save_into`]).
+    factor: Arc<ChainFactor>,
     factor_step: Option<f64>,
     /// The step that led here (what its sensitivity to the wrench needs).
     pub last_step: Option<LastStep>,
+}
+
+impl State {
+    /// Copies `other` into this state's storage (no allocation); the factorization is shared.
+    fn copy_from(&mut self, other: &State) {
+        self.motion.clone_from(&other.motion);
+        self.factor = Arc::clone(&other.factor);
+        self.factor_step = other.factor_step;
+        self.last_step = other.last_step;
+    }
 }
 
 /// Step size, end-of-step wrench and rotation increment of the step that led to a state.
@@ -143,7 +159,7 @@ struct Step<'a> {
     system: &'a System,
     wrench: Vector6<f64>,
     matrix: &'a mut ChainMatrix,
-    factor: &'a mut ChainFactor,
+    factor: &'a mut Arc<ChainFactor>,
     factor_step: &'a mut Option<f64>,
 }
 
@@ -191,7 +207,8 @@ impl genalpha::Problem for Step<'_> {
         let matrix = Some((&mut *self.matrix, coef));
         self.system.assemble(at.config, at.velocity, at.acceleration, &self.wrench, residual, matrix);
         *self.factor_step = None;
-        self.matrix.factorize_into(self.system.support == Support::Fixed, self.factor)?;
+        // a copy only while a saved state still holds the old factorization
+        self.matrix.factorize_into(self.system.support == Support::Fixed, Arc::make_mut(self.factor))?;
         *self.factor_step = Some(s.step);
         Ok(())
     }
@@ -252,7 +269,7 @@ impl Dynamics {
         let work = genalpha::Workspace::new(&motion);
         let state = State {
             motion,
-            factor: ChainFactor::new(system.cables(), system.free_nodes()),
+            factor: Arc::new(ChainFactor::new(system.cables(), system.free_nodes())),
             factor_step: None,
             last_step: None,
         };
@@ -422,6 +439,26 @@ impl Dynamics {
         }
     }
 
+    /// The whole state kept in memory, into `saved` (its storage reused): the motion copied, the
+    /// factorization shared (it changes only when Newton refactorizes, and then not in place).
+    pub fn save_into(&self, saved: &mut Option<State>) {
+        match saved {
+            Some(s) => s.copy_from(&self.state),
+            None => *saved = Some(self.state.clone()),
+        }
+    }
+
+    /// Restores a state kept by [`Dynamics::save_into`] of a model of the same system.
+    pub fn restore_from(&mut self, saved: &State) -> Result<(), DynamicsError> {
+        let (found, expected) = (saved.motion.dim(), self.dim());
+        if found != expected || saved.motion.config.nodes.len() != self.state.motion.config.nodes.len() {
+            return Err(SavedStateError::OtherModel { found, expected }.into());
+        }
+        self.state.copy_from(saved);
+        self.sensitivity = None;
+        Ok(())
+    }
+
     /// Restores a state written by [`Dynamics::encode_state`] of the same system, in place.
     pub fn decode_state(&mut self, data: &[f64]) -> Result<(), DynamicsError> {
         let n = self.dim();
@@ -438,7 +475,7 @@ impl Dynamics {
         // the factorization first: it is the only part that can still be refused
         if h != 0.0 {
             self.state.factor_step = None;
-            self.state.factor.decode_into(factor_data).map_err(SavedStateError::from)?;
+            Arc::make_mut(&mut self.state.factor).decode_into(factor_data).map_err(SavedStateError::from)?;
         }
         self.state.factor_step = (h != 0.0).then_some(h);
         let st = &mut self.state.motion;

@@ -21,13 +21,14 @@
 //! finding, exactly. The step map (outputs after a step with respect to the wrench held during
 //! it) is the extension `feedsimGetStepMapDerivative`, exact from the converged iteration matrix.
 
+use std::any::Any;
 use std::path::Path;
 
 use feedcore::Vec3;
 use feedcore::scene::{SceneError, ValidScene};
 use fmi2::description::Causality;
 use fmi2::export::{Derivative, Model, ModelError, Reals, Seeds, StepOutcome};
-use fmi2::resources::{FileKind, FileParameter, SavedFile};
+use fmi2::resources::{FileKind, FileParameter, KeptFile, SavedFile};
 use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::Vector6;
 use serde::{Deserialize, Serialize};
@@ -109,7 +110,7 @@ static SCENES: FileKind<ValidScene, SceneError> =
 
 /// The scalar parameters that modify the scene; each is the scene's value when not positive
 /// (`damping_ratio`, `rho_inf`: when negative).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 struct Settings {
     elements: i32,
     damping_ratio: f64,
@@ -168,6 +169,24 @@ struct SavedMotion<'a> {
 fn static_wrench(scene: &ValidScene) -> Vector6<f64> {
     let net = cable::net::CableNet::from_scene(scene);
     net.payload.weight_wrench(&scene.target_orientation(), &net.spec.gravity)
+}
+
+/// The motion of a saved state: the numbers of its bytes, or a state kept in memory.
+enum Kept<'a> {
+    Numbers(Reals<'a>),
+    Memory(&'a cable::dynamics::State),
+}
+
+/// A state of the cable FMU kept in memory ([`Model::save_in_memory`]).
+#[derive(Default)]
+struct InMemory {
+    scene: KeptFile,
+    settings: Settings,
+    wrench: Vector6<f64>,
+    wrench_rate: Vector6<f64>,
+    /// In step mode: the wrench the cable lengths were form-found for.
+    start_wrench: Option<Vector6<f64>>,
+    motion: Option<cable::dynamics::State>,
 }
 
 /// The names of the inputs, in value-reference order from 0.
@@ -242,6 +261,56 @@ fn nominal<'a>(
 }
 
 impl CableFmu {
+    /// Restores a saved state from its parts: the parameters (adopted when they differ), the
+    /// inputs, and (in step mode) the wrench the cable lengths were form-found for with the motion.
+    fn restore_parts(
+        &mut self,
+        scene: SavedFile<'_>,
+        settings: Settings,
+        wrenches: (Vector6<f64>, Vector6<f64>),
+        motion: Option<(Vector6<f64>, Kept<'_>)>,
+    ) -> Result<(), ModelError> {
+        // A state carries its parameters: an instance configured otherwise adopts them (the
+        // scene is looked up under the same rules as the parameter).
+        if self.scene.restore(scene)? || settings != self.settings {
+            effective_scene(&self.scene, &settings)?;
+            self.settings = settings;
+            self.settings_changed();
+            self.dynamics = None;
+        }
+        (self.wrench, self.wrench_rate) = wrenches;
+        let Some((start_wrench, kept)) = motion else {
+            self.dynamics = None;
+            self.balanced = None;
+            return Ok(());
+        };
+        let dy = match self.dynamics.take() {
+            Some(dy) if start_wrench == self.start_wrench => dy,
+            _ => {
+                // The cable lengths follow from the wrench the state started under: rebuild the
+                // model for it (the state then replaces the motion).
+                let nominal = nominal(&mut self.nominal, &self.scene, &self.settings)?;
+                let under = if start_wrench == nominal.static_payload_wrench() {
+                    None
+                } else {
+                    Some(nominal.under_wrench(&start_wrench)?)
+                };
+                self.start_wrench = start_wrench;
+                under.as_ref().unwrap_or(nominal).dynamics_with(Payload::External, 0.0, &start_wrench)?
+            }
+        };
+        let dy = self.dynamics.insert(dy);
+        let result = match kept {
+            Kept::Numbers(numbers) => {
+                numbers.copy_into(&mut self.scratch);
+                dy.decode_state(&self.scratch)
+            }
+            Kept::Memory(state) => dy.restore_from(state),
+        };
+        dy.end_tensions(&mut self.tensions);
+        result.map_err(ModelError::from)
+    }
+
     /// The equilibrium at the target pose under the current wrench (initialization mode): the
     /// model form-found for it, its end tensions, and the nominal model.
     fn balanced(&mut self) -> Result<(&CableCabin, &Balanced, &CableCabin), ModelError> {
@@ -591,41 +660,37 @@ impl Model for CableFmu {
     }
 
     fn restore(&mut self, saved: SavedCable<'_>) -> Result<(), ModelError> {
-        // A state carries its parameters: an instance configured otherwise adopts them (the
-        // scene is looked up under the same rules as the parameter).
-        if self.scene.restore(saved.scene)? || saved.settings != self.settings {
-            effective_scene(&self.scene, &saved.settings)?;
-            self.settings = saved.settings;
-            self.settings_changed();
-            self.dynamics = None;
+        let wrenches = (saved.wrench.into(), saved.wrench_rate.into());
+        let motion = saved.motion.map(|m| (Vector6::from(m.start_wrench), Kept::Numbers(m.numbers)));
+        self.restore_parts(saved.scene, saved.settings, wrenches, motion)
+    }
+
+    /// The state kept in memory: the motion copied, the cable model's factorization shared.
+    fn save_in_memory(&mut self, saved: &mut Option<Box<dyn Any + Send>>) -> Result<bool, ModelError> {
+        if !saved.as_ref().is_some_and(|b| b.is::<InMemory>()) {
+            *saved = Some(Box::new(InMemory::default()));
         }
-        self.wrench = saved.wrench.into();
-        self.wrench_rate = saved.wrench_rate.into();
-        let Some(motion) = saved.motion else {
-            self.dynamics = None;
-            self.balanced = None;
-            return Ok(());
+        let Some(kept) = saved.as_mut().and_then(|b| b.downcast_mut::<InMemory>()) else {
+            return Ok(false);
         };
-        let start_wrench = Vector6::from(motion.start_wrench);
-        let dy = match self.dynamics.take() {
-            Some(dy) if start_wrench == self.start_wrench => dy,
-            _ => {
-                // The cable lengths follow from the wrench the state started under: rebuild the
-                // model for it (the state then replaces the motion).
-                let nominal = nominal(&mut self.nominal, &self.scene, &self.settings)?;
-                let under = if start_wrench == nominal.static_payload_wrench() {
-                    None
-                } else {
-                    Some(nominal.under_wrench(&start_wrench)?)
-                };
-                self.start_wrench = start_wrench;
-                under.as_ref().unwrap_or(nominal).dynamics_with(Payload::External, 0.0, &start_wrench)?
+        kept.scene.keep(self.scene.saved());
+        (kept.settings, kept.wrench, kept.wrench_rate) = (self.settings, self.wrench, self.wrench_rate);
+        match &self.dynamics {
+            Some(dy) => {
+                kept.start_wrench = Some(self.start_wrench);
+                dy.save_into(&mut kept.motion);
             }
+            None => kept.start_wrench = None,
+        }
+        Ok(true)
+    }
+
+    fn restore_in_memory(&mut self, saved: &(dyn Any + Send)) -> Result<(), ModelError> {
+        let kept = saved.downcast_ref::<InMemory>().ok_or("not a state of the cable FMU")?;
+        let motion = match (kept.start_wrench, &kept.motion) {
+            (Some(w), Some(state)) => Some((w, Kept::Memory(state))),
+            _ => None,
         };
-        let dy = self.dynamics.insert(dy);
-        motion.numbers.copy_into(&mut self.scratch);
-        let result = dy.decode_state(&self.scratch);
-        dy.end_tensions(&mut self.tensions);
-        result.map_err(ModelError::from)
+        self.restore_parts(kept.scene.saved(), kept.settings, (kept.wrench, kept.wrench_rate), motion)
     }
 }

@@ -180,6 +180,26 @@ pub struct SavedFile<'a> {
     digest: u64,
 }
 
+/// A [`SavedFile`] that owns its name, for a state kept in memory.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct KeptFile {
+    name: String,
+    digest: u64,
+}
+
+impl KeptFile {
+    /// Keeps `saved` (this value's storage reused).
+    pub fn keep(&mut self, saved: SavedFile<'_>) {
+        self.name.clear();
+        self.name.push_str(saved.name);
+        self.digest = saved.digest;
+    }
+
+    pub fn saved(&self) -> SavedFile<'_> {
+        SavedFile { name: &self.name, digest: self.digest }
+    }
+}
+
 /// A String parameter naming a file, and the file as parsed: a model keeps one per such
 /// parameter, and the name in its saved state.
 pub struct FileParameter<T: 'static, E: 'static> {

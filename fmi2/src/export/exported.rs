@@ -526,12 +526,12 @@ pub unsafe fn get_fmu_state<M: Model>(c: fmi2Component, state: *mut fmi2FMUstate
         call::<M>(c, "fmi2GetFMUstate", STATE_OK, |inst| {
             let state = slice_mut(state, 1, "FMUstate")?;
             if state[0].is_null() {
-                let mut bytes = Vec::new();
-                inst.save_into(&mut bytes)?;
-                state[0] = Snapshot::into_raw(bytes);
+                let mut snap = Snapshot::of_bytes(Vec::new());
+                inst.save_snapshot(&mut snap)?;
+                state[0] = snap.into_raw();
             } else {
                 // Overwrite in place: a rollback loop allocates nothing after the first step.
-                inst.save_into(&mut snapshot_mut(state[0])?.bytes)?;
+                inst.save_snapshot(snapshot_mut(state[0])?)?;
             }
             Ok(fmi2OK)
         })
@@ -544,7 +544,7 @@ pub unsafe fn set_fmu_state<M: Model>(c: fmi2Component, state: fmi2FMUstate) -> 
     // SAFETY: `c` and `state` as the contract says.
     unsafe {
         call::<M>(c, "fmi2SetFMUstate", ALL_BUT_FATAL, |inst| {
-            inst.restore_from(&snapshot_mut(state)?.bytes)?;
+            inst.restore_snapshot(snapshot_mut(state)?)?;
             Ok(fmi2OK)
         })
     }
@@ -575,8 +575,8 @@ pub unsafe fn serialized_fmu_state_size<M: Model>(
 ) -> fmi2Status {
     // SAFETY: `c`, `state` and `size` as the contract says.
     unsafe {
-        call::<M>(c, "fmi2SerializedFMUstateSize", ALL_BUT_FATAL, |_| {
-            write(size, serialized_len(&snapshot_mut(state)?.bytes), "size")?;
+        call::<M>(c, "fmi2SerializedFMUstateSize", ALL_BUT_FATAL, |inst| {
+            write(size, serialized_len(inst.snapshot_bytes(snapshot_mut(state)?)?), "size")?;
             Ok(fmi2OK)
         })
     }
@@ -592,14 +592,14 @@ pub unsafe fn serialize_fmu_state<M: Model>(
 ) -> fmi2Status {
     // SAFETY: `c`, `state` and the buffer as the contract says.
     unsafe {
-        call::<M>(c, "fmi2SerializeFMUstate", ALL_BUT_FATAL, |_| {
-            let snap = snapshot_mut(state)?;
-            let needed = serialized_len(&snap.bytes);
+        call::<M>(c, "fmi2SerializeFMUstate", ALL_BUT_FATAL, |inst| {
+            let state_bytes = inst.snapshot_bytes(snapshot_mut(state)?)?;
+            let needed = serialized_len(state_bytes);
             if size < needed {
                 return Err(format!("buffer of {size} bytes is smaller than the state ({needed} bytes)"));
             }
             let out = slice_mut(bytes.cast::<u8>(), size, "serializedState")?;
-            serialized(&snap.bytes, &mut out[..needed]);
+            serialized(state_bytes, &mut out[..needed]);
             Ok(fmi2OK)
         })
     }
@@ -620,11 +620,9 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
             let state = slice_mut(state, 1, "FMUstate")?;
             inst.check_state(data)?;
             if state[0].is_null() {
-                state[0] = Snapshot::into_raw(data.to_vec());
+                state[0] = Snapshot::of_bytes(data.to_vec()).into_raw();
             } else {
-                let snap = snapshot_mut(state[0])?;
-                snap.bytes.clear();
-                snap.bytes.extend_from_slice(data);
+                snapshot_mut(state[0])?.set_bytes(data);
             }
             Ok(fmi2OK)
         })

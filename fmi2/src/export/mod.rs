@@ -171,6 +171,21 @@ pub trait Model: Sized + Send + 'static {
     /// Restore a state made by [`Model::save`] of this model (possibly by another instance).
     fn restore(&mut self, state: Self::State<'_>) -> Result<(), ModelError>;
 
+    /// A state for `fmi2GetFMUstate` kept in memory rather than as the bytes of [`Model::save`]:
+    /// into `saved` (what this model put there at the last save into the same FMU state, to
+    /// reuse), returning `true`; the default keeps the bytes (`false`). Worth it where a state
+    /// holds large parts that rarely change, which the saved states can then share instead of
+    /// copying. The layer writes the bytes only when an importer serializes the state (by
+    /// restoring it, saving it and restoring the instance's own state).
+    fn save_in_memory(&mut self, _saved: &mut Option<Box<dyn std::any::Any + Send>>) -> Result<bool, ModelError> {
+        Ok(false)
+    }
+
+    /// Restores a state kept by [`Model::save_in_memory`] of this model.
+    fn restore_in_memory(&mut self, _saved: &(dyn std::any::Any + Send)) -> Result<(), ModelError> {
+        Err("this model keeps no state in memory".into())
+    }
+
     /// In process: [`Derivative::Instant`] with the arguments of `fmi2GetDirectionalDerivative`.
     fn directional_derivative(
         &mut self,

@@ -11,6 +11,7 @@
 //! ([`crate::resources::SavedFile`]): restored only with the same contents.
 //! Long vectors of numbers go as one block of bytes ([`Reals`]).
 
+use std::any::Any;
 use std::fmt;
 
 use serde::de::{self, Visitor};
@@ -57,16 +58,49 @@ pub(crate) fn from_serialized(data: &[u8]) -> Result<&[u8], String> {
 /// First field of every [`Snapshot`] this layer allocates.
 const SNAPSHOT_TAG: u64 = 0x5253_5441_5445_4d49;
 
-/// What an `fmi2FMUstate` of this layer points to.
+/// What an `fmi2FMUstate` of this layer points to: the state's bytes, or the state kept in
+/// memory by a model that saves so ([`Model::save_in_memory`]), its bytes made when an importer
+/// asks for them (serialization).
 pub(crate) struct Snapshot {
     tag: u64,
     pub(crate) bytes: Vec<u8>,
+    memory: Option<InMemory>,
+}
+
+/// A state kept in memory: the layer's fields and the model's state.
+struct InMemory {
+    fields: Fields,
+    model: Box<dyn Any + Send>,
+    /// Whether the snapshot's bytes hold this state too.
+    bytes_current: bool,
+}
+
+/// The layer's part of a state, as the instance holds it.
+#[derive(Clone, Copy)]
+struct Fields {
+    phase: Phase,
+    time: f64,
+    start_time: f64,
+    stop_time: Option<f64>,
+    terminated: bool,
 }
 
 impl Snapshot {
-    /// A new snapshot on the heap, as the importer's opaque `fmi2FMUstate`.
-    pub(crate) fn into_raw(bytes: Vec<u8>) -> fmi2FMUstate {
-        Box::into_raw(Box::new(Snapshot { tag: SNAPSHOT_TAG, bytes })).cast()
+    /// A snapshot of these bytes.
+    pub(crate) fn of_bytes(bytes: Vec<u8>) -> Snapshot {
+        Snapshot { tag: SNAPSHOT_TAG, bytes, memory: None }
+    }
+
+    /// The snapshot on the heap, as the importer's opaque `fmi2FMUstate`.
+    pub(crate) fn into_raw(self) -> fmi2FMUstate {
+        Box::into_raw(Box::new(self)).cast()
+    }
+
+    /// Replaces the contents with these bytes.
+    pub(crate) fn set_bytes(&mut self, bytes: &[u8]) {
+        self.memory = None;
+        self.bytes.clear();
+        self.bytes.extend_from_slice(bytes);
     }
 }
 
@@ -233,6 +267,65 @@ struct Saved<'b, S> {
 }
 
 impl<M: Model> Instance<M> {
+    fn fields(&self) -> Fields {
+        Fields {
+            phase: self.phase,
+            time: self.time,
+            start_time: self.start_time,
+            stop_time: self.stop_time,
+            terminated: self.terminated,
+        }
+    }
+
+    /// Saves the current state into `snap` (its storage reused): in memory where the model
+    /// keeps it so, else as bytes.
+    pub(crate) fn save_snapshot(&mut self, snap: &mut Snapshot) -> Result<(), String> {
+        let mut slot = snap.memory.take().map(|m| m.model);
+        if self.model.save_in_memory(&mut slot).msg()?
+            && let Some(model) = slot
+        {
+            snap.memory = Some(InMemory { fields: self.fields(), model, bytes_current: false });
+            snap.bytes.clear();
+            return Ok(());
+        }
+        self.save_into(&mut snap.bytes)
+    }
+
+    /// Restores a state saved by [`Instance::save_snapshot`] (or read from bytes).
+    pub(crate) fn restore_snapshot(&mut self, snap: &Snapshot) -> Result<(), String> {
+        let Some(m) = &snap.memory else {
+            return self.restore_from(&snap.bytes);
+        };
+        self.model.restore_in_memory(&*m.model).msg()?;
+        let f = m.fields;
+        (self.phase, self.time, self.start_time, self.stop_time, self.terminated) =
+            (f.phase, f.time, f.start_time, f.stop_time, f.terminated);
+        Ok(())
+    }
+
+    /// The bytes of the state in `snap`; a state kept in memory is written out by restoring it
+    /// into this instance, saving it, and restoring the instance's own state (bit for bit).
+    pub(crate) fn snapshot_bytes<'s>(&mut self, snap: &'s mut Snapshot) -> Result<&'s [u8], String> {
+        if snap.memory.as_ref().is_none_or(|m| m.bytes_current) {
+            return Ok(&snap.bytes);
+        }
+        if matches!(self.phase, Phase::Error | Phase::Fatal) {
+            return Err(format!(
+                "a state kept in memory is written out through its instance, which is in state `{}` now",
+                self.phase.name()
+            ));
+        }
+        let mut now = Vec::new();
+        self.save_into(&mut now)?;
+        let written = self.restore_snapshot(snap).and_then(|()| self.save_into(&mut snap.bytes));
+        self.restore_from(&now)?;
+        written?;
+        if let Some(m) = snap.memory.as_mut() {
+            m.bytes_current = true;
+        }
+        Ok(&snap.bytes)
+    }
+
     /// Replaces `out` with the serialized current state.
     pub(crate) fn save_into(&mut self, out: &mut Vec<u8>) -> Result<(), String> {
         out.clear();
@@ -323,13 +416,13 @@ mod tests {
 
     #[test]
     fn only_snapshots_with_the_tag_are_taken() {
-        let foreign = Box::into_raw(Box::new(Snapshot { tag: 1, bytes: vec![] }));
+        let foreign = Box::into_raw(Box::new(Snapshot { tag: 1, bytes: vec![], memory: None }));
         // SAFETY: a live Snapshot (with the wrong tag), used by nothing else.
         let e = unsafe { snapshot_mut(foreign.cast()) }.err().unwrap();
         assert!(e.contains("does not point to a live FMU state"), "{e}");
         // SAFETY: made by Box::into_raw above, freed once.
         drop(unsafe { Box::from_raw(foreign) });
-        let ours = Snapshot::into_raw(vec![1, 2]);
+        let ours = Snapshot::of_bytes(vec![1, 2]).into_raw();
         // SAFETY: made by Snapshot::into_raw, not freed yet.
         assert_eq!(unsafe { snapshot_mut(ours) }.unwrap().bytes, [1, 2]);
         // SAFETY: as above; not used afterwards.
