@@ -241,40 +241,39 @@ fn step_dependencies() -> Result<&'static std::collections::HashSet<(u32, u32)>,
 impl StewartFmu {
     fn model(&mut self) -> Result<&Stewart, ModelError> {
         let key = (self.data.settings, self.data.initialized);
-        let model = match self.model.take() {
-            Some(m) if self.built_for == Some(key) => m,
-            _ => {
-                let mut s = self.scene.value().to_scene();
-                let st = &self.data.settings;
-                for (value, target) in [(st.radius, &mut s.motion.radius_m), (st.speed, &mut s.motion.speed_m_s)] {
-                    if value >= 0.0 {
-                        *target = value;
-                    }
+        // checked in place: the model is large, and this runs at every call that needs it
+        if self.built_for != Some(key) || self.model.is_none() {
+            self.model = None;
+            let mut s = self.scene.value().to_scene();
+            let st = &self.data.settings;
+            for (value, target) in [(st.radius, &mut s.motion.radius_m), (st.speed, &mut s.motion.speed_m_s)] {
+                if value >= 0.0 {
+                    *target = value;
                 }
-                if st.ramp_time > 0.0 {
-                    s.motion.ramp_time_s = st.ramp_time;
-                }
-                match st.start {
-                    1 => s.motion.start = Start::Abrupt,
-                    2 => s.motion.start = Start::Ramp,
-                    _ => {}
-                }
-                // Before the start the platform rests at its start pose: the motion (and an
-                // abrupt start's jump) begins at the start time, so that a consistent
-                // initialization puts the cable net in its static equilibrium under the
-                // platform's weight.
-                let moving = s.validated(self.scene.label())?;
-                let model = if self.data.initialized {
-                    Stewart::from_scene(&moving)?
-                } else {
-                    Stewart::from_scene(&moving.edited(|held| held.motion.speed_m_s = 0.0)?)?
-                };
-                self.built_for = Some(key);
-                self.cache = Cache::default();
-                model
             }
-        };
-        Ok(self.model.insert(model))
+            if st.ramp_time > 0.0 {
+                s.motion.ramp_time_s = st.ramp_time;
+            }
+            match st.start {
+                1 => s.motion.start = Start::Abrupt,
+                2 => s.motion.start = Start::Ramp,
+                _ => {}
+            }
+            // Before the start the platform rests at its start pose: the motion (and an
+            // abrupt start's jump) begins at the start time, so that a consistent
+            // initialization puts the cable net in its static equilibrium under the
+            // platform's weight.
+            let moving = s.validated(self.scene.label())?;
+            let model = if self.data.initialized {
+                Stewart::from_scene(&moving)?
+            } else {
+                Stewart::from_scene(&moving.edited(|held| held.motion.speed_m_s = 0.0)?)?
+            };
+            self.built_for = Some(key);
+            self.cache = Cache::default();
+            self.model = Some(model);
+        }
+        self.model.as_ref().ok_or_else(|| "the platform model could not be built".into())
     }
 
     fn cabin(&self) -> Result<CabinMotion, ModelError> {
