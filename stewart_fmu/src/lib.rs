@@ -306,24 +306,24 @@ impl StewartFmu {
         point
     }
 
-    fn wrench(&mut self) -> Result<(Wrench, WrenchJacobians), ModelError> {
-        if let Some(w) = self.cache.wrench {
-            return Ok(w);
+    /// The wrench and its Jacobians now, computed once per state (borrowed: they are large, and
+    /// every output asks).
+    fn wrench(&mut self) -> Result<&(Wrench, WrenchJacobians), ModelError> {
+        if self.cache.wrench.is_none() {
+            let (t, cabin, point) = (self.data.time, self.cabin()?, self.point()?);
+            let w = self.model()?.wrench_with_jacobians_at(&cabin, &point, t).map_err(|e| e.to_string())?;
+            self.cache.wrench = Some(w);
         }
-        let (t, cabin, point) = (self.data.time, self.cabin()?, self.point()?);
-        let w = self.model()?.wrench_with_jacobians_at(&cabin, &point, t).map_err(|e| e.to_string())?;
-        Ok(*self.cache.wrench.insert(w))
+        self.cache.wrench.as_ref().ok_or_else(|| "the wrench could not be computed".into())
     }
 
     fn evaluation(&mut self) -> Result<&Evaluation, ModelError> {
-        let e = match self.cache.evaluation.take() {
-            Some(e) => e,
-            None => {
-                let (t, cabin, point) = (self.data.time, self.cabin()?, self.point()?);
-                self.model()?.evaluate_at(&cabin, &point, t).map_err(|e| e.to_string())?
-            }
-        };
-        Ok(self.cache.evaluation.insert(e))
+        if self.cache.evaluation.is_none() {
+            let (t, cabin, point) = (self.data.time, self.cabin()?, self.point()?);
+            let e = self.model()?.evaluate_at(&cabin, &point, t).map_err(|e| e.to_string())?;
+            self.cache.evaluation = Some(e);
+        }
+        self.cache.evaluation.as_ref().ok_or_else(|| "the platform could not be evaluated".into())
     }
 
     fn actuator_rates(&mut self) -> Result<ActuatorRates, ModelError> {
@@ -529,10 +529,7 @@ impl Model for StewartFmu {
                     rot[(vr - vr::FEED_ROT) as usize]
                 })
             }
-            vr::FORCE..vr::ACTUATOR => {
-                let (w, _) = self.wrench()?;
-                Ok(w.to_vector()[(vr - vr::FORCE) as usize])
-            }
+            vr::FORCE..vr::ACTUATOR => Ok(self.wrench()?.0.to_vector()[(vr - vr::FORCE) as usize]),
             vr::ACTUATOR..vr::PLATFORM_R => Ok(self.evaluation()?.actuator_forces[(vr - vr::ACTUATOR) as usize]),
             vr::PLATFORM_R..vr::PLATFORM_Q => Ok(self.evaluation()?.platform.position[(vr - vr::PLATFORM_R) as usize]),
             vr::PLATFORM_Q..vr::LEG => {
