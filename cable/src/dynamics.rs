@@ -207,7 +207,7 @@ impl genalpha::Problem for Step<'_> {
         let matrix = Some((&mut *self.matrix, coef));
         self.system.assemble(at.config, at.velocity, at.acceleration, &self.wrench, residual, matrix);
         *self.factor_step = None;
-        // a copy only while a saved state still holds the old factorization
+        // make_mut copies the factorization when a saved state shares it, else writes in place
         self.matrix.factorize_into(self.system.support == Support::Fixed, Arc::make_mut(self.factor))?;
         *self.factor_step = Some(s.step);
         Ok(())

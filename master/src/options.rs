@@ -9,6 +9,7 @@ use crate::simulate::Method;
 use crate::system::Adaptive;
 use anyhow::bail;
 use clap::ValueEnum;
+use cosim::ssp::read::ReadLimits;
 use feedcore::scene::{Control, ValidScene};
 
 /// The methods `--scheme` and `--schemes` know, and what each needs.
@@ -178,6 +179,58 @@ impl CompensationArg {
                 Ok(scene.edited(|s| s.control.as_mut().into_iter().for_each(Control::switch_off))?)
             }
         }
+    }
+}
+
+/// A step given with the adaptive step is refused: the adaptive step chooses its own.
+pub fn check_dt(adaptive: bool, dt: Option<f64>) -> anyhow::Result<()> {
+    if adaptive && dt.is_some() {
+        bail!(
+            "--dt: the adaptive step chooses its own steps within [--h-min, --h-max] and lands on the end time; \
+             drop --dt, or --adaptive for fixed steps"
+        );
+    }
+    Ok(())
+}
+
+/// Where a system's files may come from and what unpacking an archive may cost (--system only).
+#[derive(clap::Args)]
+pub struct SystemFileArgs {
+    /// Let a --system load FMUs and parameter files from outside its archive (or, for an `.ssd`,
+    /// outside its folder): absolute paths, `..`, symbolic links out. Off: a system file cannot
+    /// make the master load a library from anywhere on the machine.
+    #[arg(long)]
+    pub allow_external_fmus: bool,
+    /// Most entries an `.ssp` archive may hold [default: 10000].
+    #[arg(long)]
+    pub max_archive_entries: Option<usize>,
+    /// Most megabytes unpacked from an `.ssp` archive: the entries its system references (the
+    /// description, the FMUs, the parameter files; nothing else is unpacked) [default: 1024].
+    #[arg(long)]
+    pub max_unpacked_mb: Option<u64>,
+}
+
+impl SystemFileArgs {
+    pub fn limits(&self) -> ReadLimits {
+        let default = ReadLimits::default();
+        ReadLimits {
+            max_entries: self.max_archive_entries.unwrap_or(default.max_entries),
+            max_unpacked_bytes: self
+                .max_unpacked_mb
+                .map_or(default.max_unpacked_bytes, |mb| mb.saturating_mul(1 << 20)),
+            allow_external: self.allow_external_fmus,
+        }
+    }
+
+    /// The options given, for a run that has no system to apply them to.
+    pub fn given(&self) -> Option<&'static str> {
+        [
+            (self.allow_external_fmus, "--allow-external-fmus"),
+            (self.max_archive_entries.is_some(), "--max-archive-entries"),
+            (self.max_unpacked_mb.is_some(), "--max-unpacked-mb"),
+        ]
+        .into_iter()
+        .find_map(|(given, name)| given.then_some(name))
     }
 }
 

@@ -8,10 +8,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use clap::Parser;
-use cosim::ssp::read::ReadLimits;
 use feedcore::scene::{MAX_SCENE_BYTES, Scene, SceneError as InvalidScene, ValidScene};
 use master::limits::{Footprint, Limits, check_memory};
-use master::options::{CompensationArg, SchemeName, SchemeOptions, positive};
+use master::options::{CompensationArg, SchemeName, SchemeOptions, SystemFileArgs, check_dt, positive};
 use master::report::{Modal, Statics, run_summary, static_utilisation};
 use master::simulate::{Method, Run};
 use master::sweep;
@@ -74,20 +73,32 @@ fn run_error(e: &(dyn std::error::Error + 'static)) -> PyErr {
     RunError::new_err(chain(e))
 }
 
-/// The options of `master run` the package passes on (the same flags, the same checks).
-#[derive(Parser)]
-#[command(name = "feedsim.run", no_binary_name = true)]
-struct RunArgs {
+/// The method and its steps, as `master run` takes them (the same flags, the same checks).
+#[derive(clap::Args)]
+struct Stepping {
     #[arg(long, value_enum)]
     scheme: SchemeName,
     #[arg(long, value_parser = positive)]
     dt: Option<f64>,
     #[arg(long, value_parser = positive)]
     t_end: Option<f64>,
-    #[arg(long, value_enum, default_value_t = CompensationArg::On)]
-    compensation: CompensationArg,
     #[command(flatten)]
     options: SchemeOptions,
+}
+
+/// The options of `master run --scene` the package passes on.
+#[derive(Parser)]
+#[command(name = "feedsim.run", no_binary_name = true)]
+struct RunArgs {
+    #[command(flatten)]
+    stepping: Stepping,
+    #[arg(long, value_enum, default_value_t = CompensationArg::On)]
+    compensation: CompensationArg,
+}
+
+/// An option the library refuses (with its chain of causes).
+fn option_value_error(e: &anyhow::Error) -> PyErr {
+    PyValueError::new_err(format!("{e:#}"))
 }
 
 /// An option error as clap words it, without its usage lines.
@@ -111,16 +122,11 @@ fn run(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, String)> {
     let source = Source::new(path, toml, label)?;
-    let args = RunArgs::try_parse_from(&argv).map_err(option_error)?;
+    let RunArgs { stepping: args, compensation } = RunArgs::try_parse_from(&argv).map_err(option_error)?;
     let scene = source.load().map_err(scene_error)?;
-    let scene = args.compensation.apply(&scene).map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
-    let method = args.options.method(args.scheme).map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
-    if args.options.adaptive && args.dt.is_some() {
-        return Err(PyValueError::new_err(
-            "dt: the adaptive step chooses its own steps within [h_min, h_max] and lands on the end time; \
-             drop dt, or adaptive for fixed steps",
-        ));
-    }
+    let scene = compensation.apply(&scene).map_err(|e| option_value_error(&e))?;
+    let method = args.options.method(args.scheme).map_err(|e| option_value_error(&e))?;
+    check_dt(args.options.adaptive, args.dt).map_err(|e| option_value_error(&e))?;
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let file = source.file();
@@ -205,37 +211,21 @@ fn modes(py: Python<'_>, path: Option<String>, toml: Option<String>, label: Stri
 #[derive(Parser)]
 #[command(name = "feedsim.run_system", no_binary_name = true)]
 struct SystemArgs {
-    #[arg(long, value_enum)]
-    scheme: SchemeName,
-    #[arg(long, value_parser = positive)]
-    dt: Option<f64>,
-    #[arg(long, value_parser = positive)]
-    t_end: Option<f64>,
-    #[arg(long)]
-    allow_external_fmus: bool,
-    #[arg(long)]
-    max_archive_entries: Option<usize>,
-    #[arg(long)]
-    max_unpacked_mb: Option<u64>,
     #[command(flatten)]
-    options: SchemeOptions,
+    stepping: Stepping,
+    #[command(flatten)]
+    files: SystemFileArgs,
 }
 
 /// A run of an SSP system file: (the `--json` summary, the `--out` CSV).
 #[pyfunction]
 #[pyo3(signature = (path, argv))]
 fn run_system(py: Python<'_>, path: String, argv: Vec<String>) -> PyResult<(String, String)> {
-    let args = SystemArgs::try_parse_from(&argv).map_err(option_error)?;
-    let method = args.options.method(args.scheme).map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
-    let default = ReadLimits::default();
-    let read = ReadLimits {
-        max_entries: args.max_archive_entries.unwrap_or(default.max_entries),
-        max_unpacked_bytes: args.max_unpacked_mb.map_or(default.max_unpacked_bytes, |mb| mb.saturating_mul(1 << 20)),
-        allow_external: args.allow_external_fmus,
-    };
+    let SystemArgs { stepping: args, files } = SystemArgs::try_parse_from(&argv).map_err(option_error)?;
+    let method = args.options.method(args.scheme).map_err(|e| option_value_error(&e))?;
     py.detach(|| {
         let file = Path::new(&path);
-        let system = SystemFile::prepare(file, method, args.dt, args.t_end, &read, &Limits::default())
+        let system = SystemFile::prepare(file, method, args.dt, args.t_end, &files.limits(), &Limits::default())
             .map_err(|e| RunError::new_err(format!("{e:#}")))?;
         let mut csv = Vec::new();
         let sinks = master::system::Sinks { csv: Some(&mut csv), real: None };
@@ -285,7 +275,7 @@ fn sweep_grid(
     let grid = sweep::Grid::parse(&args.grid).map_err(|e| value_error(&e))?;
     let surface = args.surface.as_deref().map(sweep::Surface::parse).transpose().map_err(|e| value_error(&e))?;
     let placement = sweep::Placement { surface, tilt_share: args.tilt_share };
-    let method = args.run.map(|s| args.options.method(s)).transpose().map_err(|e| value_error(&format!("{e:#}")))?;
+    let method = args.run.map(|s| args.options.method(s)).transpose().map_err(|e| option_value_error(&e))?;
     let limits = Limits::default();
     let request = sweep::Request {
         modes: args.modes as usize,
@@ -297,25 +287,22 @@ fn sweep_grid(
     py.detach(|| {
         // every run's steps and what its method needs, at every step swept, before the first point
         if let Some(method) = method {
-            let dts = grid
-                .axes
-                .iter()
-                .find(|a| a.axis == sweep::Axis::Dt)
-                .map_or(vec![scene.solver.dt_s], |a| a.values.clone());
-            for dt in dts {
+            for dt in grid.steps(scene.solver.dt_s) {
                 Run::prepare(&scene, &file, method.clone(), dt, args.t_end, &limits).map_err(|e| run_error(&e))?;
             }
         }
         let points: Vec<usize> = (0..grid.len()).collect();
         let jobs = args.jobs.map(usize::from);
-        let cost = |&index: &usize| {
-            grid.point(index).iter().find(|(a, _)| *a == sweep::Axis::Dt).map_or(1.0, |(_, dt)| 1.0 / dt)
-        };
-        let rows = master::parallel::map_longest_first(&points, jobs, cost, |_, &index| {
-            let values = grid.point(index);
-            let outcome = sweep::evaluate(&scene, &file, &placement, &request, &values);
-            sweep::cells(index, &values, &request, &outcome)
-        })
+        let rows = master::parallel::map_longest_first(
+            &points,
+            jobs,
+            |&index| grid.cost(index),
+            |_, &index| {
+                let values = grid.point(index);
+                let outcome = sweep::evaluate(&scene, &file, &placement, &request, &values);
+                sweep::cells(index, &values, &request, &outcome)
+            },
+        )
         .map_err(|e| run_error(&e))?;
         Ok((sweep::columns(&grid, &request), rows))
     })

@@ -16,7 +16,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use feedcore::Vec3;
-use feedcore::scene::{Control, Scene, SceneError, ValidScene};
+use feedcore::scene::{Scene, ValidScene};
 use master::interrupt;
 use master::journal::{self, Journal};
 use master::limits::{Footprint, PlanError, check_memory};
@@ -151,11 +151,6 @@ fn history(
     Ok(out)
 }
 
-/// The scene with its sensor switched off (the uncompensated reference).
-fn uncompensated(scene: &ValidScene) -> Result<ValidScene, SceneError> {
-    scene.edited(|s| s.control.as_mut().into_iter().for_each(Control::switch_off))
-}
-
 /// One case of the sweep: whether it stayed stable, and its feed error RMS and peak (mm).
 struct Verdict {
     stable: bool,
@@ -211,7 +206,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let jobs = args.jobs.map(usize::from);
 
     // the uncompensated run (its poses also feed the decoupled replay) and the coupled one
-    let off = uncompensated(&scene)?;
+    let off = master::options::CompensationArg::Off.apply(&scene)?;
     eprintln!("{shown}: uncompensated, compensated and decoupled runs over {} s at h = {h} s …", args.t_end);
     let mains = master::parallel::map_in_order(&[true, false], jobs, |_, &is_off| {
         if is_off { history(&off, &comp, h, steps, Some(&comp)) } else { history(&scene, &comp, h, steps, None) }

@@ -55,7 +55,7 @@ pub(crate) struct Args {
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
     #[command(flatten)]
-    pub(crate) system_files: super::run_system::FileArgs,
+    pub(crate) system_files: master::options::SystemFileArgs,
 }
 
 /// The displacement histories as three stacked panels, into output `id`.
@@ -76,12 +76,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let scene = args.compensation.apply(&load_scene(scene_file)?)?;
     let method = args.options.method(args.scheme)?;
-    if args.options.adaptive && args.dt.is_some() {
-        bail!(
-            "--dt: the adaptive step chooses its own steps within [--h-min, --h-max] and lands on the end time; \
-             drop --dt, or --adaptive for fixed steps"
-        );
-    }
+    master::options::check_dt(args.options.adaptive, args.dt)?;
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();

@@ -8,54 +8,12 @@ use std::io::{IsTerminal, Write};
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use cosim::ssp::read::ReadLimits;
 use master::plot::{Line, PALETTE, Panel, stacked};
 use master::system::{RealHistory, Sinks, SystemFile};
 
 use super::output::Outputs;
 use super::run::Args;
 use super::{CmdResult, caps};
-
-/// Where a system's files may come from and what unpacking an archive may cost (--system only).
-#[derive(clap::Args)]
-pub(crate) struct FileArgs {
-    /// Let a --system load FMUs and parameter files from outside its archive (or, for an `.ssd`,
-    /// outside its folder): absolute paths, `..`, symbolic links out. Off: a system file cannot
-    /// make the master load a library from anywhere on the machine.
-    #[arg(long)]
-    pub(crate) allow_external_fmus: bool,
-    /// Most entries an `.ssp` archive may hold [default: 10000].
-    #[arg(long)]
-    pub(crate) max_archive_entries: Option<usize>,
-    /// Most megabytes unpacked from an `.ssp` archive: the entries its system references (the
-    /// description, the FMUs, the parameter files; nothing else is unpacked) [default: 1024].
-    #[arg(long)]
-    pub(crate) max_unpacked_mb: Option<u64>,
-}
-
-impl FileArgs {
-    fn limits(&self) -> ReadLimits {
-        let default = ReadLimits::default();
-        ReadLimits {
-            max_entries: self.max_archive_entries.unwrap_or(default.max_entries),
-            max_unpacked_bytes: self
-                .max_unpacked_mb
-                .map_or(default.max_unpacked_bytes, |mb| mb.saturating_mul(1 << 20)),
-            allow_external: self.allow_external_fmus,
-        }
-    }
-
-    /// The options given, for a run that has no system to apply them to.
-    pub(crate) fn given(&self) -> Option<&'static str> {
-        [
-            (self.allow_external_fmus, "--allow-external-fmus"),
-            (self.max_archive_entries.is_some(), "--max-archive-entries"),
-            (self.max_unpacked_mb.is_some(), "--max-unpacked-mb"),
-        ]
-        .into_iter()
-        .find_map(|(given, name)| given.then_some(name))
-    }
-}
 
 pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
     if args.compensation != super::scheme_args::CompensationArg::On {

@@ -17,7 +17,7 @@ use master::limits::{Footprint, check_memory_of};
 use master::parallel;
 use master::simulate::Run;
 use master::sweep::table::{self, Table};
-use master::sweep::{self, Axis, Grid, Placement, Request, Shard, Surface, map};
+use master::sweep::{self, Grid, Placement, Request, Shard, Surface, map};
 use master::table::Table as TextTable;
 
 use super::output::{OutputId, Outputs, run_inputs};
@@ -108,8 +108,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     // every run's steps and what its method needs, at every step swept (the points differ
     // from the scene only in pose and masses)
     if let (Some(method), Some(name)) = (method, args.run) {
-        let dts = grid.axes.iter().find(|a| a.axis == Axis::Dt).map_or(vec![scene.solver.dt_s], |a| a.values.clone());
-        for dt in dts {
+        for dt in grid.steps(scene.solver.dt_s) {
             Run::prepare(&scene, scene_file, method.clone(), dt, args.t_end, &limits)
                 .with_context(|| format!("--run {} at h = {dt} s, --t-end {} s", name.as_str(), args.t_end))?;
         }
@@ -163,8 +162,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     );
     let done = std::sync::atomic::AtomicUsize::new(0);
     let start = Instant::now();
-    // a point's run costs in proportion to its steps
-    let cost = |&index: &usize| grid.point(index).iter().find(|(a, _)| *a == Axis::Dt).map_or(1.0, |(_, dt)| 1.0 / dt);
+    let cost = |&index: &usize| grid.cost(index);
     let cells = journal::map_journaled(
         &points,
         jobs,

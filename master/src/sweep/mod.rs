@@ -166,6 +166,17 @@ impl Grid {
         out
     }
 
+    /// The steps the runs at the points take: the `dt` axis's values, else `scene_dt`.
+    pub fn steps(&self, scene_dt: f64) -> Vec<f64> {
+        self.axes.iter().find(|a| a.axis == Axis::Dt).map_or(vec![scene_dt], |a| a.values.clone())
+    }
+
+    /// The cost of point `index`'s run against one at a unit step, to start the longest first:
+    /// in proportion to its steps.
+    pub fn cost(&self, index: usize) -> f64 {
+        self.point(index).iter().find(|(a, _)| *a == Axis::Dt).map_or(1.0, |(_, dt)| 1.0 / dt)
+    }
+
     /// The axes as `--grid` arguments would give them, joined by spaces (values exactly).
     pub fn describe(&self) -> String {
         let list = |v: &[f64]| v.iter().map(|x| format!("{x:?}")).collect::<Vec<_>>().join(",");

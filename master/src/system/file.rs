@@ -45,15 +45,12 @@ impl SystemFile {
             ),
         };
         let loaded = load_within(file, read)?;
+        crate::options::check_dt(adaptive.is_some(), dt)?;
         let dt = match (&adaptive, dt) {
             (None, Some(dt)) => dt,
             (None, None) => bail!("--dt: give the macro step of the system (s)"),
-            (Some(_), Some(_)) => bail!(
-                "--dt: the adaptive step chooses its own steps within [--h-min, --h-max] and lands on the end \
-                 time; drop --dt, or --adaptive for fixed steps"
-            ),
             // not used: the adaptive step chooses
-            (Some(_), None) => f64::NAN,
+            (Some(_), _) => f64::NAN,
         };
         let start = loaded.start_time.unwrap_or(0.0);
         if start != 0.0 {
