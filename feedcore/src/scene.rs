@@ -394,6 +394,21 @@ pub enum SensorKind {
     Sampled,
 }
 
+/// What the compensation commands.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Compensate {
+    /// The platform's whole pose: the feed point on its target, the platform's attitude (hence
+    /// the feed's axis) held in the world.
+    #[default]
+    Pose,
+    /// Its position only: the platform translates relative to the cabin and tilts with it.
+    Position,
+}
+
+/// The feed's axis when a scene gives none: down the platform's z axis, towards the reflector.
+pub const DEFAULT_FEED_AXIS: [f64; 3] = [0.0, 0.0, -1.0];
+
 /// The second level: the Stewart platform puts a feed point on a target in the world frame,
 /// from the measured cabin pose. Absent: the platform follows `[motion]` relative to the cabin.
 /// How far from the platform's centre a feed point may lie, m.
@@ -412,6 +427,13 @@ pub struct Control {
     /// The feed point, platform body frame (from the platform's centre of mass).
     #[serde(deserialize_with = "exact::array")]
     pub feed_point_m: [f64; 3],
+    /// The feed's axis, a direction in the platform frame (normalized when used); absent:
+    /// [`DEFAULT_FEED_AXIS`]. Its angle from its start direction is the feed's tilt error.
+    #[serde(default, deserialize_with = "exact::option", skip_serializing_if = "Option::is_none")]
+    pub feed_axis: Option<[f64; 3]>,
+    /// What the compensation commands (default: the whole pose).
+    #[serde(default)]
+    pub compensate: Compensate,
     pub target: TargetKind,
     /// `circle`: centre of the circle from the feed's start position (horizontal, world frame);
     /// the radius is its length, the target starts at the start position.
@@ -469,6 +491,11 @@ impl Control {
             (None, 0.0, 0.0, 0.0, None, None);
     }
 
+    /// The feed's axis as given ([`DEFAULT_FEED_AXIS`] if not), platform frame.
+    pub fn feed_axis(&self) -> [f64; 3] {
+        self.feed_axis.unwrap_or(DEFAULT_FEED_AXIS)
+    }
+
     /// Sample period of a sampled sensor, s.
     pub fn sample_period(&self) -> Option<f64> {
         match self.sensor {
@@ -489,6 +516,17 @@ impl Control {
                 &format!("{:?}", self.feed_point_m),
                 &format!("the feed point must lie within {FEED_POINT_REACH_M} m of the platform's centre (metres, platform frame)"),
             ));
+        }
+        if let Some(axis) = self.feed_axis {
+            c.vector("control.feed_axis", &axis)?;
+            let length = axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(1e-9..=1e9).contains(&length) {
+                return Err(c.err(
+                    "control.feed_axis",
+                    &format!("{axis:?}"),
+                    "the feed's axis is a direction: give a unit vector, e.g. [0.0, 0.0, -1.0]",
+                ));
+            }
         }
         let unused = |key: &str, given: bool, what: &str| -> Result<(), SceneError> {
             if given {

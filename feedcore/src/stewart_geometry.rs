@@ -77,7 +77,7 @@ impl StewartGeometry {
     }
 
     /// Mass properties of the 13 bodies in their own frames (centre of mass at the origin), in
-    /// the order of [`BODIES`]: the platform's frame is parallel to the cabin's, a leg part's z
+    /// the order of [`BODIES`]: the platform's frame is parallel to the cabin's at rest, a leg part's z
     /// axis is the leg axis.
     pub fn body_frame_mass_properties(&self) -> [MassProperties; BODIES] {
         let own = |mass: f64, inertia_com: Mat3| MassProperties { mass, com: Vec3::zeros(), inertia_com };

@@ -323,4 +323,15 @@ fn values_beyond_engineering_bounds_are_refused_by_key() {
     assert_eq!(e.key, "control.seed", "{e}");
     assert!(e.to_string().contains("only used with sensor = \"sampled\""), "{e}");
     assert!(Scene::from_toml(&compensated.replace(sampled, "sensor = \"ideal\"\n"), "ok.toml").is_ok());
+    // the feed's axis is a direction, what is compensated one of two words
+    let feed = "feed_point_m = [0.0, 0.0, -0.3]";
+    for axis in ["[0.0, 0.0, 0.0]", "[0.0, 1e300, 0.0]"] {
+        let e = edited(feed, &format!("{feed}\nfeed_axis = {axis}"));
+        assert_eq!(e.key, "control.feed_axis", "{e}");
+        assert!(e.to_string().contains("unit vector"), "{e}");
+    }
+    let e = edited(feed, &format!("{feed}\ncompensate = \"tilt\""));
+    assert!(e.to_string().contains("compensate") && e.to_string().contains("position"), "{e}");
+    let axis = Scene::from_toml(&compensated.replace(feed, &format!("{feed}\nfeed_axis = [0.0, 2.0, 0.0]")), "ok.toml");
+    assert_eq!(axis.unwrap().control.as_ref().unwrap().feed_axis(), [0.0, 2.0, 0.0]);
 }

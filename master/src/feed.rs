@@ -2,10 +2,9 @@
 //! target, the leg lengths and actuator forces, and the leg-stroke and actuator-force limits —
 //! recorded at every step, reported when reached (never clipped).
 //!
-//! The feed is placed from the cabin's pose (the cable–cabin model's) and the platform's
-//! position relative to the cabin: `feed = p + R (c + f)`; the platform's attitude is the
-//! cabin's (it only translates relative to it), so the tilt error is the cabin's rotation from
-//! its reference attitude.
+//! The feed is placed from the cabin's pose (the cable–cabin model's) and the platform's pose
+//! relative to the cabin: `feed = p + R (c + Q f)`, the platform's attitude `R Q`; the tilt error
+//! is the angle of the feed's axis from its start direction.
 
 use std::io::Write;
 
@@ -19,7 +18,7 @@ use stewart::Compensation;
 pub struct FeedSample {
     /// Feed position minus target, world frame, mm.
     pub err_mm: [f64; 3],
-    /// Angle of the feed's rotation from its start attitude, mrad.
+    /// Angle of the feed's axis from its start direction, mrad.
     pub tilt_mrad: f64,
     pub legs_m: [f64; LEGS],
     /// Actuator tensions, N.
@@ -27,18 +26,20 @@ pub struct FeedSample {
 }
 
 impl FeedSample {
-    /// The feed of a cabin at (p, R) with the platform centre at `relative` (cabin frame).
+    /// The feed of a cabin at (p, R) with the platform at `relative` (centre and orientation,
+    /// cabin frame).
     pub fn place(
         c: &Compensation,
         t: f64,
         cabin: (&Vec3, &Quat),
-        relative: &Vec3,
+        relative: (&Vec3, &Quat),
         legs_m: [f64; LEGS],
         forces_n: [f64; LEGS],
     ) -> FeedSample {
-        let (p, r) = cabin;
-        let (err, rot) = c.feed_error(&(p + r * relative), r, t);
-        FeedSample { err_mm: (err * 1e3).into(), tilt_mrad: rot.norm() * 1e3, legs_m, forces_n }
+        let ((p, r), (centre, turn)) = (cabin, relative);
+        let attitude = r * turn;
+        let (err, _) = c.feed_error(&(p + r * centre), &attitude, t);
+        FeedSample { err_mm: (err * 1e3).into(), tilt_mrad: c.feed_tilt(&attitude) * 1e3, legs_m, forces_n }
     }
 
     fn error_mm(&self) -> f64 {
@@ -63,6 +64,7 @@ pub struct FeedSummary {
     pub rms_mm: f64,
     pub peak_mm: f64,
     pub peak_time_s: f64,
+    pub tilt_rms_mrad: f64,
     pub tilt_peak_mrad: f64,
     /// Every time a limit was reached (a leg staying beyond it counts once, until it returns).
     pub events: Vec<LimitEvent>,
@@ -79,6 +81,7 @@ pub struct FeedTrace {
     /// Per leg: beyond its shortest, longest, force limit now.
     beyond: [[bool; 3]; LEGS],
     sum_sq: f64,
+    tilt_sum_sq: f64,
     steps: u64,
 }
 
@@ -103,9 +106,11 @@ impl FeedTrace {
     pub fn observe(&mut self, t: f64, s: &FeedSample, keep: bool) {
         let e = s.error_mm();
         self.sum_sq += e * e;
+        self.tilt_sum_sq += s.tilt_mrad * s.tilt_mrad;
         self.steps += 1;
         let sum = &mut self.summary;
         sum.rms_mm = (self.sum_sq / self.steps as f64).sqrt();
+        sum.tilt_rms_mrad = (self.tilt_sum_sq / self.steps as f64).sqrt();
         if e > sum.peak_mm {
             sum.peak_mm = e;
             sum.peak_time_s = t;
@@ -147,6 +152,7 @@ impl FeedTrace {
             "feed_err_rms_mm": s.rms_mm,
             "feed_err_peak_mm": s.peak_mm,
             "feed_err_peak_time_s": s.peak_time_s,
+            "feed_err_tilt_rms_mrad": s.tilt_rms_mrad,
             "feed_err_tilt_peak_mrad": s.tilt_peak_mrad,
             "limit_events": s.events,
         })

@@ -1,9 +1,9 @@
 //! The monolithic model in time: model (immutable), state, and workspace kept apart.
 
-use feedcore::Vec3;
 use feedcore::genalpha::{self, Iterate, StepError, StepReport};
 use feedcore::rigid::RigidMotion;
 use feedcore::scene::{LEGS, SensorKind, ValidScene};
+use feedcore::{Quat, Vec3};
 use nalgebra::Vector6;
 use stewart::CommandState;
 use stewart::constraints::{CABIN, DRIVING, ROWS_PER_LEG};
@@ -60,9 +60,10 @@ pub struct Sample {
     pub actuator_forces: [f64; LEGS],
     /// Largest |Φ| of all position constraints (m or rad).
     pub constraint_residual: f64,
-    /// The platform centre as commanded (cabin frame; the joints hold it there to the Newton
-    /// tolerance).
+    /// The platform centre and orientation (platform to cabin frame) as commanded, cabin frame
+    /// (the joints hold it there to the Newton tolerance).
     pub platform: Vec3,
+    pub platform_rotation: Quat,
     /// Leg lengths (joint centre to joint centre), m.
     pub leg_lengths: [f64; LEGS],
 }
@@ -215,6 +216,7 @@ impl Monolithic {
             actuator_forces,
             constraint_residual: largest_value(&sc.accepted[..]),
             platform: point.position,
+            platform_rotation: point.rotation(),
             leg_lengths: strokes.map_or([f64::NAN; LEGS], |s| s.map(|s| s.length)),
         }
     }

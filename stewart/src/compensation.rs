@@ -1,16 +1,22 @@
 //! The second level: the platform puts a feed point on a target in the world frame, from the
 //! measured cabin pose (scene `[control]`).
 //!
-//! The platform only translates relative to the cabin (its frame stays parallel to the cabin's),
-//! so the compensation is of position: the platform centre, cabin frame, is commanded to
+//! The platform's pose relative to the cabin (centre `c`, orientation `Q`, cabin frame) is
+//! commanded so that the feed `p + R (c + Q f)` lies on the target `x(t)` and the platform keeps
+//! its start attitude `R₀` in the world (`compensate = "pose"`, the default):
 //!
 //! ```text
-//! c = Rᵀ (x(t) − p) − f
+//! Q = Rᵀ R₀,   c = Rᵀ (x(t) − p − R₀ f)
 //! ```
 //!
-//! (`p, R` the measured cabin pose, `x` the target, `f` the feed point in the platform frame),
-//! which puts the feed `p + R (c + f)` on `x` when the measurement is true. The feed's tilt is the
-//! cabin's and is not compensated: it is reported as the feed's tilt error.
+//! (`p, R` the measured cabin pose, `f` the feed point in the platform frame), so the feed's axis
+//! stays on its start direction. With `compensate = "position"` the platform only translates
+//! (`Q = I`, `c = Rᵀ (x − p) − f`) and the feed tilts with the cabin. The tilt reported is the
+//! angle of the feed axis (scene `feed_axis`) from its start direction.
+//!
+//! A sampled command is a pose: the centre and the orientation's angles (z-y-x: `Q = R_z(ψ)
+//! R_y(θ) R_x(φ)`), filtered component by component; the platform's angular velocity and
+//! acceleration follow exactly from the angles' derivatives.
 //!
 //! Sensors: `ideal` (the true pose, continuously: `c` and its first two derivatives follow from
 //! the cabin's motion, exactly), `off` (the platform holds its start pose: the uncompensated
@@ -26,8 +32,9 @@
 use std::collections::VecDeque;
 
 use feedcore::random::SplitMix64;
-use feedcore::scene::{Control, ControlTarget, LEGS, SensorKind, TargetKind, ValidScene};
-use feedcore::{Quat, Vec3};
+use feedcore::scene::{Compensate, Control, ControlTarget, LEGS, SensorKind, TargetKind, ValidScene};
+use feedcore::{Mat3, Quat, Vec3};
+use nalgebra::{Rotation3, Vector6};
 use serde::{Deserialize, Serialize};
 
 use crate::path::PathPoint;
@@ -62,11 +69,19 @@ pub struct TargetPoint {
     pub acceleration: Vec3,
 }
 
+/// A platform pose relative to the cabin as the sampled sensor commands it: the centre (cabin
+/// frame, m) and the z-y-x angles (φ, θ, ψ) of its orientation, rad.
+type Pose = Vector6<f64>;
+
 /// The compensation of one scene (immutable).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Compensation {
     /// Feed point, platform frame.
     feed_point: Vec3,
+    /// The feed's axis, platform frame (unit).
+    feed_axis: Vec3,
+    /// Whether the platform's attitude is commanded too (else it only translates).
+    holds_attitude: bool,
     /// The platform centre at rest, cabin frame.
     rest: Vec3,
     /// The cabin's reference (static) pose: the platform's start attitude and the feed's start.
@@ -94,6 +109,7 @@ impl Compensation {
         let control = scene.control.as_ref().unwrap_or(&uncontrolled);
         let reference = (scene.target_position(), scene.target_orientation());
         let feed_point = Vec3::from(control.feed_point_m);
+        let feed_axis = Vec3::from(control.feed_axis()).normalize();
         let feed_start = reference.0 + reference.1 * (rest + feed_point);
         let target = match scene.control_target() {
             None | Some(ControlTarget::Hold) => Target::Hold,
@@ -117,6 +133,8 @@ impl Compensation {
         };
         Compensation {
             feed_point,
+            feed_axis,
+            holds_attitude: control.compensate == Compensate::Pose,
             rest,
             reference,
             feed_start,
@@ -138,6 +156,8 @@ impl Compensation {
     pub(crate) fn uncontrolled() -> Control {
         Control {
             feed_point_m: [0.0; 3],
+            feed_axis: None,
+            compensate: Compensate::Pose,
             target: TargetKind::Hold,
             circle_center_offset_m: None,
             circle_speed_m_s: None,
@@ -226,18 +246,45 @@ impl Compensation {
         }
     }
 
-    /// The command that puts the feed on the target at time `t` for a cabin at (p, R).
-    fn command(&self, position: &Vec3, orientation: &Quat, t: f64) -> Vec3 {
-        orientation.inverse_transform_vector(&(self.target(t).position - position)) - self.feed_point
+    /// The feed's axis, platform frame (unit).
+    pub fn feed_axis(&self) -> Vec3 {
+        self.feed_axis
     }
 
-    /// The ideal sensor's command: platform centre, cabin frame, with its derivatives, for the
-    /// true cabin motion.
+    /// Whether the platform's attitude is commanded (`compensate = "pose"`).
+    pub fn holds_attitude(&self) -> bool {
+        self.holds_attitude
+    }
+
+    /// The feed point's offset from the platform centre that the command's position accounts
+    /// for: in the world at the start attitude when the attitude is held, else in the platform
+    /// (= cabin) frame.
+    fn held_offset(&self) -> Vec3 {
+        if self.holds_attitude { self.reference.1 * self.feed_point } else { Vec3::zeros() }
+    }
+
+    /// The pose that puts the feed on the target at time `t` for a cabin at (p, R).
+    fn command(&self, position: &Vec3, orientation: &Quat, t: f64) -> Pose {
+        let centre = orientation.inverse_transform_vector(&(self.target(t).position - position - self.held_offset()));
+        if self.holds_attitude {
+            let angles = zyx_angles(&(orientation.inverse() * self.reference.1).to_rotation_matrix().into_inner());
+            Pose::new(centre.x, centre.y, centre.z, angles.x, angles.y, angles.z)
+        } else {
+            let c = centre - self.feed_point;
+            Pose::new(c.x, c.y, c.z, 0.0, 0.0, 0.0)
+        }
+    }
+
+    /// The ideal sensor's command: the platform's pose relative to the cabin with its
+    /// derivatives, for the true cabin motion.
     pub fn ideal(&self, cabin: &CabinMotion, t: f64) -> PathPoint {
         let x = self.target(t);
         let r = &cabin.orientation;
-        let (d, dd, ddd) =
-            (x.position - cabin.position, x.velocity - cabin.velocity, x.acceleration - cabin.acceleration);
+        let (d, dd, ddd) = (
+            x.position - cabin.position - self.held_offset(),
+            x.velocity - cabin.velocity,
+            x.acceleration - cabin.acceleration,
+        );
         let (w, al) = (
             r.inverse_transform_vector(&cabin.angular_velocity),
             r.inverse_transform_vector(&cabin.angular_acceleration),
@@ -245,16 +292,32 @@ impl Compensation {
         let e = r.inverse_transform_vector(&d);
         let de = r.inverse_transform_vector(&dd);
         // e = Rᵀd: ė = Rᵀḋ − ω×e, ë = Rᵀd̈ − 2ω×Rᵀḋ − α×e + ω×(ω×e) (body-frame ω, α)
-        PathPoint {
-            position: e - self.feed_point,
-            velocity: de - w.cross(&e),
-            acceleration: r.inverse_transform_vector(&ddd) - w.cross(&de) * 2.0 - al.cross(&e) + w.cross(&w.cross(&e)),
+        let velocity = de - w.cross(&e);
+        let acceleration = r.inverse_transform_vector(&ddd) - w.cross(&de) * 2.0 - al.cross(&e) + w.cross(&w.cross(&e));
+        if self.holds_attitude {
+            // Q = RᵀR₀ is still in the world: its angular velocity relative to the cabin is the
+            // cabin's reversed, and so is its angular acceleration (body frame)
+            PathPoint {
+                position: e,
+                velocity,
+                acceleration,
+                orientation: (r.inverse() * self.reference.1).to_rotation_matrix().into_inner(),
+                angular_velocity: -w,
+                angular_acceleration: -al,
+            }
+        } else {
+            PathPoint::translating(e - self.feed_point, velocity, acceleration)
         }
     }
 
-    /// The platform centre at rest, cabin frame.
+    /// The platform at rest, cabin frame.
     pub fn rest(&self) -> PathPoint {
-        PathPoint { position: self.rest, velocity: Vec3::zeros(), acceleration: Vec3::zeros() }
+        PathPoint::translating(self.rest, Vec3::zeros(), Vec3::zeros())
+    }
+
+    /// The rest pose as a command.
+    fn rest_pose(&self) -> Pose {
+        Pose::new(self.rest.x, self.rest.y, self.rest.z, 0.0, 0.0, 0.0)
     }
 
     /// The feed's position error (world frame, m) and its rotation from the start attitude
@@ -265,11 +328,18 @@ impl Compensation {
         (feed - self.target(t).position, (platform_orientation * self.reference.1.inverse()).scaled_axis())
     }
 
+    /// The angle of the feed's axis from its start direction (the platform at this world
+    /// orientation), rad: the feed's tilt error.
+    pub fn feed_tilt(&self, platform_orientation: &Quat) -> f64 {
+        let (now, start) = (platform_orientation * self.feed_axis, self.reference.1 * self.feed_axis);
+        now.cross(&start).norm().atan2(now.dot(&start))
+    }
+
     /// The state of a sampled sensor and its command at the start.
     pub fn start_state(&self) -> CommandState {
-        let rest = self.rest.into();
+        let rest = self.rest_pose().into();
         CommandState {
-            segment: Segment { start: 0.0, from: rest, velocity: [0.0; 3], to: rest },
+            segment: Segment { start: 0.0, from: rest, velocity: [0.0; 6], to: rest },
             pending: VecDeque::new(),
             next_sample: 0,
             rng: SplitMix64::new(self.seed),
@@ -281,14 +351,15 @@ impl Compensation {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 struct Segment {
     start: f64,
-    from: [f64; 3],
-    velocity: [f64; 3],
-    to: [f64; 3],
+    from: [f64; 6],
+    velocity: [f64; 6],
+    to: [f64; 6],
 }
 
 impl Segment {
-    fn at(&self, c: &Compensation, t: f64) -> PathPoint {
-        let (from, v0, to) = (Vec3::from(self.from), Vec3::from(self.velocity), Vec3::from(self.to));
+    /// The commanded pose and its first two derivatives at `t`.
+    fn pose_at(&self, c: &Compensation, t: f64) -> [Pose; 3] {
+        let (from, v0, to) = (Pose::from(self.from), Pose::from(self.velocity), Pose::from(self.to));
         let s = (t - self.start).max(0.0);
         match c.tau {
             Some(tau) => {
@@ -297,11 +368,7 @@ impl Segment {
                 let b = v0 + a / tau;
                 let e = (-s / tau).exp();
                 let ab = a + b * s;
-                PathPoint {
-                    position: to + ab * e,
-                    velocity: (b - ab / tau) * e,
-                    acceleration: (ab / (tau * tau) - b * (2.0 / tau)) * e,
-                }
+                [to + ab * e, (b - ab / tau) * e, (ab / (tau * tau) - b * (2.0 / tau)) * e]
             }
             None => {
                 let d = 0.5 * c.period;
@@ -311,10 +378,48 @@ impl Segment {
                 let rate = 30.0 * x2 * (1.0 - x) * (1.0 - x) / d;
                 let curve = 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x) / (d * d);
                 let jump = to - from;
-                PathPoint { position: from + jump * step, velocity: jump * rate, acceleration: jump * curve }
+                [from + jump * step, jump * rate, jump * curve]
             }
         }
     }
+
+    fn at(&self, c: &Compensation, t: f64) -> PathPoint {
+        let [q, dq, ddq] = self.pose_at(c, t);
+        pose_motion(&q, &dq, &ddq)
+    }
+}
+
+/// The platform's motion for a pose (centre, z-y-x angles) and its first two derivatives.
+fn pose_motion(q: &Pose, dq: &Pose, ddq: &Pose) -> PathPoint {
+    let three = |v: &Pose, i: usize| Vec3::new(v[i], v[i + 1], v[i + 2]);
+    let (roll, pitch, yaw) = (q[3], q[4], q[5]);
+    let (droll, dpitch, dyaw) = (dq[3], dq[4], dq[5]);
+    let (sy, cy) = yaw.sin_cos();
+    let (sp, cp) = pitch.sin_cos();
+    let orientation = *(Rotation3::from_axis_angle(&Vec3::z_axis(), yaw)
+        * Rotation3::from_axis_angle(&Vec3::y_axis(), pitch)
+        * Rotation3::from_axis_angle(&Vec3::x_axis(), roll))
+    .matrix();
+    // ω = ψ̇ z + θ̇ R_z y + φ̇ R_z R_y x; each axis turns with the rotations before it
+    let (z, y1, x2) = (Vec3::z(), Vec3::new(-sy, cy, 0.0), Vec3::new(cy * cp, sy * cp, -sp));
+    let w_yaw = z * dyaw;
+    let w_pitch = w_yaw + y1 * dpitch;
+    let angular_velocity = w_pitch + x2 * droll;
+    let angular_acceleration =
+        z * ddq[5] + y1 * ddq[4] + w_yaw.cross(&y1) * dpitch + x2 * ddq[3] + w_pitch.cross(&x2) * droll;
+    PathPoint {
+        position: three(q, 0),
+        velocity: three(dq, 0),
+        acceleration: three(ddq, 0),
+        orientation,
+        angular_velocity,
+        angular_acceleration,
+    }
+}
+
+/// The z-y-x angles (φ, θ, ψ) of a rotation `R_z(ψ) R_y(θ) R_x(φ)`, |θ| < π/2.
+fn zyx_angles(m: &Mat3) -> Vec3 {
+    Vec3::new(m[(2, 1)].atan2(m[(2, 2)]), (-m[(2, 0)]).atan2(m[(2, 1)].hypot(m[(2, 2)])), m[(1, 0)].atan2(m[(0, 0)]))
 }
 
 /// What a sampled sensor carries from step to step: the command being followed, the commands
@@ -323,7 +428,7 @@ impl Segment {
 pub struct CommandState {
     segment: Segment,
     /// (time it applies, command), in time order.
-    pending: VecDeque<(f64, [f64; 3])>,
+    pending: VecDeque<(f64, [f64; 6])>,
     /// Index k of the next sample, taken at the first communication point ≥ k·T.
     next_sample: u64,
     rng: SplitMix64,
@@ -350,18 +455,18 @@ impl Clone for CommandState {
 
 impl CommandState {
     /// Starts a new segment at `time` for every pending command applying before `until`.
-    fn apply(segment: &mut Segment, pending: impl Iterator<Item = (f64, [f64; 3])>, c: &Compensation) {
+    fn apply(segment: &mut Segment, pending: impl Iterator<Item = (f64, [f64; 6])>, c: &Compensation) {
         for (time, to) in pending {
-            let now = segment.at(c, time);
-            *segment = Segment { start: time, from: now.position.into(), velocity: now.velocity.into(), to };
+            let [now, rate, _] = segment.pose_at(c, time);
+            *segment = Segment { start: time, from: now.into(), velocity: rate.into(), to };
         }
     }
 
-    fn due(pending: &VecDeque<(f64, [f64; 3])>, until: f64) -> usize {
+    fn due(pending: &VecDeque<(f64, [f64; 6])>, until: f64) -> usize {
         pending.iter().take_while(|(time, _)| *time < until - SAME_INSTANT).count()
     }
 
-    /// The commanded platform centre (cabin frame) at time `t`, for `t` after the last sample.
+    /// The commanded platform motion (cabin frame) at time `t`, for `t` after the last sample.
     pub fn at(&self, c: &Compensation, t: f64) -> PathPoint {
         let mut segment = self.segment;
         Self::apply(&mut segment, self.pending.iter().take(Self::due(&self.pending, t)).copied(), c);
@@ -441,11 +546,17 @@ mod tests {
             let fd_a = derivative(|s| c.ideal(&motion(s), s).velocity, t, 1e-3);
             assert!((at.velocity - fd_v).norm() < 1e-8, "t {t}: velocity {at:?} vs {fd_v:?}");
             assert!((at.acceleration - fd_a).norm() < 1e-6, "t {t}: acceleration {at:?} vs {fd_a:?}");
-            // the feed is on the target
+            let fd_w = angular_rate(|s| c.ideal(&motion(s), s).orientation, t, 1e-5);
+            let fd_al = derivative(|s| c.ideal(&motion(s), s).angular_velocity, t, 1e-3);
+            assert!((at.angular_velocity - fd_w).norm() < 1e-8, "t {t}: ω {:?} vs {fd_w:?}", at.angular_velocity);
+            assert!((at.angular_acceleration - fd_al).norm() < 1e-6, "t {t}: α {:?}", at.angular_acceleration);
+            // the feed is on the target and its attitude (hence its axis) is the start one
             let m = motion(t);
+            let attitude = m.orientation * at.rotation();
             let platform = m.position + m.orientation * at.position;
-            let (err, _) = c.feed_error(&platform, &m.orientation, t);
-            assert!(err.norm() < 1e-14, "{err:?}");
+            let (err, rot) = c.feed_error(&platform, &attitude, t);
+            assert!(err.norm() < 1e-14 && rot.norm() < 1e-15, "{err:?} {rot:?}");
+            assert!(c.feed_tilt(&attitude) < 1e-15);
         }
     }
 
@@ -467,9 +578,11 @@ mod tests {
                 assert!((a.position - b.position).norm() < 1e-6, "{filter} t {t}");
                 assert!((a.velocity - b.velocity).norm() < 1e-4, "{filter} t {t}");
             }
-            // the commands reach c = Rᵀ(x − p) − f for the moved cabin
+            // the commands reach the pose that puts the feed on the target for the moved cabin
             let expected = c.command(&moved, &q0, 0.0);
-            assert!((s.at(&c, 5.0).position - expected).norm() < 1e-9, "{filter}");
+            let reached = s.at(&c, 5.0);
+            assert!((reached.position - expected.fixed_rows::<3>(0)).norm() < 1e-9, "{filter}");
+            assert!((zyx_angles(&reached.orientation) - expected.fixed_rows::<3>(3)).norm() < 1e-9, "{filter}");
             // the motion is exactly the commanded one: velocity is the derivative of position
             let mut s = c.start_state();
             s.sample(&c, 0.0, &moved, &q0);
@@ -484,6 +597,38 @@ mod tests {
         }
     }
 
+    /// The angular velocity of a relative orientation, cabin frame, by central differences:
+    /// the small rotation from t − h to t + h read off its skew part (sin φ ≈ φ to 1e-10 here;
+    /// an angle taken through acos would lose half the digits).
+    fn angular_rate(f: impl Fn(f64) -> Mat3, t: f64, h: f64) -> Vec3 {
+        let m = f(t + h) * f(t - h).transpose();
+        Vec3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]) / (4.0 * h)
+    }
+
+    #[test]
+    fn a_pose_from_angles_turns_as_its_angular_velocity_and_acceleration_say() {
+        // angles that sweep all three axes at once, with a pitch near 1 rad
+        let angles = |t: f64| {
+            let (s, c) = (1.3 * t).sin_cos();
+            Pose::new(0.1 * t, -0.2 * t * t, 0.3 + 0.2 * s, 0.4 * s, 0.9 + 0.1 * c, -0.7 * t + 0.05 * t * t)
+        };
+        let rate = |t: f64| (angles(t + 1e-5) - angles(t - 1e-5)) / 2e-5;
+        let motion = |t: f64| {
+            let ddq = (rate(t + 1e-4) - rate(t - 1e-4)) / 2e-4;
+            pose_motion(&angles(t), &rate(t), &ddq)
+        };
+        for t in [0.2, 0.9, 1.7] {
+            let m = motion(t);
+            let w = angular_rate(|x| motion(x).orientation, t, 1e-5);
+            assert!((m.angular_velocity - w).norm() < 1e-8, "t {t}: ω {:?} vs {w:?}", m.angular_velocity);
+            let al = derivative(|x| motion(x).angular_velocity, t, 1e-3);
+            assert!((m.angular_acceleration - al).norm() < 1e-5, "t {t}: α {:?} vs {al:?}", m.angular_acceleration);
+            // the angles read back from the orientation
+            assert!((zyx_angles(&m.orientation) - angles(t).fixed_rows::<3>(3)).norm() < 1e-13);
+            assert!((m.orientation.transpose() * m.orientation - Mat3::identity()).norm() < 1e-15);
+        }
+    }
+
     #[test]
     fn noise_is_seeded_and_bounded() {
         let run = |seed: u64| {
@@ -495,6 +640,44 @@ mod tests {
         assert_eq!(run(3), run(3));
         assert_ne!(run(3), run(4));
         assert!(run(3).amax() <= 0.001 && run(3).norm() > 0.0);
+    }
+
+    /// A cabin rocking about a tilted axis with the platform holding the feed's pose (ideal
+    /// sensor): the bodies placed by the relative kinematics satisfy every joint equation at
+    /// position, velocity and acceleration level, and the platform's world attitude is still.
+    #[test]
+    fn a_commanded_pose_satisfies_every_joint() {
+        let s = scene("\n[control]\nfeed_point_m = [0.0, 0.0, -0.3]\ntarget = \"hold\"\nsensor = \"ideal\"\n");
+        let st = crate::Stewart::from_scene(&s).unwrap();
+        let c = st.compensation().unwrap();
+        let axis = Vec3::new(0.3, -1.0, 0.4).normalize();
+        let p0 = s.target_position();
+        let mut worst = [0.0_f64; 3];
+        for i in 0..200 {
+            let t = 0.05 * i as f64;
+            let (sn, cs) = (2.0 * t).sin_cos();
+            let cabin = CabinMotion {
+                position: p0 + Vec3::new(0.03 * sn, 0.0, 0.01 * cs),
+                velocity: Vec3::new(0.06 * cs, 0.0, -0.02 * sn),
+                acceleration: Vec3::new(-0.12 * sn, 0.0, -0.04 * cs),
+                orientation: Quat::from_scaled_axis(axis * (0.02 * sn)),
+                angular_velocity: axis * (0.04 * cs),
+                angular_acceleration: axis * (-0.08 * sn),
+            };
+            let point = c.ideal(&cabin, t);
+            let bodies = st.system_motion_at(&cabin, &point, t).unwrap();
+            let mut rows = [crate::ConstraintRow::EMPTY; crate::CONSTRAINTS];
+            st.joints().evaluate(&bodies, &st.strokes_at(&point, t).unwrap(), &mut rows);
+            for row in &rows {
+                worst[0] = worst[0].max(row.value.abs());
+                worst[1] = worst[1].max(row.velocity_residual(&bodies).abs());
+                worst[2] = worst[2].max(row.acceleration_residual(&bodies).abs());
+            }
+            let platform = &bodies[crate::constraints::PLATFORM];
+            assert!(platform.angular_velocity.norm() < 1e-15 && platform.angular_acceleration.norm() < 1e-15);
+            assert!(c.feed_tilt(&platform.orientation) < 1e-14, "t {t}");
+        }
+        assert!(worst.iter().all(|w| *w <= 1e-12), "{worst:?}");
     }
 
     /// The compensation's wrench on the cabin against inverse dynamics done independently: the

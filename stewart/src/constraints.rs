@@ -11,8 +11,8 @@
 //! * `gamma` γ of eq. (6): `Φ_q v̇ = γ` with v̇ = (a, α) (for these holonomic, scleronomic-in-q
 //!   equations γ = −(dΦ_q/dt)·v − Φ_tt).
 //!
-//! Body frames: the platform frame is parallel to the cabin frame when the platform is in its
-//! prescribed pose; a leg part's z axis runs along the leg from the Hooke centre to the spherical
+//! Body frames: the platform frame is parallel to the cabin frame when the platform rests at its
+//! start pose; a leg part's z axis runs along the leg from the Hooke centre to the spherical
 //! joint centre and its y axis is the second Hooke axis.
 //!
 //! Per leg k (rows `ROWS_PER_LEG·k + offset`), with u, d the upper and lower part:

@@ -1,7 +1,8 @@
 //! The Stewart platform hanging in the feed cabin as a multibody system (paper eqs. 3–7): the
 //! moving platform and six legs of two parts each (Hooke joint to the cabin, prismatic actuator,
 //! spherical joint to the platform), driven so that the platform translates on a circle relative
-//! to the cabin, while the cabin moves as given from outside.
+//! to the cabin (`[motion]`) or moves as the compensation commands (`[control]`: position and
+//! attitude), while the cabin moves as given from outside.
 //!
 //! * [`path`]: the prescribed circle motion of the platform centre;
 //! * [`relative`]: every body's motion relative to the cabin, a function of time alone;
@@ -29,7 +30,7 @@ pub mod wrench;
 use feedcore::rigid::MassProperties;
 use feedcore::scene::{LEGS, Motion, ValidScene};
 use feedcore::stewart_geometry::{BODIES, StewartGeometry};
-use feedcore::{Mat3, Quat, Vec3};
+use feedcore::{Quat, Vec3};
 use nalgebra::{Rotation3, Vector6};
 pub use path::PathPoint;
 
@@ -154,7 +155,8 @@ impl Stewart {
         }
         for t in times {
             let rel = self.relative(t)?;
-            let j = kinematics::leg_jacobian(&self.geometry, &rel.bodies[0].position, &Mat3::identity());
+            let platform = &rel.bodies[0];
+            let j = kinematics::leg_jacobian(&self.geometry, &platform.position, &platform.orientation);
             let condition = kinematics::condition_number(&j);
             if condition.is_nan() || condition >= SINGULAR_CONDITION {
                 return Err(StewartError::SingularPose { time: t, condition });
@@ -185,7 +187,7 @@ impl Stewart {
     }
 
     /// Mass and inertia of the 13 bodies (platform, upper 1–6, lower 1–6) in their own frames,
-    /// centre of mass at the origin. The platform frame is parallel to the cabin's; a leg part's z
+    /// centre of mass at the origin. The platform frame is the cabin's at rest; a leg part's z
     /// axis is the leg axis.
     pub fn body_inertias(&self) -> &[MassProperties; BODIES] {
         &self.bodies
@@ -200,14 +202,13 @@ impl Stewart {
         self.relative_at(&self.path.at(t), t)
     }
 
-    /// The motion of all bodies relative to the cabin with the platform centre at `point`
+    /// The motion of all bodies relative to the cabin with the platform at `point`
     /// (cabin frame) at time `t`.
     pub fn relative_at(&self, point: &PathPoint, t: f64) -> Result<RelativeState, StewartError> {
         if !t.is_finite() {
             return Err(StewartError::Input { what: "time".into(), value: t.to_string() });
         }
-        let finite = |v: &Vec3| v.iter().all(|x| x.is_finite());
-        if !(finite(&point.position) && finite(&point.velocity) && finite(&point.acceleration)) {
+        if !point.is_finite() {
             return Err(StewartError::Input {
                 what: format!("platform command at t = {t} s"),
                 value: format!("{point:?}"),
@@ -291,7 +292,7 @@ impl Stewart {
         self.wrench_with_jacobians_at(cabin, &self.path.at(t), t)
     }
 
-    /// [`Stewart::wrench_with_jacobians`] with the platform centre at `point` (cabin frame); the
+    /// [`Stewart::wrench_with_jacobians`] with the platform at `point` (cabin frame); the
     /// Jacobians are at fixed relative motion.
     pub fn wrench_with_jacobians_at(
         &self,
@@ -337,7 +338,7 @@ impl Stewart {
         self.system_motion_at(cabin, &self.path.at(t), t)
     }
 
-    /// [`Stewart::system_motion`] with the platform centre at `point` (cabin frame).
+    /// [`Stewart::system_motion`] with the platform at `point` (cabin frame).
     pub(crate) fn system_motion_at(
         &self,
         cabin: &CabinMotion,
@@ -358,7 +359,7 @@ impl Stewart {
         self.strokes_at(&self.path.at(t), t)
     }
 
-    /// Actuator strokes with the platform centre at `point` (cabin frame).
+    /// Actuator strokes with the platform at `point` (cabin frame).
     pub fn strokes_at(&self, point: &PathPoint, t: f64) -> Result<[Stroke; LEGS], StewartError> {
         let (strokes, hooke_sine) = relative::strokes(&self.leg_geometry(), point);
         self.check_legs(&strokes, &hooke_sine, t)?;
@@ -383,7 +384,7 @@ impl Stewart {
         self.evaluate_at(cabin, &self.path.at(t), t)
     }
 
-    /// [`Stewart::evaluate`] with the platform centre at `point` (cabin frame).
+    /// [`Stewart::evaluate`] with the platform at `point` (cabin frame).
     pub fn evaluate_at(&self, cabin: &CabinMotion, point: &PathPoint, t: f64) -> Result<Evaluation, StewartError> {
         let system = self.system_motion_at(cabin, point, t)?;
         let mut rows = [ConstraintRow::EMPTY; CONSTRAINTS];

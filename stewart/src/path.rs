@@ -6,15 +6,51 @@
 
 use std::f64::consts::TAU;
 
-use feedcore::Vec3;
 use feedcore::scene::{Motion, Start};
+use feedcore::{Mat3, Quat, Vec3};
+use nalgebra::Rotation3;
 
-/// Position, velocity and acceleration of the platform centre, cabin frame.
+/// The platform's motion relative to the cabin at one instant, cabin frame: its centre's
+/// position, velocity and acceleration, and its orientation (platform frame to cabin frame),
+/// angular velocity and angular acceleration.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathPoint {
     pub position: Vec3,
     pub velocity: Vec3,
     pub acceleration: Vec3,
+    pub orientation: Mat3,
+    pub angular_velocity: Vec3,
+    pub angular_acceleration: Vec3,
+}
+
+impl PathPoint {
+    /// A motion without rotation: the platform frame stays parallel to the cabin's.
+    pub fn translating(position: Vec3, velocity: Vec3, acceleration: Vec3) -> PathPoint {
+        PathPoint {
+            position,
+            velocity,
+            acceleration,
+            orientation: Mat3::identity(),
+            angular_velocity: Vec3::zeros(),
+            angular_acceleration: Vec3::zeros(),
+        }
+    }
+
+    /// The orientation as a unit quaternion.
+    pub fn rotation(&self) -> Quat {
+        Quat::from_rotation_matrix(&Rotation3::from_matrix_unchecked(self.orientation))
+    }
+
+    /// Whether every component is finite.
+    pub fn is_finite(&self) -> bool {
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        finite(self.position.as_slice())
+            && finite(self.velocity.as_slice())
+            && finite(self.acceleration.as_slice())
+            && finite(self.orientation.as_slice())
+            && finite(self.angular_velocity.as_slice())
+            && finite(self.angular_acceleration.as_slice())
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -86,11 +122,11 @@ impl CirclePath {
         let r = self.radius;
         let radial = Vec3::new(c, s, 0.0);
         let tangent = Vec3::new(-s, c, 0.0);
-        PathPoint {
-            position: self.center + radial * r,
-            velocity: tangent * (r * dphi),
-            acceleration: tangent * (r * ddphi) - radial * (r * dphi * dphi),
-        }
+        PathPoint::translating(
+            self.center + radial * r,
+            tangent * (r * dphi),
+            tangent * (r * ddphi) - radial * (r * dphi * dphi),
+        )
     }
 
     /// Time at which the platform completes its first revolution (`None` if it does not move).

@@ -1,6 +1,7 @@
 //! Motion of the 13 bodies relative to the cabin (cabin frame), a function of time alone.
 //!
-//! The platform translates along the prescribed path. Each leg is the straight line from its
+//! The platform moves as commanded ([`PathPoint`]: its centre and its orientation). Each leg is
+//! the straight line from its
 //! Hooke centre to its spherical joint centre; both leg parts share one orientation: the leg axis
 //! `u` is the body z axis, the second Hooke axis `b = (u × a)/|u × a|` (⟂ to the first axis `a`
 //! and to `u`) the body y axis. The Hooke joint forbids spin: the relative angular velocity lies in
@@ -66,7 +67,7 @@ pub(crate) struct LegGeometry<'a> {
     pub base_joints: &'a [Vec3; LEGS],
     pub platform_joints: &'a [Vec3; LEGS],
     pub hooke_axes: &'a [Vec3; LEGS],
-    /// The 13 bodies in their own frames (the platform's is parallel to the cabin's).
+    /// The 13 bodies in their own frames (the platform's is the cabin's at rest).
     pub bodies: &'a [MassProperties; BODIES],
     /// The upper and lower part of every leg.
     pub upper: &'a LegPart,
@@ -74,7 +75,7 @@ pub(crate) struct LegGeometry<'a> {
 }
 
 impl RelativeState {
-    /// The relative motion with the platform centre at `path` (at time `time`, for messages).
+    /// The relative motion with the platform at `path` (at time `time`, for messages).
     /// Does not check leg lengths or singularities; [`crate::Stewart`] does.
     pub(crate) fn new(geometry: &LegGeometry, path: &PathPoint, time: f64) -> Self {
         let zero = RelativeBody {
@@ -89,17 +90,19 @@ impl RelativeState {
         let mut bodies = [zero; BODIES];
         let mut strokes = [Stroke::default(); LEGS];
         let mut hooke_sine = [0.0; LEGS];
+        let turn = &path.orientation;
         bodies[0] = RelativeBody {
             position: path.position,
             velocity: path.velocity,
             acceleration: path.acceleration,
-            inertia: geometry.bodies[0].inertia_com,
-            ..zero
+            orientation: *turn,
+            angular_velocity: path.angular_velocity,
+            angular_acceleration: path.angular_acceleration,
+            inertia: turn * geometry.bodies[0].inertia_com * turn.transpose(),
         };
-        let (v, acc) = (path.velocity, path.acceleration);
         let (c_up, c_lo) = (geometry.upper.com_from_joint_m, geometry.lower.com_from_joint_m);
         for k in 0..LEGS {
-            let Leg { d, u, du, ddu, stroke, uxa, sine } = Leg::new(geometry, k, path);
+            let Leg { d, dd, ddd, u, du, ddu, stroke, uxa, sine } = Leg::new(geometry, k, path);
             strokes[k] = stroke;
             hooke_sine[k] = sine;
             let a = geometry.hooke_axes[k];
@@ -127,8 +130,8 @@ impl RelativeState {
             };
             bodies[1 + LEGS + k] = RelativeBody {
                 position: base_joint + d - u * c_lo,
-                velocity: v - du * c_lo,
-                acceleration: acc - ddu * c_lo,
+                velocity: dd - du * c_lo,
+                acceleration: ddd - ddu * c_lo,
                 orientation,
                 angular_velocity: w,
                 angular_acceleration: dw,
@@ -172,9 +175,11 @@ impl RelativeState {
 
 /// One leg's axis and stroke.
 struct Leg {
-    /// From the Hooke centre to the spherical joint centre, and its direction with its first
-    /// two time derivatives.
+    /// From the Hooke centre to the spherical joint centre, with its first two time derivatives.
     d: Vec3,
+    dd: Vec3,
+    ddd: Vec3,
+    /// Its direction, with its first two time derivatives.
     u: Vec3,
     du: Vec3,
     ddu: Vec3,
@@ -186,22 +191,26 @@ struct Leg {
 
 impl Leg {
     fn new(geometry: &LegGeometry, k: usize, path: &PathPoint) -> Leg {
-        let (p, v, acc) = (path.position, path.velocity, path.acceleration);
-        // The leg vector d moves with the platform centre (the platform does not rotate).
-        let d = p + geometry.platform_joints[k] - geometry.base_joints[k];
+        // the spherical joint moves with the platform: its centre and its rotation
+        let arm = path.orientation * geometry.platform_joints[k];
+        let (w, al) = (&path.angular_velocity, &path.angular_acceleration);
+        let w_arm = w.cross(&arm);
+        let d = path.position + arm - geometry.base_joints[k];
+        let dd = path.velocity + w_arm;
+        let ddd = path.acceleration + al.cross(&arm) + w.cross(&w_arm);
         let length = d.norm();
         let u = d / length;
-        let rate = u.dot(&v);
-        let du = (v - u * rate) / length;
-        let accel = du.dot(&v) + u.dot(&acc);
-        let ddu = (acc - du * (2.0 * rate) - u * accel) / length;
+        let rate = u.dot(&dd);
+        let du = (dd - u * rate) / length;
+        let accel = du.dot(&dd) + u.dot(&ddd);
+        let ddu = (ddd - du * (2.0 * rate) - u * accel) / length;
         let uxa = u.cross(&geometry.hooke_axes[k]);
-        Leg { d, u, du, ddu, stroke: Stroke { length, rate, acceleration: accel }, uxa, sine: uxa.norm() }
+        Leg { d, dd, ddd, u, du, ddu, stroke: Stroke { length, rate, acceleration: accel }, uxa, sine: uxa.norm() }
     }
 }
 
 /// The strokes of the six legs and the sines of their angles to their first Hooke axes, for the
-/// platform centre at `path` (what the driving constraints need; the rest of
+/// platform at `path` (what the driving constraints need; the rest of
 /// [`RelativeState::new`] is not computed).
 pub(crate) fn strokes(geometry: &LegGeometry, path: &PathPoint) -> ([Stroke; LEGS], [f64; LEGS]) {
     let legs: [Leg; LEGS] = std::array::from_fn(|k| Leg::new(geometry, k, path));

@@ -32,7 +32,7 @@ pub struct ActuatorRates {
 }
 
 impl Stewart {
-    /// ∂(actuator forces)/∂(a, α, ω) of the cabin (world frame) with the platform centre at
+    /// ∂(actuator forces)/∂(a, α, ω) of the cabin (world frame) with the platform at
     /// `point`, exact: the Newton–Euler equations make the forces linear in (a, α) and quadratic
     /// in ω, so unit differences (central for ω) are the derivatives.
     pub fn actuator_rates_at(

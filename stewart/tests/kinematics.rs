@@ -9,7 +9,7 @@ use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::Vector3;
 use stewart::kinematics::{forward_kinematics, leg_lengths};
-use stewart::{RigidMotion, Stewart};
+use stewart::{PathPoint, RigidMotion, Stewart};
 
 fn assert_close(what: &str, a: &Vec3, b: &Vec3, tol: f64) {
     assert!((a - b).norm() <= tol, "{what}: {a:?} vs {b:?} (diff {:e})", (a - b).norm());
@@ -73,6 +73,59 @@ fn relative_motion_matches_finite_differences() {
                 }
             }
         }
+    }
+}
+
+/// The platform translating and turning about a tilted axis (a compensation's command): every
+/// body's relative motion against finite differences, the strokes' rates, and the legs ending at
+/// the turned platform joints.
+#[test]
+fn relative_motion_of_a_turning_platform_matches_finite_differences() {
+    let st = common::stewart("lt50m_C");
+    let g = st.geometry();
+    let axis = Vec3::new(0.4, -0.3, 1.0).normalize();
+    let point = |t: f64| {
+        let (s, c) = (2.0 * t).sin_cos();
+        let (th, dth, ddth) = (0.05 * s, 0.1 * c, -0.2 * s);
+        PathPoint {
+            position: g.nominal_center + Vec3::new(0.03 * s, 0.02 * c, 0.01 * s),
+            velocity: Vec3::new(0.06 * c, -0.04 * s, 0.02 * c),
+            acceleration: Vec3::new(-0.12 * s, -0.08 * c, -0.04 * s),
+            orientation: feedcore::rigid::exp_so3(&(axis * th)).to_rotation_matrix().into_inner(),
+            angular_velocity: axis * dth,
+            angular_acceleration: axis * ddth,
+        }
+    };
+    for t in [0.3, 1.2, 2.6] {
+        let rel = |s: f64| st.relative_at(&point(s), s).unwrap();
+        for i in 0..BODIES {
+            let body = |s: f64| {
+                let b = rel(s).bodies[i];
+                RigidMotion {
+                    position: b.position,
+                    orientation: Quat::from_matrix(&b.orientation),
+                    velocity: b.velocity,
+                    angular_velocity: b.angular_velocity,
+                    acceleration: b.acceleration,
+                    angular_acceleration: b.angular_acceleration,
+                }
+            };
+            check_derivatives(&format!("turning platform, body {i}"), body, t, 1e-3, 1e-11);
+        }
+        let now = rel(t);
+        let p = point(t);
+        for k in 0..LEGS {
+            let rate = derivative(|s| Vector3::repeat(rel(s).strokes[k].length), t, 1e-3);
+            let accel = derivative(|s| Vector3::repeat(rel(s).strokes[k].rate), t, 1e-3);
+            assert!((rate.x - now.strokes[k].rate).abs() < 1e-12);
+            assert!((accel.x - now.strokes[k].acceleration).abs() < 1e-12);
+            let d = p.position + p.orientation * g.platform_joints[k] - g.base_joints[k];
+            assert!((now.strokes[k].length - d.norm()).abs() < 1e-15);
+            assert_close("leg axis", &now.bodies[1 + k].orientation.column(2).into_owned(), &d.normalize(), 1e-15);
+        }
+        // the platform's inertia turns with it
+        let j = st.body_inertias()[0].inertia_com;
+        assert!((now.bodies[0].inertia - p.orientation * j * p.orientation.transpose()).norm() < 1e-15 * j.norm());
     }
 }
 

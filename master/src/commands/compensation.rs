@@ -15,8 +15,8 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use feedcore::Vec3;
 use feedcore::scene::{Scene, ValidScene};
+use feedcore::{Quat, Vec3};
 use master::interrupt;
 use master::journal::{self, Journal};
 use master::limits::{Footprint, PlanError, check_memory};
@@ -97,8 +97,9 @@ fn checked_steps(scene: &ValidScene, h: f64, t_end: f64, what: &str) -> anyhow::
     Ok(steps as usize)
 }
 
-/// One run of the monolithic model, step by step: time, |cabin displacement| and |feed error|
-/// (mm), and with `replay` the feed error a decoupled model predicts on these cabin poses.
+/// One run of the monolithic model, step by step from the start (t = 0 included, as `master
+/// run` counts it): time, |cabin displacement| and |feed error| (mm), and with `replay` the feed
+/// error a decoupled model predicts on these cabin poses.
 #[derive(Default)]
 struct History {
     t: Vec<f64>,
@@ -127,22 +128,25 @@ fn history(
     let mut out = History::default();
     let mut s = m.sample();
     let origin = s.cabin.position;
-    let feed = |c: &Compensation, s: &master::monolithic::Sample, relative: &Vec3| {
+    let feed = |c: &Compensation, s: &master::monolithic::Sample, (centre, turn): (&Vec3, &Quat)| {
         let (p, r) = (&s.cabin.position, &s.cabin.orientation);
-        c.feed_error(&(p + r * relative), r, s.time).0.norm() * 1e3
+        c.feed_error(&(p + r * centre), &(r * turn), s.time).0.norm() * 1e3
     };
-    for _ in 0..steps {
-        interrupt::check()?;
-        if let Some((c, state)) = replayed.as_mut() {
-            state.sample(c, s.time, &s.cabin.position, &s.cabin.orientation);
+    for step in 0..=steps {
+        if step > 0 {
+            interrupt::check()?;
+            if let Some((c, state)) = replayed.as_mut() {
+                state.sample(c, s.time, &s.cabin.position, &s.cabin.orientation);
+            }
+            m.step(h)?;
+            s = m.sample();
         }
-        m.step(h)?;
-        s = m.sample();
         out.t.push(s.time);
         out.cabin_mm.push((s.cabin.position - origin).norm() * 1e3);
-        out.feed_mm.push(feed(comp, &s, &s.platform));
+        out.feed_mm.push(feed(comp, &s, (&s.platform, &s.platform_rotation)));
         if let Some((c, state)) = &replayed {
-            out.replayed_mm.push(feed(c, &s, &state.at(c, s.time).position));
+            let commanded = state.at(c, s.time);
+            out.replayed_mm.push(feed(c, &s, (&commanded.position, &commanded.rotation())));
         }
         if !out.feed_mm.last().is_some_and(|e| e.is_finite()) {
             bail!("the feed error is not finite at t = {} s", s.time);
@@ -295,7 +299,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let every = ((scene.outputs.sample_interval_s / h).round() as usize).max(1);
     outputs.write(csv_id, |w| {
         writeln!(w, "t,cabin_disp_mm,feed_err_uncompensated_mm,feed_err_compensated_mm,feed_err_decoupled_mm")?;
-        for i in (every - 1..off_run.t.len()).step_by(every) {
+        for i in (0..off_run.t.len()).step_by(every) {
             writeln!(
                 w,
                 "{},{:e},{:e},{:e},{:e}",

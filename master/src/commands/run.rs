@@ -180,8 +180,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         let f = &feed.summary;
         writeln!(
             out,
-            "feed error: RMS {:.4} mm, peak {:.4} mm at t = {} s; tilt peak {:.4} mrad",
-            f.rms_mm, f.peak_mm, f.peak_time_s, f.tilt_peak_mrad
+            "feed error: RMS {:.4} mm, peak {:.4} mm at t = {} s; tilt RMS {:.4} mrad, peak {:.4} mrad",
+            f.rms_mm, f.peak_mm, f.peak_time_s, f.tilt_rms_mrad, f.tilt_peak_mrad
         )?;
         for e in &f.events {
             writeln!(

@@ -42,8 +42,8 @@ fn column(header: &[String], name: &str) -> usize {
 }
 
 /// An ideal sensor with the feed on a moving target: the platform works against the cabin's
-/// motion, which it causes itself, and the feed stays on the target to the solver's tolerance;
-/// the JSON figures are the CSV's.
+/// motion (translation and tilt), which it causes itself, and the feed stays on the target and
+/// its axis on its start direction to the solver's tolerance; the JSON figures are the CSV's.
 #[test]
 fn an_ideal_sensor_puts_the_feed_on_its_target_and_the_json_is_the_csv() {
     for (scheme, tag) in [("ijcsa", "ideal-ijcsa"), ("iqn-ils", "ideal-iqn")] {
@@ -74,13 +74,46 @@ fn an_ideal_sensor_puts_the_feed_on_its_target_and_the_json_is_the_csv() {
         assert!((csv_peak - peak).abs() <= 1e-12 * peak.max(1e-300), "{csv_peak:e} vs {peak:e}");
         assert!((csv_rms - json_rms).abs() <= 1e-9 * json_rms, "{csv_rms:e} vs {json_rms:e}");
         let tilt_peak = rows.iter().map(|r| r[tilt]).fold(0.0, f64::max);
+        assert!(tilt_peak < 1e-6, "{scheme}: feed tilt peak {tilt_peak:e} mrad");
         assert!((tilt_peak - v["feed_err_tilt_peak_mrad"].as_f64().unwrap()).abs() <= 1e-12 * tilt_peak);
+        let tilt_rms = (rows.iter().map(|r| r[tilt] * r[tilt]).sum::<f64>() / rows.len() as f64).sqrt();
+        let json_tilt_rms = v["feed_err_tilt_rms_mrad"].as_f64().unwrap();
+        assert!(
+            (tilt_rms - json_tilt_rms).abs() <= 1e-9 * json_tilt_rms.max(1e-300),
+            "{tilt_rms:e} vs {json_tilt_rms:e}"
+        );
         for k in 1..=6 {
             column(&header, &format!("leg{k}_m"));
             column(&header, &format!("actuator{k}_n"));
         }
         assert_eq!(v["limit_events"].as_array().unwrap().len(), 0);
     }
+}
+
+/// `compensate = "position"`: the platform only translates, the feed stays on its target and
+/// tilts with the cabin: its tilt is the angle of the cabin's rotation (CSV `rx..rz_mrad`, from
+/// the cable model) applied to the feed's axis.
+#[test]
+fn a_position_only_compensation_leaves_the_feed_tilting_with_the_cabin() {
+    let (_, file) = controlled("position-only", |c| {
+        c.compensate = feedcore::scene::Compensate::Position;
+        c.sensor = SensorKind::Ideal;
+        (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz, c.seed) =
+            (None, 0.0, 0.0, 0.0, None, None);
+    });
+    let (v, header, rows) = run(&file, "ijcsa", "3", "0.01");
+    assert!(v["feed_err_peak_mm"].as_f64().unwrap() < 1e-6, "{v}");
+    let (rx, tilt) = (column(&header, "rx_mrad"), column(&header, "feed_err_tilt_mrad"));
+    let mut largest: f64 = 0.0;
+    for r in &rows {
+        let turn = feedcore::Quat::from_scaled_axis(feedcore::Vec3::new(r[rx], r[rx + 1], r[rx + 2]) * 1e-3);
+        let axis = feedcore::Vec3::new(0.0, 0.0, -1.0);
+        let turned = turn * axis;
+        let expected = turned.cross(&axis).norm().atan2(turned.dot(&axis)) * 1e3;
+        assert!((r[tilt] - expected).abs() < 1e-6 * expected.max(1.0), "t {}: {} vs {expected}", r[0], r[tilt]);
+        largest = largest.max(expected);
+    }
+    assert!(largest > 0.05, "the cabin must tilt: {largest} mrad");
 }
 
 /// The cabin held still (the platform at rest, nothing moves it) with an ideal sensor: zero error.
@@ -249,8 +282,8 @@ fn the_compensation_command_writes_its_figures_and_agrees_with_run() {
     let sweep = std::fs::read_to_string(dir.join("sweep.csv")).unwrap();
     assert_eq!(sweep.lines().count(), 1 + 4, "{sweep}");
     let csv = std::fs::read_to_string(dir.join("compensation.csv")).unwrap();
-    // at the scene's 0.01 s sample interval over 2 s
-    assert_eq!(csv.lines().count(), 1 + 200, "{}", csv.lines().next().unwrap());
+    // at the scene's 0.01 s sample interval over 2 s, the start included
+    assert_eq!(csv.lines().count(), 1 + 201, "{}", csv.lines().next().unwrap());
 }
 
 /// `run --compensation off` is the scene with its sensor switched off, written out by hand: the

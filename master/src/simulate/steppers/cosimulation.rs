@@ -172,6 +172,7 @@ impl CosimProbe {
         names.extend((1..=4).map(|i| format!("cabin.q[{i}]")));
         names.extend((1..=LEGS).map(|i| format!("leg.length[{i}]")));
         names.extend((1..=LEGS).map(|i| format!("actuator.force[{i}]")));
+        names.extend((1..=4).map(|i| format!("platform.q[{i}]")));
         let vrs = names.iter().map(|n| inst.fmu().value_reference(n)).collect::<Result<Vec<_>, _>>()?;
         self.feed = Some((vrs, comp));
         Ok(self)
@@ -190,16 +191,20 @@ impl CosimProbe {
         let orientation = feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
         let feed = match &self.feed {
             Some((vrs, comp)) => {
-                let mut v = [0.0; 22];
+                let mut v = [0.0; 26];
                 c.units_mut().instance("stewart").expect("checked in new").get_real(vrs, &mut v)?;
                 // the platform relative to the cabin the Stewart FMU saw, placed on the cabin
                 // of the cable model (the same one at convergence)
-                let seen = feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(v[6], v[7], v[8], v[9]));
+                let quat = |i: usize| {
+                    feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(v[i], v[i + 1], v[i + 2], v[i + 3]))
+                };
+                let seen = quat(6);
                 let relative =
                     seen.inverse_transform_vector(&(Vec3::new(v[0], v[1], v[2]) - Vec3::new(v[3], v[4], v[5])));
+                let turn = seen.inverse() * quat(22);
                 let six = |i: usize| std::array::from_fn(|k| v[i + k]);
                 let now = c.time();
-                Some(FeedSample::place(comp, now, (&position, &orientation), &relative, six(10), six(16)))
+                Some(FeedSample::place(comp, now, (&position, &orientation), (&relative, &turn), six(10), six(16)))
             }
             None => None,
         };

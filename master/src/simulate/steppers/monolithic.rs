@@ -56,7 +56,14 @@ impl MonolithicStepper {
             wrench: vec6(&s.wrench),
             feed: self.compensation.as_ref().map(|c| {
                 let cabin = (&s.cabin.position, &s.cabin.orientation);
-                FeedSample::place(c, s.time, cabin, &s.platform, s.leg_lengths, s.actuator_forces)
+                FeedSample::place(
+                    c,
+                    s.time,
+                    cabin,
+                    (&s.platform, &s.platform_rotation),
+                    s.leg_lengths,
+                    s.actuator_forces,
+                )
             }),
         }
     }
