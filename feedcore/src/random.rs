@@ -29,6 +29,12 @@ impl SplitMix64 {
     pub fn symmetric(&mut self) -> f64 {
         2.0 * self.uniform() - 1.0
     }
+
+    /// Standard normal (Box–Muller, one number per pair of uniforms: the state stays one word).
+    pub fn normal(&mut self) -> f64 {
+        let radius = (-2.0 * (1.0 - self.uniform()).ln()).sqrt();
+        radius * (std::f64::consts::TAU * self.uniform()).cos()
+    }
 }
 
 #[cfg(test)]
@@ -46,6 +52,21 @@ mod tests {
         assert!(mean.abs() < 3.0 * (1.0f64 / 3.0).sqrt() / (n as f64).sqrt(), "mean {mean}");
         assert!((var - 1.0 / 3.0).abs() < 5e-3, "variance {var}");
         assert!(xs.iter().all(|x| (-1.0..1.0).contains(x)));
+    }
+
+    #[test]
+    fn moments_of_the_normal_numbers() {
+        let mut r = SplitMix64::new(11);
+        let n = 200_000;
+        let xs: Vec<f64> = (0..n).map(|_| r.normal()).collect();
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
+        let kurtosis = xs.iter().map(|x| (x - mean).powi(4)).sum::<f64>() / n as f64 / (var * var);
+        // mean 0 ± 4/√n, variance 1 ± 4·√(2/n), kurtosis 3 ± 4·√(24/n)
+        assert!(mean.abs() < 4.0 / (n as f64).sqrt(), "mean {mean}");
+        assert!((var - 1.0).abs() < 4.0 * (2.0 / n as f64).sqrt(), "variance {var}");
+        assert!((kurtosis - 3.0).abs() < 4.0 * (24.0 / n as f64).sqrt(), "kurtosis {kurtosis}");
+        assert!(xs.iter().all(|x| x.is_finite()));
     }
 
     #[test]

@@ -480,6 +480,68 @@ pub struct Control {
     /// Largest actuator force in magnitude, N; reaching it is reported, not clipped.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub force_limit_n: Option<f64>,
+    /// With `imu`: how far ahead of the estimate the command is computed, s (the lag of the
+    /// command filter and actuators it makes up for); default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prediction_s: Option<f64>,
+    /// An inertial unit on the cabin, fused with the sampled sensor's fixes (last: a table).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub imu: Option<Imu>,
+}
+
+/// An inertial unit on the cabin (`[control.imu]`): its readings are fused with the sampled
+/// sensor's (the total station's) delayed fixes into the cabin pose the command is made from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Imu {
+    /// Sample rate, Hz.
+    pub rate_hz: f64,
+    /// White-noise densities: accelerometer, m/s²/√Hz; gyro, rad/s/√Hz.
+    pub accel_noise_density: f64,
+    pub gyro_noise_density: f64,
+    /// Biases at the start, cabin frame: accelerometer, m/s²; gyro, rad/s (default zero).
+    #[serde(default, deserialize_with = "exact::array")]
+    pub accel_bias_m_s2: [f64; 3],
+    #[serde(default, deserialize_with = "exact::array")]
+    pub gyro_bias_rad_s: [f64; 3],
+    /// Bias random walks: accelerometer, m/s²/√s; gyro, rad/s/√s (default zero).
+    #[serde(default)]
+    pub accel_bias_walk: f64,
+    #[serde(default)]
+    pub gyro_bias_walk: f64,
+    /// Seed of the unit's noise (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+}
+
+/// Largest biases an inertial unit may have: m/s², rad/s (a larger one is a unit mistake).
+const IMU_BIAS_LIMITS: (f64, f64) = (100.0, 10.0);
+/// Longest prediction horizon, s.
+const PREDICTION_LIMIT_S: f64 = 10.0;
+
+impl Imu {
+    fn validate(&self, c: &Check) -> Result<(), SceneError> {
+        c.positive("control.imu.rate_hz", self.rate_hz)?;
+        c.within(
+            "control.imu.rate_hz",
+            self.rate_hz,
+            SENSOR_RATES_HZ,
+            "a sensor's rate: one sample in 11.6 days to 1 MHz",
+        )?;
+        c.finite_nonneg("control.imu.accel_noise_density", self.accel_noise_density)?;
+        c.finite_nonneg("control.imu.gyro_noise_density", self.gyro_noise_density)?;
+        c.finite_nonneg("control.imu.accel_bias_walk", self.accel_bias_walk)?;
+        c.finite_nonneg("control.imu.gyro_bias_walk", self.gyro_bias_walk)?;
+        for (key, bias, limit, unit) in [
+            ("control.imu.accel_bias_m_s2", &self.accel_bias_m_s2, IMU_BIAS_LIMITS.0, "m/s²"),
+            ("control.imu.gyro_bias_rad_s", &self.gyro_bias_rad_s, IMU_BIAS_LIMITS.1, "rad/s"),
+        ] {
+            for (i, b) in bias.iter().enumerate() {
+                c.within(&format!("{key}[{i}]"), *b, (-limit, limit), &format!("a bias within ±{limit} {unit}"))?;
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Control {
@@ -489,6 +551,7 @@ impl Control {
         self.sensor = SensorKind::Off;
         (self.sample_rate_hz, self.delay_s, self.noise_m, self.noise_rad, self.bandwidth_hz, self.seed) =
             (None, 0.0, 0.0, 0.0, None, None);
+        (self.imu, self.prediction_s) = (None, None);
     }
 
     /// The feed's axis as given ([`DEFAULT_FEED_AXIS`] if not), platform frame.
@@ -619,6 +682,20 @@ impl Control {
             if let Some(b) = self.bandwidth_hz {
                 c.positive("control.bandwidth_hz", b)?;
             }
+        }
+        if let Some(imu) = &self.imu {
+            if !sampled {
+                return Err(c.err(
+                    "control.imu",
+                    "",
+                    "the inertial unit drifts without the sampled sensor's fixes: use sensor = \"sampled\"",
+                ));
+            }
+            imu.validate(c)?;
+        }
+        if let Some(p) = self.prediction_s {
+            unused("prediction_s", self.imu.is_none(), "[control.imu] (the estimate it extrapolates)")?;
+            c.within("control.prediction_s", p, (0.0, PREDICTION_LIMIT_S), "a horizon of 0 to 10 s")?;
         }
         if self.stroke_m.is_some() && (self.min_leg_m.is_some() || self.max_leg_m.is_some()) {
             return Err(c.err("control.stroke_m", "", "give either `stroke_m` or `min_leg_m`/`max_leg_m`, not both"));

@@ -160,9 +160,8 @@ impl Monolithic {
             if h > c.max_step() * (1.0 + 1e-9) {
                 return Err(MonolithicError::SensorStep { time, h, period: c.sample_period(), most: c.max_step() });
             }
-            // the sample at the step's start measures the accepted cabin pose
-            let cabin = &self.state.config.cable;
-            state.sample(c, time, &cabin.position, &cabin.orientation);
+            // the sample at the step's start measures the accepted cabin motion
+            state.sample(c, time, &cabin_motion(&self.model, &self.state));
         }
         let mut problem = Step { model: &self.model, scratch: &mut self.scratch, command: self.command.as_ref() };
         let report = self
@@ -186,16 +185,7 @@ impl Monolithic {
         {
             sc.evaluate_accepted(model, &st.config, strokes, st.time);
         }
-        let c0 = model.body_offset(CABIN);
-        let v3 = |v: &[f64], k: usize| nalgebra::Vector3::new(v[c0 + k], v[c0 + k + 1], v[c0 + k + 2]);
-        let cabin = RigidMotion {
-            position: st.config.cable.position,
-            orientation: st.config.cable.orientation,
-            velocity: v3(&st.velocity, 0),
-            angular_velocity: v3(&st.velocity, 3),
-            acceleration: v3(&st.acceleration, 0),
-            angular_acceleration: v3(&st.acceleration, 3),
-        };
+        let cabin = cabin_motion(model, st);
         let mut wrench = Vector6::zeros();
         let mut actuator_forces = [0.0; LEGS];
         for (k, row) in sc.accepted.iter().enumerate() {
@@ -240,5 +230,19 @@ impl Monolithic {
         self.state.clone_from(&snapshot.0);
         self.command.clone_from(&snapshot.1);
         self.scratch.accepted_time = f64::NAN;
+    }
+}
+
+/// The cabin's motion in an integrator state.
+fn cabin_motion(model: &Model, st: &genalpha::State<Config>) -> RigidMotion {
+    let c0 = model.body_offset(CABIN);
+    let v3 = |v: &[f64], k: usize| Vec3::new(v[c0 + k], v[c0 + k + 1], v[c0 + k + 2]);
+    RigidMotion {
+        position: st.config.cable.position,
+        orientation: st.config.cable.orientation,
+        velocity: v3(&st.velocity, 0),
+        angular_velocity: v3(&st.velocity, 3),
+        acceleration: v3(&st.acceleration, 0),
+        angular_acceleration: v3(&st.acceleration, 3),
     }
 }

@@ -22,7 +22,10 @@
 //! the cabin's motion, exactly), `off` (the platform holds its start pose: the uncompensated
 //! reference) and `sampled`: at the first communication point at or after each instant k·T the
 //! cabin pose is measured (uniform noise, seeded), the command computed for the target at the
-//! time it will apply, and applied `delay` later. A new command is reached smoothly, with
+//! time it will apply, and applied `delay` later. With an inertial unit (`[control.imu]`) the
+//! measured poses are fixes that reach a Kalman filter `delay` after they are taken
+//! ([`crate::fusion`]); at each of the unit's readings the command is made from the filter's
+//! estimate, extrapolated `prediction_s` ahead, and applied at once. A new command is reached smoothly, with
 //! continuous position and velocity (the bodies' accelerations, hence forces, stay finite):
 //! with `bandwidth_hz`, through two first-order stages of that bandwidth (critically damped);
 //! without, along a quintic smooth step over half a sample period. Between samples the relative
@@ -37,6 +40,8 @@ use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{Rotation3, Vector6};
 use serde::{Deserialize, Serialize};
 
+use crate::fusion::{Estimate, Fix, Fusion, FusionState};
+use crate::imu::{Imu, ImuState};
 use crate::path::PathPoint;
 use crate::wrench::CabinMotion;
 
@@ -96,6 +101,12 @@ pub struct Compensation {
     seed: u64,
     /// Time constant of each filter stage, s; `None`: the smooth step.
     tau: Option<f64>,
+    /// The inertial unit and the filter that fuses it with the fixes (`[control.imu]`).
+    fused: Option<(Imu, Fusion)>,
+    /// How far ahead of the estimate a fused command is made, s.
+    prediction: f64,
+    /// Time between commands: the unit's period when fused, else the sensor's.
+    command_period: f64,
     leg_limits: Option<[(f64, f64); LEGS]>,
     force_limit: Option<f64>,
 }
@@ -126,6 +137,14 @@ impl Compensation {
                 Target::Samples { times: times.clone(), displacements: displacements.clone() }
             }
         };
+        let period = control.sample_period().unwrap_or(f64::INFINITY);
+        let fused = control.imu.as_ref().map(|spec| {
+            let imu = Imu::new(spec, scene.gravity());
+            let noise = (control.noise_m, control.noise_rad);
+            let fusion = Fusion::new(&imu, scene.gravity(), noise, control.delay_s, reference);
+            (imu, fusion)
+        });
+        let command_period = fused.as_ref().map_or(period, |(imu, _)| imu.period);
         let leg_limits = match (control.stroke_m, control.min_leg_m, control.max_leg_m) {
             (Some(s), _, _) => Some(rest_legs.map(|l| (l - s, l + s))),
             (None, None, None) => None,
@@ -140,12 +159,15 @@ impl Compensation {
             feed_start,
             target,
             sensor: control.sensor,
-            period: control.sample_period().unwrap_or(f64::INFINITY),
+            period,
             delay: control.delay_s,
             noise_m: control.noise_m,
             noise_rad: control.noise_rad,
             seed: control.seed.unwrap_or(0),
             tau: control.bandwidth_hz.map(|b| 1.0 / (std::f64::consts::TAU * b)),
+            fused,
+            prediction: control.prediction_s.unwrap_or(0.0),
+            command_period,
             leg_limits,
             force_limit: control.force_limit_n,
         }
@@ -176,6 +198,8 @@ impl Compensation {
             max_leg_m: None,
             stroke_m: None,
             force_limit_n: None,
+            prediction_s: None,
+            imu: None,
         }
     }
 
@@ -188,11 +212,16 @@ impl Compensation {
         self.period
     }
 
-    /// Largest macro step a sampled sensor allows: a sample is taken at the first communication
-    /// point at or after its instant, so a step of at most a quarter period keeps that jitter
-    /// below a quarter period and every smooth step complete before the next command.
+    /// Largest macro step a sampled sensor allows: a sample (or reading) is taken at the first
+    /// communication point at or after its instant, so a step of at most a quarter period keeps
+    /// that jitter below a quarter period and every smooth step complete before the next command.
     pub fn max_step(&self) -> f64 {
-        0.25 * self.period
+        0.25 * self.period.min(self.command_period)
+    }
+
+    /// The inertial unit and its filter, with `[control.imu]`.
+    pub fn fused(&self) -> Option<&(Imu, Fusion)> {
+        self.fused.as_ref()
     }
 
     /// Leg length limits (shortest, longest) per leg, m.
@@ -343,6 +372,11 @@ impl Compensation {
             pending: VecDeque::new(),
             next_sample: 0,
             rng: SplitMix64::new(self.seed),
+            fused: self.fused.as_ref().map(|(imu, fusion)| Fused {
+                imu: imu.start(),
+                filter: fusion.start_state(),
+                next_reading: 0,
+            }),
         }
     }
 }
@@ -371,7 +405,7 @@ impl Segment {
                 [to + ab * e, (b - ab / tau) * e, (ab / (tau * tau) - b * (2.0 / tau)) * e]
             }
             None => {
-                let d = 0.5 * c.period;
+                let d = 0.5 * c.command_period;
                 let x = (s / d).min(1.0);
                 let x2 = x * x;
                 let step = x2 * x * (10.0 - 15.0 * x + 6.0 * x2);
@@ -432,6 +466,29 @@ pub struct CommandState {
     /// Index k of the next sample, taken at the first communication point ≥ k·T.
     next_sample: u64,
     rng: SplitMix64,
+    /// With `[control.imu]`: the unit, the filter and the index of the next reading.
+    fused: Option<Fused>,
+}
+
+/// The inertial unit's and the filter's state.
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
+struct Fused {
+    imu: ImuState,
+    filter: FusionState,
+    /// Index k of the next reading, taken at the first communication point ≥ k·T_imu.
+    next_reading: u64,
+}
+
+impl Clone for Fused {
+    fn clone(&self) -> Self {
+        Fused { imu: self.imu, filter: self.filter.clone(), next_reading: self.next_reading }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.imu = source.imu;
+        self.filter.clone_from(&source.filter);
+        self.next_reading = source.next_reading;
+    }
 }
 
 impl Clone for CommandState {
@@ -441,15 +498,17 @@ impl Clone for CommandState {
             pending: self.pending.clone(),
             next_sample: self.next_sample,
             rng: self.rng,
+            fused: self.fused.clone(),
         }
     }
 
-    /// Reuses the pending queue's storage (snapshots taken every step allocate nothing).
+    /// Reuses the queues' storage (snapshots taken every step allocate nothing).
     fn clone_from(&mut self, source: &Self) {
         self.segment = source.segment;
         self.pending.clone_from(&source.pending);
         self.next_sample = source.next_sample;
         self.rng = source.rng;
+        self.fused.clone_from(&source.fused);
     }
 }
 
@@ -473,21 +532,50 @@ impl CommandState {
         segment.at(c, t)
     }
 
-    /// At communication point `t` with the cabin at (position, orientation): applies the
-    /// commands due, and takes a sample if one is due.
-    pub fn sample(&mut self, c: &Compensation, t: f64, position: &Vec3, orientation: &Quat) {
+    /// At communication point `t` with the cabin moving as `cabin`: applies the commands due,
+    /// takes a sample if one is due (a command `delay` later, or a fix for the filter), and with
+    /// an inertial unit a reading if one is due (and a command from the estimate, at once).
+    pub fn sample(&mut self, c: &Compensation, t: f64, cabin: &CabinMotion) {
         let due = Self::due(&self.pending, t);
         Self::apply(&mut self.segment, self.pending.drain(..due), c);
-        if (self.next_sample as f64) * c.period > t + SAME_INSTANT {
-            return;
+        if (self.next_sample as f64) * c.period <= t + SAME_INSTANT {
+            let mut noise = || Vec3::new(self.rng.symmetric(), self.rng.symmetric(), self.rng.symmetric());
+            let measured_p = cabin.position + noise() * c.noise_m;
+            let measured_q = Quat::from_scaled_axis(noise() * c.noise_rad) * cabin.orientation;
+            self.next_sample = ((t + SAME_INSTANT) / c.period).floor() as u64 + 1;
+            match (&mut self.fused, &c.fused) {
+                (Some(state), Some((_, fusion))) => {
+                    let q = measured_q.into_inner();
+                    let fix = Fix { measured_at: t, position: measured_p.into(), attitude: [q.w, q.i, q.j, q.k] };
+                    fusion.add_fix(&mut state.filter, fix);
+                }
+                _ => {
+                    let apply = t + c.delay;
+                    let command = c.command(&measured_p, &measured_q, apply);
+                    self.pending.push_back((apply, command.into()));
+                }
+            }
         }
-        let mut noise = || Vec3::new(self.rng.symmetric(), self.rng.symmetric(), self.rng.symmetric());
-        let measured_p = position + noise() * c.noise_m;
-        let measured_q = Quat::from_scaled_axis(noise() * c.noise_rad) * orientation;
-        let apply = t + c.delay;
-        let command = c.command(&measured_p, &measured_q, apply);
-        self.pending.push_back((apply, command.into()));
-        self.next_sample = ((t + SAME_INSTANT) / c.period).floor() as u64 + 1;
+        if let (Some(state), Some((imu, fusion))) = (&mut self.fused, &c.fused)
+            && (state.next_reading as f64) * imu.period <= t + SAME_INSTANT
+        {
+            let reading = imu.read(&mut state.imu, cabin, t);
+            fusion.add_reading(&mut state.filter, reading);
+            fusion.absorb(&mut state.filter, t);
+            let (position, attitude) = fusion.estimate(&state.filter, t).predicted(c.prediction, &fusion.gravity());
+            let command = c.command(&position, &attitude, t + c.prediction);
+            self.pending.push_back((t, command.into()));
+            state.next_reading = ((t + SAME_INSTANT) / imu.period).floor() as u64 + 1;
+        }
+    }
+
+    /// The filter's estimate of the cabin at `t` (after the last reading), with an inertial
+    /// unit.
+    pub fn estimate(&self, c: &Compensation, t: f64) -> Option<Estimate> {
+        match (&self.fused, &c.fused) {
+            (Some(state), Some((_, fusion))) => Some(fusion.estimate(&state.filter, t)),
+            _ => None,
+        }
     }
 }
 
@@ -571,7 +659,7 @@ mod tests {
             for n in 0..400 {
                 let t = n as f64 * h;
                 let before = s.at(&c, t);
-                s.sample(&c, t, if t < 0.1 { &p0 } else { &moved }, &q0);
+                s.sample(&c, t, &CabinMotion::at_rest(if t < 0.1 { p0 } else { moved }, q0));
                 assert_eq!(before, s.at(&c, t), "{filter}: sampling at t {t} moves the command");
                 // position and velocity continuous where a command applies (t + delay)
                 let (a, b) = (s.at(&c, t + 0.03 - 1e-7), s.at(&c, t + 0.03 + 1e-7));
@@ -585,7 +673,7 @@ mod tests {
             assert!((zyx_angles(&reached.orientation) - expected.fixed_rows::<3>(3)).norm() < 1e-9, "{filter}");
             // the motion is exactly the commanded one: velocity is the derivative of position
             let mut s = c.start_state();
-            s.sample(&c, 0.0, &moved, &q0);
+            s.sample(&c, 0.0, &CabinMotion::at_rest(moved, q0));
             for t in [0.031, 0.04, 0.05, 0.07] {
                 let fd = derivative(|x| s.at(&c, x).position, t, 1e-5);
                 assert!((s.at(&c, t).velocity - fd).norm() < 1e-7, "{filter} t {t}");
@@ -634,7 +722,7 @@ mod tests {
         let run = |seed: u64| {
             let c = compensation(&format!("{SAMPLED}noise_m = 0.001\nseed = {seed}\n"));
             let mut s = c.start_state();
-            s.sample(&c, 0.0, &Vec3::new(0.0, 0.0, 9.8), &Quat::identity());
+            s.sample(&c, 0.0, &CabinMotion::at_rest(Vec3::new(0.0, 0.0, 9.8), Quat::identity()));
             s.at(&c, 1.0).position - c.rest().position
         };
         assert_eq!(run(3), run(3));

@@ -10,7 +10,9 @@
 //! * [`constraints`]: Φ, Φ_q, Φ_t and γ of all joints, the cabin included as a body;
 //! * [`reactions`]: the Lagrange multipliers: joint reactions and actuator forces;
 //! * [`kinematics`]: inverse and forward kinematics of the platform pose;
-//! * [`sensitivity`]: the outputs' first-order changes under a change of the cabin's motion.
+//! * [`sensitivity`]: the outputs' first-order changes under a change of the cabin's motion;
+//! * [`imu`], [`fusion`]: the inertial unit on the cabin and the Kalman filter that fuses it with
+//!   the total station's delayed fixes (the compensation's estimate of the cabin's pose).
 //!
 //! Conventions: world frame Z up, gravity (0, 0, −g); cabin motion and the wrench in the world
 //! frame; the wrench is what the platform exerts on the cabin (moment about the cabin centre
@@ -20,6 +22,8 @@
 pub mod compensation;
 pub mod constraints;
 mod error;
+pub mod fusion;
+pub mod imu;
 pub mod kinematics;
 pub mod path;
 pub mod reactions;

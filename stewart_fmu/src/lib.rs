@@ -136,9 +136,10 @@ struct Data {
     time: f64,
     inputs: [f64; INPUTS],
     rates: [f64; INPUTS],
-    /// The cabin pose inputs (r, q) at `time` as last stepped to: what a sample measures (the
-    /// inputs may meanwhile hold an importer's guess for the end of the next step).
-    accepted: [f64; 7],
+    /// The cabin inputs at `time` as last stepped to: what a sample measures and an inertial
+    /// unit reads (the inputs may meanwhile hold an importer's guess for the end of the next
+    /// step).
+    accepted: [f64; INPUTS],
     /// A sampled sensor's state (scene `[control]`, sensor = "sampled").
     command: Option<CommandState>,
 }
@@ -480,7 +481,7 @@ impl Model for StewartFmu {
         // Inputs start at their declared start values (FMI 2.0): scene C's pose at rest.
         let inputs = rest_inputs(scene.value());
         let settings = Settings { radius: -1.0, speed: -1.0, ramp_time: -1.0, start: 0 };
-        let accepted = std::array::from_fn(|k| inputs[k]);
+        let accepted = inputs;
         Ok(StewartFmu {
             data: Data {
                 settings,
@@ -573,7 +574,7 @@ impl Model for StewartFmu {
         let model = self.model()?;
         let command = model.compensation().filter(|c| c.sensor() == SensorKind::Sampled).map(|c| c.start_state());
         self.data.command = command;
-        self.data.accepted = std::array::from_fn(|k| self.data.inputs[k]);
+        self.data.accepted = self.data.inputs;
         self.data.time = start_time;
         self.cache = Cache::default();
         Ok(())
@@ -587,8 +588,7 @@ impl Model for StewartFmu {
         self.model()?;
         if let Some(mut state) = self.data.command.take() {
             // the sample at the start of the step measures the pose stepped to last
-            let a = self.data.accepted;
-            let pose = cabin_motion(&std::array::from_fn(|k| if k < 7 { a[k] } else { 0.0 }))?;
+            let cabin = cabin_motion(&self.data.accepted)?;
             let c = self.model()?.compensation().expect("a command state comes with a compensation");
             if h > c.max_step() * (1.0 + 1e-9) {
                 let (period, most) = (c.sample_period(), c.max_step());
@@ -600,7 +600,7 @@ impl Model for StewartFmu {
                 )
                 .into());
             }
-            state.sample(c, t, &pose.position, &pose.orientation);
+            state.sample(c, t, &cabin);
             self.data.command = Some(state);
         }
         for k in 0..INPUTS {
@@ -611,7 +611,7 @@ impl Model for StewartFmu {
         self.cache = Cache::default();
         // evaluate now, so that a leg leaving its stroke, or a non-finite result, is reported
         // by this step
-        self.data.accepted = std::array::from_fn(|k| self.data.inputs[k]);
+        self.data.accepted = self.data.inputs;
         let (w, _) = self.wrench()?;
         let w = w.to_vector();
         if let Some(k) = w.iter().position(|x| !x.is_finite()) {

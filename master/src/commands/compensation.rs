@@ -136,7 +136,7 @@ fn history(
         if step > 0 {
             interrupt::check()?;
             if let Some((c, state)) = replayed.as_mut() {
-                state.sample(c, s.time, &s.cabin.position, &s.cabin.orientation);
+                state.sample(c, s.time, &s.cabin);
             }
             m.step(h)?;
             s = m.sample();
