@@ -559,6 +559,16 @@ impl Control {
         self.feed_axis.unwrap_or(DEFAULT_FEED_AXIS)
     }
 
+    /// The shortest period a sampled sensor or its inertial unit samples at, s, and its key
+    /// (what bounds a step: a step must not skip a sample).
+    pub fn shortest_period(&self) -> Option<(f64, &'static str)> {
+        let station = self.sample_period().map(|t| (t, "sample_rate_hz"));
+        match (&self.imu, station) {
+            (Some(imu), Some((t, _))) if 1.0 / imu.rate_hz < t => Some((1.0 / imu.rate_hz, "imu.rate_hz")),
+            _ => station,
+        }
+    }
+
     /// Sample period of a sampled sensor, s.
     pub fn sample_period(&self) -> Option<f64> {
         match self.sensor {
@@ -692,6 +702,13 @@ impl Control {
                 ));
             }
             imu.validate(c)?;
+            if self.bandwidth_hz.is_none() {
+                return Err(c.err(
+                    "control.bandwidth_hz",
+                    "",
+                    "with [control.imu] a command comes at every reading: give the filter's bandwidth (a smooth step over half a reading pumps the cables' fast modes), e.g. 2.0",
+                ));
+            }
         }
         if let Some(p) = self.prediction_s {
             unused("prediction_s", self.imu.is_none(), "[control.imu] (the estimate it extrapolates)")?;

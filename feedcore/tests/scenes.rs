@@ -332,6 +332,24 @@ fn values_beyond_engineering_bounds_are_refused_by_key() {
     }
     let e = edited(feed, &format!("{feed}\ncompensate = \"tilt\""));
     assert!(e.to_string().contains("compensate") && e.to_string().contains("position"), "{e}");
+    // the inertial unit: with the sampled sensor and its filter, every key checked by name
+    let with_imu = compensated.clone()
+        + "\n[control.imu]\nrate_hz = 100.0\naccel_noise_density = 6e-4\ngyro_noise_density = 4e-5\n";
+    assert!(Scene::from_toml(&with_imu, "imu.toml").is_ok());
+    for (text, key, why) in [
+        (with_imu.replace(sampled, "sensor = \"ideal\"\n"), "control.imu", "sensor = \"sampled\""),
+        (with_imu.replace("bandwidth_hz = 0.5\n", ""), "control.bandwidth_hz", "e.g. 2.0"),
+        (with_imu.clone() + "accel_bias_m_s2 = [0.0, 1e3, 0.0]\n", "control.imu.accel_bias_m_s2[1]", "±100 m/s²"),
+        (with_imu.replace("= 4e-5", "= -1.0"), "control.imu.gyro_noise_density", "must not be negative"),
+        (with_imu.replace("rate_hz = 100.0", "rate_hz = 0.0"), "control.imu.rate_hz", "positive"),
+    ] {
+        let e = Scene::from_toml(&text, "imu.toml").unwrap_err();
+        assert_eq!(e.key, key, "{e}");
+        assert!(e.to_string().contains(why), "{e}");
+    }
+    let e = edited(feed, &format!("{feed}\nprediction_s = 0.1"));
+    assert_eq!(e.key, "control.prediction_s", "{e}");
+    assert!(e.to_string().contains("[control.imu]"), "{e}");
     let axis = Scene::from_toml(&compensated.replace(feed, &format!("{feed}\nfeed_axis = [0.0, 2.0, 0.0]")), "ok.toml");
     assert_eq!(axis.unwrap().control.as_ref().unwrap().feed_axis(), [0.0, 2.0, 0.0]);
 }

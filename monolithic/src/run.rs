@@ -30,10 +30,10 @@ pub enum MonolithicError {
     /// A sampled sensor samples at step starts: a step must not skip a sample.
     #[error(
         "monolithic model at t = {time:.6} s: step {h} s is longer than a quarter of the sensor's sample \
-         period {period} s ([control] sample_rate_hz): a sample is taken at the first step start after \
+         period {period} s ([control] {key}): a sample is taken at the first step start after \
          its instant; take steps of at most {most} s or lower the sample rate"
     )]
-    SensorStep { time: f64, h: f64, period: f64, most: f64 },
+    SensorStep { time: f64, h: f64, period: f64, key: &'static str, most: f64 },
 }
 
 impl MonolithicError {
@@ -158,7 +158,8 @@ impl Monolithic {
         if let (Some(state), Some(c)) = (self.command.as_mut(), self.model.stewart.compensation()) {
             let time = self.state.time;
             if h > c.max_step() * (1.0 + 1e-9) {
-                return Err(MonolithicError::SensorStep { time, h, period: c.sample_period(), most: c.max_step() });
+                let (period, key) = c.step_period();
+                return Err(MonolithicError::SensorStep { time, h, period, key, most: c.max_step() });
             }
             // the sample at the step's start measures the accepted cabin motion
             state.sample(c, time, &cabin_motion(&self.model, &self.state));

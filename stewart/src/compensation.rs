@@ -207,16 +207,21 @@ impl Compensation {
         self.sensor
     }
 
-    /// Sample period of a sampled sensor (infinite otherwise), s.
-    pub fn sample_period(&self) -> f64 {
-        self.period
+    /// The shortest period of a sampled sensor or its inertial unit (infinite without), s, and
+    /// its scene key.
+    pub fn step_period(&self) -> (f64, &'static str) {
+        if self.command_period < self.period {
+            (self.command_period, "imu.rate_hz")
+        } else {
+            (self.period, "sample_rate_hz")
+        }
     }
 
     /// Largest macro step a sampled sensor allows: a sample (or reading) is taken at the first
     /// communication point at or after its instant, so a step of at most a quarter period keeps
     /// that jitter below a quarter period and every smooth step complete before the next command.
     pub fn max_step(&self) -> f64 {
-        0.25 * self.period.min(self.command_period)
+        0.25 * self.step_period().0
     }
 
     /// The inertial unit and its filter, with `[control.imu]`.

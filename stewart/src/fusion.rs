@@ -2,10 +2,10 @@
 //! error-state Kalman filter (scene `[control.imu]`).
 //!
 //! Nominal state: position `p`, velocity `v` (world), attitude `R` (cabin to world) and the
-//! biases `b_a`, `b_g` (cabin frame). From one reading to the next it moves with their mean
-//! (`f`, `ω` less the biases; the trapezoid rule), beyond the last with the last held:
-//! `R ← R exp(ωΔt)`, `a = R_½ f + g` (`R_½` the attitude half way), `p ← p + vΔt + aΔt²/2`,
-//! `v ← v + aΔt`. The error `δx = (δp, δv, δθ, δb_a, δb_g)` (δθ in the world frame: the true
+//! biases `b_a`, `b_g` (cabin frame). A reading is the unit's mean over the interval it ends
+//! ([`crate::imu`]): the state moves through that interval with it (`f`, `ω` less the biases),
+//! beyond the last reading with the last held: `R ← R exp(ωΔt)`, `a = R_½ f + g` (`R_½` the
+//! attitude half way), `p ← p + vΔt + aΔt²/2`, `v ← v + aΔt`. The error `δx = (δp, δv, δθ, δb_a, δb_g)` (δθ in the world frame: the true
 //! attitude is `exp(δθ) R`) follows `δṗ = δv`, `δv̇ = −[R f]× δθ − R δb_a + n_a`,
 //! `δθ̇ = −R δb_g + n_g`, `δḃ = w`; its covariance moves with `Φ = I + FΔt + (FΔt)²/2` and
 //! `Q = diag(0, N_a², N_g², K_a², K_g²)·Δt` (N the noise densities, K the bias walks).
@@ -91,21 +91,6 @@ impl Estimate {
         }
     }
 
-    /// What moves the state from the held reading to `next`: their mean.
-    fn towards(&self, next: &ImuReading, gravity: &Vec3) -> Motion {
-        let to = self.corrected(Some(next), gravity);
-        match &self.held {
-            Some(held) => {
-                let from = self.corrected(Some(held), gravity);
-                Motion {
-                    specific_force: (from.specific_force + to.specific_force) * 0.5,
-                    angular_rate: (from.angular_rate + to.angular_rate) * 0.5,
-                }
-            }
-            None => to,
-        }
-    }
-
     /// Moves the nominal state to `t` with a constant motion.
     fn step(&mut self, t: f64, m: &Motion, gravity: &Vec3) {
         let dt = t - self.time;
@@ -127,18 +112,23 @@ impl Estimate {
         self.step(t, &m, gravity);
     }
 
-    /// Takes a reading: moves to its time, then holds it.
+    /// Takes a reading: moves to its time with it, then holds it.
     fn take(&mut self, reading: &ImuReading, gravity: &Vec3) {
-        let m = self.towards(reading, gravity);
+        let m = self.corrected(Some(reading), gravity);
         self.step(reading.time, &m, gravity);
         self.held = Some(*reading);
     }
 
-    /// The pose `horizon` ahead, the held reading extrapolated: position, attitude.
+    /// The cabin's pose `horizon` ahead, extrapolated at the estimate's velocity and the held
+    /// reading's angular rate: position, attitude. (Extrapolating the acceleration too would
+    /// grow the prediction's gain as (ωτ)² and undo a command filter's roll-off.)
     pub fn predicted(&self, horizon: f64, gravity: &Vec3) -> (Vec3, Quat) {
-        let mut ahead = *self;
-        ahead.advance(self.time + horizon, gravity);
-        (Vec3::from(ahead.position), ahead.attitude())
+        let rate = self.corrected(self.held.as_ref(), gravity).angular_rate;
+        let attitude = self.attitude();
+        (
+            Vec3::from(self.position) + Vec3::from(self.velocity) * horizon,
+            attitude * Quat::from_scaled_axis(rate * horizon),
+        )
     }
 }
 
@@ -268,7 +258,7 @@ impl Fusion {
                     break;
                 }
                 state.readings.pop_front();
-                let m = state.lagged.towards(&r, &self.gravity);
+                let m = state.lagged.corrected(Some(&r), &self.gravity);
                 self.propagate(&mut state.lagged, &mut p, r.time, &m);
                 state.lagged.held = Some(r);
             }
@@ -455,7 +445,7 @@ mod tests {
             bias_g - Vec3::from(e.gyro_bias),
         ];
         let dx = SVector::<f64, N>::from_iterator(blocks.iter().flat_map(|b| b.iter().copied()));
-        (dx.transpose() * p.clone().try_inverse().unwrap() * dx)[0]
+        (dx.transpose() * p.try_inverse().unwrap() * dx)[0]
     }
 
     /// The filter is consistent: over 40 instruments (biases drawn from its prior, noise of its

@@ -591,11 +591,11 @@ impl Model for StewartFmu {
             let cabin = cabin_motion(&self.data.accepted)?;
             let c = self.model()?.compensation().expect("a command state comes with a compensation");
             if h > c.max_step() * (1.0 + 1e-9) {
-                let (period, most) = (c.sample_period(), c.max_step());
+                let ((period, key), most) = (c.step_period(), c.max_step());
                 self.data.command = Some(state);
                 return Err(format!(
                     "communication step {h} s at t = {t} s is longer than a quarter of the sensor's sample period \
-                     {period} s ([control] sample_rate_hz): a sample is taken at the first communication point \
+                     {period} s ([control] {key}): a sample is taken at the first communication point \
                      after its instant; take steps of at most {most} s or lower the sample rate"
                 )
                 .into());

@@ -268,37 +268,49 @@ fn displaced(n: usize) -> [f64; 7] {
     [0.003 * s.sin(), -0.002 * s, 9.8 + 0.001 * s, q.w, q.i, q.j, q.k]
 }
 
-/// A sampled sensor (delay, noise, filter) keeps its state in the FMU state: a step retaken
-/// after restoring a saved state gives the same outputs bit for bit.
+/// A sampled sensor (delay, noise, filter), alone and fused with an inertial unit (its biases,
+/// noise, the filter's readings and fixes in flight), keeps its state in the FMU state: a step
+/// retaken after restoring a saved state gives the same outputs bit for bit.
 #[test]
 fn a_sampled_sensor_rolls_back_bit_exactly() {
-    let name = controlled_scene(
-        "sampled",
-        "sensor = \"sampled\"\nsample_rate_hz = 25.0\ndelay_s = 0.03\nnoise_m = 1e-4\nnoise_rad = 1e-5\nseed = 9\nbandwidth_hz = 1.0\n",
+    let sampled = "sensor = \"sampled\"\nsample_rate_hz = 25.0\ndelay_s = 0.03\nnoise_m = 1e-4\nnoise_rad = 1e-5\nseed = 9\nbandwidth_hz = 1.0\n";
+    let fused = format!(
+        "{sampled}prediction_s = 0.02\n[control.imu]\nrate_hz = 25.0\naccel_noise_density = 1e-3\ngyro_noise_density = \
+         3e-5\naccel_bias_m_s2 = [0.01, 0.0, -0.02]\naccel_bias_walk = 1e-4\ngyro_bias_walk = 1e-6\nseed = 4\n"
     );
-    let mut m = ready(&name);
-    let outputs: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
-    let step = |m: &mut StewartFmu, n: usize| {
-        for (k, x) in displaced(n + 1).iter().enumerate() {
-            m.set_real(k as u32, *x).unwrap();
+    for (tag, control) in [("sampled", sampled.to_string()), ("fused", fused)] {
+        let name = controlled_scene(tag, &control);
+        let mut m = ready(&name);
+        let outputs: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
+        let step = |m: &mut StewartFmu, n: usize| {
+            for (k, x) in displaced(n + 1).iter().enumerate() {
+                m.set_real(k as u32, *x).unwrap();
+            }
+            // a cabin accelerating and turning, for the inertial unit to read
+            let s = (n + 1) as f64 * 0.01;
+            for (k, x) in
+                [0.003 * s.cos(), -0.002, 0.001, 1e-3, -2e-3, 0.0, -0.003 * s.sin(), 0.0, 0.0].iter().enumerate()
+            {
+                m.set_real(vr::V + k as u32, *x).unwrap();
+            }
+            m.do_step(n as f64 * 0.01, 0.01).unwrap();
+            outputs.iter().map(|&o| m.get_real(o).unwrap()).collect::<Vec<_>>()
+        };
+        for n in 0..20 {
+            step(&mut m, n);
         }
-        m.do_step(n as f64 * 0.01, 0.01).unwrap();
-        outputs.iter().map(|&o| m.get_real(o).unwrap()).collect::<Vec<_>>()
-    };
-    for n in 0..20 {
-        step(&mut m, n);
+        let saved = serde_json::to_string(&m.save().unwrap()).unwrap();
+        let first: Vec<Vec<f64>> = (20..40).map(|n| step(&mut m, n)).collect();
+        m.restore(serde_json::from_str(&saved).unwrap()).unwrap();
+        let again: Vec<Vec<f64>> = (20..40).map(|n| step(&mut m, n)).collect();
+        assert_eq!(first, again, "{tag}");
+        // the platform moved to compensate: its legs changed
+        let legs = |o: &Vec<f64>| o[(vr::LEG - vr::FORCE) as usize];
+        assert!((legs(&first[19]) - legs(&step(&mut ready(&name), 0))).abs() > 1e-4, "{tag}");
+        // a step longer than a quarter sample period is refused, naming the key
+        let e = ready(&name).do_step(0.0, 0.02).unwrap_err().to_string();
+        assert!(e.contains("sample_rate_hz") && e.contains("0.01"), "{tag}: {e}");
     }
-    let saved = serde_json::to_string(&m.save().unwrap()).unwrap();
-    let first: Vec<Vec<f64>> = (20..40).map(|n| step(&mut m, n)).collect();
-    m.restore(serde_json::from_str(&saved).unwrap()).unwrap();
-    let again: Vec<Vec<f64>> = (20..40).map(|n| step(&mut m, n)).collect();
-    assert_eq!(first, again);
-    // the platform moved to compensate: its legs changed
-    let legs = |o: &Vec<f64>| o[(vr::LEG - vr::FORCE) as usize];
-    assert!((legs(&first[19]) - legs(&step(&mut ready(&name), 0))).abs() > 1e-4);
-    // a step longer than a quarter sample period is refused, naming the key
-    let e = ready(&name).do_step(0.0, 0.02).unwrap_err().to_string();
-    assert!(e.contains("sample_rate_hz") && e.contains("0.01"), "{e}");
 }
 
 /// An ideal sensor puts the feed on its target whatever the cabin does: zero error, to rounding.

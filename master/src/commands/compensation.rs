@@ -192,8 +192,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         };
         scene = scene.edited(with_bandwidth).context("--bandwidth")?;
     }
-    let period = match scene.control.as_ref().map(|c| (c.sensor, c.sample_period())) {
-        Some((_, Some(period))) => period,
+    let period = match scene.control.as_ref().map(|c| (c.sensor, c.shortest_period())) {
+        Some((_, Some((period, _)))) => period,
         Some((sensor, None)) => bail!(
             "{shown}: [control] sensor = {sensor:?}; `master compensation` studies a sampled sensor (set sensor = \"sampled\")"
         ),

@@ -99,12 +99,16 @@ impl<'a> Run<'a> {
                 )));
             }
             Method::MonolithicAdaptive(a)
-                if scene.control.as_ref().and_then(|c| c.sample_period()).is_some_and(|t| a.h_max > 0.25 * t) =>
+                if scene
+                    .control
+                    .as_ref()
+                    .and_then(|c| c.shortest_period())
+                    .is_some_and(|(t, _)| a.h_max > 0.25 * t) =>
             {
-                let period = scene.control.as_ref().and_then(|c| c.sample_period()).expect("matched");
+                let (period, key) = scene.control.as_ref().and_then(|c| c.shortest_period()).expect("matched");
                 return Err(refused(format!(
                     "{}: --h-max {} s is longer than a quarter of the sensor's sample period {period} s ([control] \
-                     sample_rate_hz): a sample is taken at the first step start after its instant; set --h-max to \
+                     {key}): a sample is taken at the first step start after its instant; set --h-max to \
                      at most {} s",
                     scene_file.display(),
                     a.h_max,
