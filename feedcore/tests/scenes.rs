@@ -353,3 +353,18 @@ fn values_beyond_engineering_bounds_are_refused_by_key() {
     let axis = Scene::from_toml(&compensated.replace(feed, &format!("{feed}\nfeed_axis = [0.0, 2.0, 0.0]")), "ok.toml");
     assert_eq!(axis.unwrap().control.as_ref().unwrap().feed_axis(), [0.0, 2.0, 0.0]);
 }
+
+/// Every scene shipped in `scenes/` is valid.
+#[test]
+fn every_shipped_scene_file_loads() {
+    let dir = format!("{}/../scenes", env!("CARGO_MANIFEST_DIR"));
+    let mut count = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            count += 1;
+        }
+    }
+    assert!(count >= 8, "{count} scenes in {dir}");
+}
