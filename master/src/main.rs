@@ -63,6 +63,9 @@ enum Command {
     /// The second level: cabin motion against feed error (uncompensated, coupled, decoupled) and
     /// the feed error against sensor delay and rate.
     Compensation(commands::compensation::Args),
+    /// The second level's command filter chosen on short coupled (or decoupled) runs in
+    /// parallel, robust to the sensor's delay ±50 % and the platform's mass ±20 %.
+    Tune(commands::tune::Args),
     /// Statics, first frequencies and short coupled runs over a grid of poses and parameters, on every core.
     Sweep(commands::sweep::Args),
     /// Run time and peak memory against elements per cable, set-up and stepping apart.
@@ -100,6 +103,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => commands::bench::run(&args),
         Command::Stability(args) => commands::stability::run(&args),
         Command::Compensation(args) => commands::compensation::run(&args),
+        Command::Tune(args) => commands::tune::run(&args),
         Command::Sweep(args) => commands::sweep::run(&args),
         Command::Scaling(args) => commands::scaling::run(&args),
         Command::Stress(args) => commands::stress::run(&args),

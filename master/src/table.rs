@@ -1,4 +1,5 @@
-//! Plain-text tables for the terminal: numeric columns right-aligned, text columns left-aligned.
+//! Plain-text tables for the terminal (numeric columns right-aligned, text columns left-aligned)
+//! and their Markdown form for reports.
 
 /// A table with a header row.
 pub struct Table {
@@ -46,6 +47,21 @@ impl Table {
         }
         out
     }
+
+    /// The table in Markdown (a `|` in a cell escaped).
+    pub fn render_markdown(&self) -> String {
+        let line = |r: &Vec<String>| {
+            let cells: Vec<String> =
+                (0..self.header.len()).map(|i| r.get(i).map_or(String::new(), |c| c.replace('|', "\\|"))).collect();
+            format!("| {} |\n", cells.join(" | "))
+        };
+        let mut out = line(&self.header);
+        out.push_str(&format!("|{}\n", "---|".repeat(self.header.len())));
+        for r in &self.rows {
+            out.push_str(&line(r));
+        }
+        out
+    }
 }
 
 #[cfg(test)]
@@ -58,5 +74,12 @@ mod tests {
         t.row(["1", "2.5", "x"]);
         t.row(["10", "-0.25", "long"]);
         assert_eq!(t.render(), " a  value  note\n--  -----  ----\n 1    2.5  x\n10  -0.25  long\n");
+    }
+
+    #[test]
+    fn markdown_has_a_rule_and_escapes_bars() {
+        let mut t = Table::new(["a", "b"]);
+        t.row(["x|y", "2"]);
+        assert_eq!(t.render_markdown(), "| a | b |\n|---|---|\n| x\\|y | 2 |\n");
     }
 }

@@ -75,13 +75,18 @@ fn non_negative(text: &str) -> Result<f64, String> {
 }
 
 /// The largest step: a whole fraction of the sample period, at most T/8 and 2.5 ms.
-fn step_for(period: f64) -> f64 {
+pub(super) fn step_for(period: f64) -> f64 {
     period / (period / 0.0025 - 1e-9).ceil().max(8.0)
+}
+
+/// [`step_for`] the shortest period of a scene's sensor and inertial unit.
+pub(super) fn case_step(scene: &ValidScene) -> f64 {
+    step_for(scene.control.as_ref().and_then(|c| c.shortest_period()).map_or(f64::NAN, |(t, _)| t))
 }
 
 /// The steps of a run over `t_end` at `h`, refused before anything runs when `h` is not a
 /// positive finite number or the steps exceed --max-steps, or the model would not fit in memory.
-fn checked_steps(scene: &ValidScene, h: f64, t_end: f64, what: &str) -> anyhow::Result<usize> {
+pub(super) fn checked_steps(scene: &ValidScene, h: f64, t_end: f64, what: &str) -> anyhow::Result<usize> {
     let limits = caps().run;
     if !(h > 0.0 && h.is_finite()) {
         bail!("{what}: the step h = {h} s the sensor's rate gives is not a positive finite number");
@@ -101,22 +106,22 @@ fn checked_steps(scene: &ValidScene, h: f64, t_end: f64, what: &str) -> anyhow::
 /// run` counts it): time, |cabin displacement| and |feed error| (mm), and with `replay` the feed
 /// error a decoupled model predicts on these cabin poses.
 #[derive(Default)]
-struct History {
+pub(super) struct History {
     t: Vec<f64>,
-    cabin_mm: Vec<f64>,
-    feed_mm: Vec<f64>,
-    replayed_mm: Vec<f64>,
+    pub(super) cabin_mm: Vec<f64>,
+    pub(super) feed_mm: Vec<f64>,
+    pub(super) replayed_mm: Vec<f64>,
 }
 
 /// RMS and peak of a series (every step).
-fn rms_peak(x: &[f64]) -> (f64, f64) {
+pub(super) fn rms_peak(x: &[f64]) -> (f64, f64) {
     let rms = (x.iter().map(|e| e * e).sum::<f64>() / x.len().max(1) as f64).sqrt();
     (rms, x.iter().copied().fold(0.0, f64::max))
 }
 
 /// Runs `scene` in the monolithic model with step `h` to `t_end`; the feed is placed by `comp`
 /// (the scene's own compensation); `replay`: a sampled compensation to replay on the poses.
-fn history(
+pub(super) fn history(
     scene: &ValidScene,
     comp: &Compensation,
     h: f64,
@@ -156,14 +161,38 @@ fn history(
 }
 
 /// One case of the sweep: whether it stayed stable, and its feed error RMS and peak (mm).
-struct Verdict {
-    stable: bool,
-    rms: f64,
-    peak: f64,
-    note: String,
+pub(super) struct Verdict {
+    pub(super) stable: bool,
+    pub(super) rms: f64,
+    pub(super) peak: f64,
+    pub(super) note: String,
 }
 
 impl Verdict {
+    /// A compensated run is stable when its feed error does not keep growing (the last third's
+    /// peak at most 3× the middle third's) and its cabin's peak stays within twice the
+    /// uncompensated one (`off_cabin_peak`).
+    pub(super) fn judge(r: &History, off_cabin_peak: f64) -> Verdict {
+        let n = r.feed_mm.len();
+        let (rms, peak) = rms_peak(&r.feed_mm);
+        let (middle, late) = (rms_peak(&r.feed_mm[n / 3..2 * n / 3]).1, rms_peak(&r.feed_mm[2 * n / 3..]).1);
+        let cabin = rms_peak(&r.cabin_mm).1;
+        if late > 3.0 * middle {
+            let note = format!("growing: peak {middle:.3} → {late:.3} mm");
+            Verdict { stable: false, rms, peak, note }
+        } else if cabin > 2.0 * off_cabin_peak {
+            let note = format!("cabin peak {cabin:.3} mm against {off_cabin_peak:.3} mm uncompensated");
+            Verdict { stable: false, rms, peak, note }
+        } else {
+            Verdict { stable: true, rms, peak, note: String::new() }
+        }
+    }
+
+    /// A run that stopped.
+    pub(super) fn stopped(note: String) -> Verdict {
+        Verdict { stable: false, rms: f64::NAN, peak: f64::NAN, note }
+    }
+
     /// As a journal keeps it (the numbers exactly, NaN included).
     fn to_cells(&self) -> Vec<String> {
         vec![self.stable.to_string(), format!("{:?}", self.rms), format!("{:?}", self.peak), self.note.clone()]
@@ -238,7 +267,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
                 }
             };
             let s = scene.edited(at_case).with_context(|| case.clone())?;
-            let steps = checked_steps(&s, step_for(1.0 / rate), args.sweep_t_end, &case)?;
+            let steps = checked_steps(&s, case_step(&s), args.sweep_t_end, &case)?;
             cases.push((rate, delay, s, steps));
         }
     }
@@ -257,31 +286,16 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         let c = Stewart::from_scene(s).map(|st| st.compensation().cloned().expect("has [control]"));
         let c = match c {
             Ok(c) => c,
-            Err(e) => return Verdict { stable: false, rms: f64::NAN, peak: f64::NAN, note: e.to_string() },
+            Err(e) => return Verdict::stopped(e.to_string()),
         };
-        match history(s, &c, step_for(1.0 / rate), *steps, None) {
-            Ok(r) => {
-                let n = r.feed_mm.len();
-                let (rms, peak) = rms_peak(&r.feed_mm);
-                // a feed error that keeps growing is not stable either
-                let (middle, late) = (rms_peak(&r.feed_mm[n / 3..2 * n / 3]).1, rms_peak(&r.feed_mm[2 * n / 3..]).1);
-                let cabin = rms_peak(&r.cabin_mm).1;
-                if late > 3.0 * middle {
-                    let note = format!("growing: peak {middle:.3} → {late:.3} mm");
-                    Verdict { stable: false, rms, peak, note }
-                } else if cabin > 2.0 * off_cabin_peak {
-                    let note = format!("cabin peak {cabin:.3} mm against {off_cabin_peak:.3} mm uncompensated");
-                    Verdict { stable: false, rms, peak, note }
-                } else {
-                    Verdict { stable: true, rms, peak, note: String::new() }
-                }
-            }
+        match history(s, &c, case_step(s), *steps, None) {
+            Ok(r) => Verdict::judge(&r, off_cabin_peak),
             Err(e) => {
                 let note = format!("{e:#}");
                 if !quiet {
                     eprintln!("{rate} Hz, delay {delay} s: {note}");
                 }
-                Verdict { stable: false, rms: f64::NAN, peak: f64::NAN, note }
+                Verdict::stopped(note)
             }
         }
     };

@@ -28,6 +28,7 @@ pub(crate) mod statics;
 pub(crate) mod stewart;
 pub(crate) mod stress;
 pub(crate) mod sweep;
+pub(crate) mod tune;
 
 /// Errors reach the user with their whole chain of causes.
 pub(crate) type CmdResult = anyhow::Result<()>;
