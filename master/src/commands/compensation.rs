@@ -7,7 +7,10 @@
 //!   (the same sensor and commands replayed on the cabin poses of the uncompensated run: the
 //!   compensation's reactions never reach the cabin) — `compensation.csv`, `compensation.svg`;
 //! * the feed error against the sensor's delay and sample rate, each case marked unstable when
-//!   the run stops or its feed error keeps growing — `sweep.csv`, `sweep.svg`.
+//!   the run stops or its feed error keeps growing — `sweep.csv`, `sweep.svg`;
+//! * the error budget: the scene run again without the instrument's noise, without its delay and
+//!   with neither (what is left is the filter's lag and the sampling), against the decoupled
+//!   prediction (what the coupling adds) — `budget.csv`.
 //!
 //! Every run is independent: they run in parallel ([`master::parallel`]).
 
@@ -235,6 +238,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut declare = |f: &str| outputs.declare("--out", &args.out.join(f), f.rsplit('.').next());
     let (csv_id, svg_id) = (declare("compensation.csv")?, declare("compensation.svg")?);
     let (sweep_csv_id, sweep_svg_id) = (declare("sweep.csv")?, declare("sweep.svg")?);
+    let budget_id = declare("budget.csv")?;
     outputs.open()?;
     let jobs = args.jobs.map(usize::from);
 
@@ -247,6 +251,20 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut mains = mains.into_iter();
     let off_run = mains.next().expect("two runs").context("the uncompensated run")?;
     let on_run = mains.next().expect("two runs").context("the compensated run")?;
+
+    // the error budget: the scene with a perfect instrument in turn
+    let budget_scenes = [Budget::Noiseless, Budget::Prompt, Budget::Perfect]
+        .map(|b| scene.edited(|s| b.apply(s)).with_context(|| format!("the budget's run {}", b.label())));
+    let budget_scenes = budget_scenes.into_iter().collect::<anyhow::Result<Vec<_>>>()?;
+    let budget_runs = master::parallel::map_in_order(&budget_scenes, jobs, |_, s| {
+        let c = Stewart::from_scene(s)?.compensation().cloned().expect("a scene with [control] has one");
+        history(s, &c, h, steps, None)
+    })?;
+    let budget_rms = budget_runs
+        .into_iter()
+        .zip([Budget::Noiseless, Budget::Prompt, Budget::Perfect])
+        .map(|(r, b)| r.map(|r| rms_peak(&r.feed_mm).0).with_context(|| format!("the budget's run {}", b.label())))
+        .collect::<anyhow::Result<Vec<f64>>>()?;
 
     // the sweep: delay × rate, the rest of the scene as it is; a case is unstable when it
     // stops, when its feed error keeps growing, or when the platform's reactions drive the
@@ -361,8 +379,25 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let svg = sweep_figure(&scene.name, args, &cases, &results)
         .map_err(|e| anyhow::anyhow!("drawing the sweep figure: {e}"))?;
     outputs.write(sweep_svg_id, |w| w.write_all(svg.as_bytes()))?;
+    let total = rms_peak(&on_run.feed_mm).0;
+    let decoupled = rms_peak(&off_run.replayed_mm).0;
+    let share = |without: f64| (total * total - without * without).max(0.0).sqrt();
+    let budget = [
+        ("as the scene", total, "total".to_string(), total),
+        ("without the instrument's noise", budget_rms[0], "noise: √(total² − this²)".into(), share(budget_rms[0])),
+        ("without the delay", budget_rms[1], "delay: √(total² − this²)".into(), share(budget_rms[1])),
+        ("perfect instrument (neither)", budget_rms[2], "filter lag and sampling: this".into(), budget_rms[2]),
+        ("decoupled prediction", decoupled, "coupling: total − this".into(), total - decoupled),
+    ];
+    outputs.write(budget_id, |w| {
+        writeln!(w, "run,feed_err_rms_mm,term,term_mm")?;
+        for (run, rms, term, value) in &budget {
+            writeln!(w, "{run},{rms:e},{term},{value:e}")?;
+        }
+        Ok(())
+    })?;
     let paths: Vec<PathBuf> =
-        [csv_id, svg_id, sweep_csv_id, sweep_svg_id].iter().map(|&i| outputs.path(i).to_owned()).collect();
+        [csv_id, svg_id, sweep_csv_id, sweep_svg_id, budget_id].iter().map(|&i| outputs.path(i).to_owned()).collect();
     outputs.commit()?;
     journal.finish()?;
 
@@ -397,6 +432,12 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     writeln!(out, "\nfeed error RMS (mm) over {} s against sensor rate and delay:", args.sweep_t_end)?;
     write!(out, "{}", sweep.render())?;
+    let mut terms = Table::new(["run", "feed error RMS (mm)", "term", "term (mm)"]);
+    for (run, rms, term, value) in &budget {
+        terms.row(vec![run.to_string(), format!("{rms:.3}"), term.clone(), format!("{value:.3}")]);
+    }
+    writeln!(out, "\nerror budget over {} s:", args.t_end)?;
+    write!(out, "{}", terms.render())?;
     writeln!(out, "\n{} written", paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))?;
     Ok(())
 }
@@ -457,4 +498,40 @@ fn sweep_figure(
         root.present()?;
     }
     Ok(svg)
+}
+
+/// A run of the error budget: the scene with part of its instrument made perfect.
+#[derive(Clone, Copy, Debug)]
+enum Budget {
+    /// No noise on the sampled sensor; the inertial unit without noise, bias or walk.
+    Noiseless,
+    /// No delay.
+    Prompt,
+    /// Neither noise nor delay.
+    Perfect,
+}
+
+impl Budget {
+    fn label(&self) -> &'static str {
+        match self {
+            Budget::Noiseless => "without noise",
+            Budget::Prompt => "without delay",
+            Budget::Perfect => "with a perfect instrument",
+        }
+    }
+
+    fn apply(&self, s: &mut Scene) {
+        let Some(c) = s.control.as_mut() else { return };
+        if matches!(self, Budget::Noiseless | Budget::Perfect) {
+            (c.noise_m, c.noise_rad) = (0.0, 0.0);
+            if let Some(imu) = c.imu.as_mut() {
+                (imu.accel_noise_density, imu.gyro_noise_density) = (0.0, 0.0);
+                (imu.accel_bias_m_s2, imu.gyro_bias_rad_s) = ([0.0; 3], [0.0; 3]);
+                (imu.accel_bias_walk, imu.gyro_bias_walk) = (0.0, 0.0);
+            }
+        }
+        if matches!(self, Budget::Prompt | Budget::Perfect) {
+            c.delay_s = 0.0;
+        }
+    }
 }

@@ -309,9 +309,23 @@ fn the_compensation_command_writes_its_figures_and_agrees_with_run() {
     let shown = rms_of("compensated (coupled)");
     assert!((shown - expected).abs() <= 5e-4 + 1e-9, "{shown} vs {expected}: {text}");
     assert!(rms_of("uncompensated") > shown, "{text}");
-    for name in ["compensation.csv", "compensation.svg", "sweep.csv", "sweep.svg"] {
+    for name in ["compensation.csv", "compensation.svg", "sweep.csv", "sweep.svg", "budget.csv"] {
         assert!(dir.join(name).is_file(), "{name}");
     }
+    // the budget's run without delay is `master run` on the scene without delay
+    let budget = std::fs::read_to_string(dir.join("budget.csv")).unwrap();
+    assert_eq!(budget.lines().count(), 1 + 5, "{budget}");
+    let rms_in = |label: &str| -> f64 {
+        let line = budget.lines().find(|l| l.starts_with(label)).unwrap_or_else(|| panic!("{label}: {budget}"));
+        line.split(',').nth(1).unwrap().parse().unwrap()
+    };
+    let (_, prompt) =
+        common::scene("lt50m_C_compensated.toml", "prompt", |s| s.control.as_mut().unwrap().delay_s = 0.0);
+    let (v, _, _) = run(&prompt, "monolithic", "2", "0.0025");
+    let prompt_rms = v["feed_err_rms_mm"].as_f64().unwrap();
+    assert!((rms_in("without the delay") - prompt_rms).abs() <= 1e-12 * prompt_rms, "{budget} against {prompt_rms}");
+    assert!((rms_in("as the scene") - expected).abs() <= 1e-12 * expected, "{budget} against {expected}");
+    assert!(rms_in("perfect instrument") <= rms_in("as the scene") * (1.0 + 1e-9), "{budget}");
     let sweep = std::fs::read_to_string(dir.join("sweep.csv")).unwrap();
     assert_eq!(sweep.lines().count(), 1 + 4, "{sweep}");
     let csv = std::fs::read_to_string(dir.join("compensation.csv")).unwrap();
