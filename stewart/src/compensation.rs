@@ -280,16 +280,6 @@ impl Compensation {
         }
     }
 
-    /// The feed's axis, platform frame (unit).
-    pub fn feed_axis(&self) -> Vec3 {
-        self.feed_axis
-    }
-
-    /// Whether the platform's attitude is commanded (`compensate = "pose"`).
-    pub fn holds_attitude(&self) -> bool {
-        self.holds_attitude
-    }
-
     /// The feed point's offset from the platform centre that the command's position accounts
     /// for: in the world at the start attitude when the attitude is held, else in the platform
     /// (= cabin) frame.

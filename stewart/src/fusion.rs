@@ -281,7 +281,8 @@ impl Fusion {
     }
 
     /// The lagged filter: its estimate and covariance.
-    pub fn lagged(&self, state: &FusionState) -> (Estimate, Matrix) {
+    #[cfg(test)]
+    fn lagged(&self, state: &FusionState) -> (Estimate, Matrix) {
         (state.lagged, Matrix::from_column_slice(&state.covariance))
     }
 

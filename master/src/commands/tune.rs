@@ -19,7 +19,7 @@ use feedcore::scene::{Scene, SensorKind, ValidScene};
 use master::table::Table;
 use stewart::Stewart;
 
-use super::compensation::{History, Verdict, case_step, checked_steps, history};
+use super::compensation::{History, Verdict, case_step, checked_steps, history, rms_peak};
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::positive;
 use super::{CmdResult, load_scene};
@@ -168,8 +168,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let h = case_step(&scene);
     let steps = checked_steps(&scene, h, args.t_end, &format!("{shown}: the runs over {} s", args.t_end))?;
     let off_run = history(&off, &off_comp, h, steps, None).context("the uncompensated run")?;
-    let (off_rms, off_peak) =
-        (super::compensation::rms_peak(&off_run.feed_mm).0, super::compensation::rms_peak(&off_run.cabin_mm).1);
+    let (off_rms, off_peak) = (rms_peak(&off_run.feed_mm).0, rms_peak(&off_run.cabin_mm).1);
 
     let runs: Vec<(usize, Variant)> = (0..candidates.len()).flat_map(|i| VARIANTS.map(|v| (i, v))).collect();
     eprintln!("{shown}: {} candidates × {} runs over {} s …", candidates.len(), VARIANTS.len(), args.t_end);
@@ -193,20 +192,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         bail!("{shown}: no candidate is stable on the {:?} model; try lower --bandwidths", args.design);
     };
 
-    // tuned.toml: the scene with the chosen filter, its FMU paths made absolute (it lives elsewhere)
-    let mut tuned = scene.to_scene();
-    candidates[chosen].apply(&mut tuned);
-    if let (Some(system), Some(dir)) = (tuned.system.as_mut(), args.scene.parent()) {
-        for f in &mut system.fmus {
-            let p = std::path::Path::new(&f.path);
-            if p.is_relative() {
-                let joined = dir.join(p);
-                let absolute = std::fs::canonicalize(&joined).or_else(|_| std::path::absolute(&joined));
-                f.path = absolute.unwrap_or(joined).display().to_string();
-            }
-        }
-    }
-    tuned.name = format!("{}_tuned", scene.name);
+    let tuned = tuned_scene(&scene, &args.scene, &candidates[chosen]);
     let tuned_text = format!(
         "# `master tune --design {}` on {} (t_end {} s): the chosen command filter; see tune.md.\n{}",
         design_name(args.design),
@@ -296,6 +282,25 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     write!(out, "{}", choices.render())?;
     writeln!(out, "chosen ({} design): {}\n{} written", design_name(args.design), describe(chosen), paths.join(", "))?;
     Ok(())
+}
+
+/// The scene with the candidate's filter, named `<name>_tuned`, its FMU paths made absolute (the
+/// tuned file lives elsewhere).
+fn tuned_scene(scene: &ValidScene, scene_file: &std::path::Path, c: &Candidate) -> Scene {
+    let mut tuned = scene.to_scene();
+    c.apply(&mut tuned);
+    if let (Some(system), Some(dir)) = (tuned.system.as_mut(), scene_file.parent()) {
+        for f in &mut system.fmus {
+            let p = std::path::Path::new(&f.path);
+            if p.is_relative() {
+                let joined = dir.join(p);
+                let absolute = std::fs::canonicalize(&joined).or_else(|_| std::path::absolute(&joined));
+                f.path = absolute.unwrap_or(joined).display().to_string();
+            }
+        }
+    }
+    tuned.name = format!("{}_tuned", scene.name);
+    tuned
 }
 
 fn design_name(d: Design) -> &'static str {
