@@ -64,6 +64,8 @@ pub struct Sample {
     /// (the joints hold it there to the Newton tolerance).
     pub platform: Vec3,
     pub platform_rotation: Quat,
+    /// With an inertial unit ([control.imu]): the cabin pose the compensation estimates.
+    pub estimate: Option<(Vec3, Quat)>,
     /// Leg lengths (joint centre to joint centre), m.
     pub leg_lengths: [f64; LEGS],
 }
@@ -208,6 +210,11 @@ impl Monolithic {
             constraint_residual: largest_value(&sc.accepted[..]),
             platform: point.position,
             platform_rotation: point.rotation(),
+            estimate: self
+                .command
+                .as_ref()
+                .zip(model.stewart.compensation())
+                .and_then(|(state, c)| state.estimate(c, st.time).map(|e| (Vec3::from(e.position), e.attitude()))),
             leg_lengths: strokes.map_or([f64::NAN; LEGS], |s| s.map(|s| s.length)),
         }
     }

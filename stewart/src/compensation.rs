@@ -238,6 +238,11 @@ impl Compensation {
         self.force_limit
     }
 
+    /// The cabin's reference (static) pose: position, orientation (world).
+    pub fn reference(&self) -> (Vec3, Quat) {
+        self.reference
+    }
+
     /// The feed's start position, world frame.
     pub fn feed_start(&self) -> Vec3 {
         self.feed_start

@@ -84,6 +84,12 @@ pub mod vr {
             "feed point minus its target, world frame ([control]; else the platform centre minus its start)"),
         FEED_ROT = Block::output("feed.rot", 3, "rad",
             "rotation of the feed (the platform) from its start attitude, world rotation vector"),
+        /// Real outputs: the cabin pose the compensation estimates (with [control.imu]: the
+        /// Kalman filter's estimate now; otherwise the cabin's reference pose).
+        ESTIMATE_R = Block::output("estimate.r", 3, "m",
+            "cabin position the compensation estimates, world frame ([control.imu]; else the reference pose)"),
+        ESTIMATE_Q = Block::output("estimate.q", 4, "",
+            "cabin orientation the compensation estimates ({k}), body to world ([control.imu]; else the reference)").labels(WXYZ),
         /// Real parameters.
         RADIUS = Block::parameter("radius", -1.0, "m", "radius of the platform's circle; negative: the scene's value")
             .range(-1.0, 10.0),
@@ -327,6 +333,22 @@ impl StewartFmu {
         self.cache.evaluation.as_ref().ok_or_else(|| "the platform could not be evaluated".into())
     }
 
+    /// The cabin pose the compensation estimates now: the fused estimate with an inertial unit,
+    /// else the reference pose.
+    fn estimate(&mut self) -> Result<(Vec3, feedcore::Quat), ModelError> {
+        let t = self.data.time;
+        let command = self.data.command.take();
+        let estimate = self.model().map(|model| {
+            let c = model.compensation()?;
+            Some(match command.as_ref().and_then(|state| state.estimate(c, t)) {
+                Some(e) => (Vec3::from(e.position), e.attitude()),
+                None => c.reference(),
+            })
+        });
+        self.data.command = command;
+        estimate?.ok_or_else(|| "the model has no compensation".into())
+    }
+
     fn actuator_rates(&mut self) -> Result<ActuatorRates, ModelError> {
         if let Some(r) = self.cache.actuator_rates {
             return Ok(r);
@@ -445,6 +467,8 @@ impl Model for StewartFmu {
                     d.extend(&orientation);
                     d
                 }
+                // the estimate is made from earlier inputs only (the filter's state)
+                vr::ESTIMATE_R..vr::RADIUS => vec![],
                 _ => orientation.clone(),
             }
         };
@@ -519,7 +543,16 @@ impl Model for StewartFmu {
         match vr {
             0..19 => Ok(self.data.inputs[vr as usize]),
             vr::LEG..vr::FEED_ERR => Ok(self.evaluation()?.leg_lengths[(vr - vr::LEG) as usize]),
-            vr::FEED_ERR..vr::RADIUS => {
+            vr::ESTIMATE_R..vr::RADIUS => {
+                let (p, q) = self.estimate()?;
+                let q = q.into_inner();
+                Ok(if vr < vr::ESTIMATE_Q {
+                    p[(vr - vr::ESTIMATE_R) as usize]
+                } else {
+                    [q.w, q.i, q.j, q.k][(vr - vr::ESTIMATE_Q) as usize]
+                })
+            }
+            vr::FEED_ERR..vr::ESTIMATE_R => {
                 let t = self.data.time;
                 let p = self.evaluation()?.platform;
                 let c = self.model()?.compensation().ok_or("the model has no feed point")?;
@@ -659,7 +692,7 @@ impl Model for StewartFmu {
         };
         let cabin_r = v3(&inputs, vr::R);
         let needs = |outputs: std::ops::Range<u32>| unknowns.iter().any(|u| outputs.contains(u));
-        let (df, dtilt) = if needs(vr::FEED_ERR..vr::RADIUS) {
+        let (df, dtilt) = if needs(vr::FEED_ERR..vr::ESTIMATE_R) {
             let t = self.data.time;
             let p = self.evaluation()?.platform;
             let c = self.model()?.compensation().ok_or("the model has no feed point")?;
@@ -674,7 +707,7 @@ impl Model for StewartFmu {
         } else {
             Vector6::zeros()
         };
-        let (dp, dq) = if needs(vr::PLATFORM_R..vr::RADIUS) {
+        let (dp, dq) = if needs(vr::PLATFORM_R..vr::LEG) {
             carried_pose_change(&cabin_r, &self.evaluation()?.platform, &d)
         } else {
             (Vec3::zeros(), nalgebra::Quaternion::identity())
@@ -688,7 +721,9 @@ impl Model for StewartFmu {
                 // the legs follow the commanded relative motion, fixed within a step
                 vr::LEG..vr::FEED_ERR => 0.0,
                 vr::FEED_ERR..vr::FEED_ROT => df[(*u - vr::FEED_ERR) as usize],
-                vr::FEED_ROT..vr::RADIUS => dtilt[(*u - vr::FEED_ROT) as usize],
+                vr::FEED_ROT..vr::ESTIMATE_R => dtilt[(*u - vr::FEED_ROT) as usize],
+                // made from earlier inputs only
+                vr::ESTIMATE_R..vr::RADIUS => 0.0,
                 other => return Err(format!("value reference {other} is not an output").into()),
             };
         }

@@ -148,6 +148,9 @@ fn replay_stewart(scene: &ValidScene, header: &[String], rows: &[Vec<f64>], f: &
         let comp = model.compensation().ok_or("the model has no feed point")?;
         let (err, rot) = comp.feed_error(&e.platform.position, &pq, t);
         v.extend(err.iter().chain(rot.iter()));
+        // no sensor state is replayed: the estimate is the reference pose, as in the FMU
+        let (p, q) = comp.reference();
+        v.extend(p.iter().chain([q.w, q.i, q.j, q.k].iter()));
         writeln!(f, "{}", v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(","))?;
     }
     Ok(())

@@ -132,8 +132,8 @@ impl Trace {
         for g in &chosen {
             write!(f, ",{}", g.1)?;
         }
-        if self.feed.is_some() {
-            write!(f, ",{}", crate::feed::csv_header())?;
+        if let Some(feed) = &self.feed {
+            write!(f, ",{}", feed.csv_header())?;
         }
         writeln!(f)?;
         for i in 0..self.t.len() {

@@ -241,6 +241,12 @@ fn with_an_inertial_unit_the_schemes_converge_to_the_monolithic_model() {
         eprintln!("{scheme:?}, h = {h} s: gaps {cabin:.2e} (cabin), {feed:.2e} (feed) of the peaks");
         (cabin, feed)
     };
+    // the fused estimate's error, from the Stewart FMU's outputs and from the monolithic model's
+    // state (its sensor and unit read the same cabin motion to the coupling's tolerance)
+    let estimate = |m: Method| run(m, period / 8.0).feed.unwrap().summary.estimate_rms.expect("an estimate");
+    let (mono, co) = (estimate(Method::Monolithic), estimate(Method::Cosim(Options::default())));
+    eprintln!("estimate error RMS: monolithic {mono:?}, co-simulation {co:?} (mm, mrad)");
+    assert!((mono.0 - co.0).abs() <= 1e-3 * mono.0 && (mono.1 - co.1).abs() <= 1e-3 * mono.1, "{mono:?} {co:?}");
     for scheme in [Scheme::Ijcsa, Scheme::IqnIls] {
         let (coarse, fine) = (gaps(scheme, period / 8.0), gaps(scheme, period / 16.0));
         assert!(coarse.0 >= 1.8 * fine.0 && coarse.1 >= 1.8 * fine.1, "{scheme:?}: {coarse:?} then {fine:?}");

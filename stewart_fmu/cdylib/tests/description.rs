@@ -11,7 +11,7 @@ fn the_model_description_reads_back_equal() {
     assert_eq!(read, declared.description);
     assert_eq!(
         read.variables.len(),
-        19 + 31 + 5,
-        "inputs, outputs (wrench, actuators, platform, legs, feed), parameters"
+        19 + 38 + 5,
+        "inputs, outputs (wrench, actuators, platform, legs, feed, estimate), parameters"
     );
 }

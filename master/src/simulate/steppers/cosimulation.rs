@@ -173,6 +173,8 @@ impl CosimProbe {
         names.extend((1..=LEGS).map(|i| format!("leg.length[{i}]")));
         names.extend((1..=LEGS).map(|i| format!("actuator.force[{i}]")));
         names.extend((1..=4).map(|i| format!("platform.q[{i}]")));
+        names.extend((1..=3).map(|i| format!("estimate.r[{i}]")));
+        names.extend((1..=4).map(|i| format!("estimate.q[{i}]")));
         let vrs = names.iter().map(|n| inst.fmu().value_reference(n)).collect::<Result<Vec<_>, _>>()?;
         self.feed = Some((vrs, comp));
         Ok(self)
@@ -191,7 +193,7 @@ impl CosimProbe {
         let orientation = feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
         let feed = match &self.feed {
             Some((vrs, comp)) => {
-                let mut v = [0.0; 26];
+                let mut v = [0.0; 33];
                 c.units_mut().instance("stewart").expect("checked in new").get_real(vrs, &mut v)?;
                 // the platform relative to the cabin the Stewart FMU saw, placed on the cabin
                 // of the cable model (the same one at convergence)
@@ -204,7 +206,9 @@ impl CosimProbe {
                 let turn = seen.inverse() * quat(22);
                 let six = |i: usize| std::array::from_fn(|k| v[i + k]);
                 let now = c.time();
-                Some(FeedSample::place(comp, now, (&position, &orientation), (&relative, &turn), six(10), six(16)))
+                let estimate = comp.fused().map(|_| (Vec3::new(v[26], v[27], v[28]), quat(29)));
+                let cabin = (&position, &orientation);
+                Some(FeedSample::place(comp, now, cabin, (&relative, &turn), six(10), six(16), estimate))
             }
             None => None,
         };

@@ -63,6 +63,7 @@ impl MonolithicStepper {
                     (&s.platform, &s.platform_rotation),
                     s.leg_lengths,
                     s.actuator_forces,
+                    s.estimate,
                 )
             }),
         }
