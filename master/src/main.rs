@@ -63,7 +63,7 @@ enum Command {
     /// The second level: cabin motion against feed error (uncompensated, coupled, decoupled) and
     /// the feed error against sensor delay and rate.
     Compensation(commands::compensation::Args),
-    /// The second level's command filter chosen on short coupled (or decoupled) runs in
+    /// The second level's command filter chosen on coupled (or decoupled) runs in
     /// parallel, robust to the sensor's delay ±50 % and the platform's mass ±20 %.
     Tune(commands::tune::Args),
     /// Statics, first frequencies and short coupled runs over a grid of poses and parameters, on every core.
