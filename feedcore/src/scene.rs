@@ -469,6 +469,12 @@ pub struct Control {
     /// each new command is reached along a smooth step in half a sample period.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bandwidth_hz: Option<f64>,
+    /// A notch in the commands at this frequency, Hz (e.g. a cable–cabin mode the loop would
+    /// pump), of quality `notch_q` (default 2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub notch_hz: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub notch_q: Option<f64>,
     /// Leg length limits (joint centre to joint centre), m: absolute, or a stroke around each
     /// leg's length at the start pose. Reaching one is reported, not clipped.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -551,7 +557,7 @@ impl Control {
         self.sensor = SensorKind::Off;
         (self.sample_rate_hz, self.delay_s, self.noise_m, self.noise_rad, self.bandwidth_hz, self.seed) =
             (None, 0.0, 0.0, 0.0, None, None);
-        (self.imu, self.prediction_s) = (None, None);
+        (self.imu, self.prediction_s, self.notch_hz, self.notch_q) = (None, None, None, None);
     }
 
     /// The feed's axis as given ([`DEFAULT_FEED_AXIS`] if not), platform frame.
@@ -675,6 +681,7 @@ impl Control {
         unused("noise_rad", !sampled && self.noise_rad != 0.0, what)?;
         unused("seed", !sampled && self.seed.is_some(), what)?;
         unused("bandwidth_hz", !sampled && self.bandwidth_hz.is_some(), what)?;
+        unused("notch_hz", !sampled && self.notch_hz.is_some(), what)?;
         if sampled {
             let rate = self
                 .sample_rate_hz
@@ -691,6 +698,21 @@ impl Control {
             c.finite_nonneg("control.noise_rad", self.noise_rad)?;
             if let Some(b) = self.bandwidth_hz {
                 c.positive("control.bandwidth_hz", b)?;
+            }
+            if let Some(q) = self.notch_q {
+                unused("notch_q", self.notch_hz.is_none(), "notch_hz")?;
+                c.positive("control.notch_q", q)?;
+            }
+            if let Some(f) = self.notch_hz {
+                c.positive("control.notch_hz", f)?;
+                let rate = self.shortest_period().map_or(f64::INFINITY, |(t, _)| 1.0 / t);
+                if f >= 0.5 * rate {
+                    return Err(c.err(
+                        "control.notch_hz",
+                        &show(f),
+                        &format!("must lie below half the command rate ({} Hz)", 0.5 * rate),
+                    ));
+                }
             }
         }
         if let Some(imu) = &self.imu {

@@ -342,6 +342,17 @@ fn values_beyond_engineering_bounds_are_refused_by_key() {
         (with_imu.clone() + "accel_bias_m_s2 = [0.0, 1e3, 0.0]\n", "control.imu.accel_bias_m_s2[1]", "±100 m/s²"),
         (with_imu.replace("= 4e-5", "= -1.0"), "control.imu.gyro_noise_density", "must not be negative"),
         (with_imu.replace("rate_hz = 100.0", "rate_hz = 0.0"), "control.imu.rate_hz", "positive"),
+        // the notch: its quality only with its frequency, which lies below half the command rate
+        (
+            compensated.replace("bandwidth_hz = 0.5\n", "bandwidth_hz = 0.5\nnotch_q = 2.0\n"),
+            "control.notch_q",
+            "notch_hz",
+        ),
+        (
+            compensated.replace("bandwidth_hz = 0.5\n", "bandwidth_hz = 0.5\nnotch_hz = 30.0\n"),
+            "control.notch_hz",
+            "25 Hz",
+        ),
     ] {
         let e = Scene::from_toml(&text, "imu.toml").unwrap_err();
         assert_eq!(e.key, key, "{e}");

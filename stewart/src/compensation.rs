@@ -107,6 +107,8 @@ pub struct Compensation {
     prediction: f64,
     /// Time between commands: the unit's period when fused, else the sensor's.
     command_period: f64,
+    /// A notch on the commands (`notch_hz`).
+    notch: Option<Notch>,
     leg_limits: Option<[(f64, f64); LEGS]>,
     force_limit: Option<f64>,
 }
@@ -168,6 +170,7 @@ impl Compensation {
             fused,
             prediction: control.prediction_s.unwrap_or(0.0),
             command_period,
+            notch: control.notch_hz.map(|f| Notch::new(f, control.notch_q.unwrap_or(2.0), 1.0 / command_period)),
             leg_limits,
             force_limit: control.force_limit_n,
         }
@@ -200,6 +203,8 @@ impl Compensation {
             force_limit_n: None,
             prediction_s: None,
             imu: None,
+            notch_hz: None,
+            notch_q: None,
         }
     }
 
@@ -372,6 +377,7 @@ impl Compensation {
             pending: VecDeque::new(),
             next_sample: 0,
             rng: SplitMix64::new(self.seed),
+            notch: NotchState::default(),
             fused: self.fused.as_ref().map(|(imu, fusion)| Fused {
                 imu: imu.start(),
                 filter: fusion.start_state(),
@@ -451,6 +457,51 @@ fn pose_motion(q: &Pose, dq: &Pose, ddq: &Pose) -> PathPoint {
     }
 }
 
+/// A notch on the commands, a biquad at the command rate (the bilinear transform of
+/// `(s² + ω₀²)/(s² + s ω₀/Q + ω₀²)`, frequency prewarped): `y = b₀u + b₁u₁ + b₂u₂ − a₁y₁ − a₂y₂`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Notch {
+    b: [f64; 3],
+    a: [f64; 2],
+}
+
+impl Notch {
+    fn new(frequency: f64, q: f64, rate: f64) -> Notch {
+        let w = std::f64::consts::TAU * frequency / rate;
+        let (sin, cos) = w.sin_cos();
+        let alpha = sin / (2.0 * q);
+        let a0 = 1.0 + alpha;
+        Notch { b: [1.0 / a0, -2.0 * cos / a0, 1.0 / a0], a: [-2.0 * cos / a0, (1.0 - alpha) / a0] }
+    }
+}
+
+/// The notch's memory: the last two inputs and outputs of each pose component, as deviations
+/// from the rest pose.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+struct NotchState {
+    inputs: [[f64; 6]; 2],
+    outputs: [[f64; 6]; 2],
+}
+
+impl NotchState {
+    /// The command through the notch (unchanged without one).
+    fn filter(&mut self, c: &Compensation, command: Pose) -> Pose {
+        let Some(n) = &c.notch else { return command };
+        let rest = c.rest_pose();
+        let u = command - rest;
+        let (u1, u2, y1, y2) = (
+            Pose::from(self.inputs[0]),
+            Pose::from(self.inputs[1]),
+            Pose::from(self.outputs[0]),
+            Pose::from(self.outputs[1]),
+        );
+        let y = u * n.b[0] + u1 * n.b[1] + u2 * n.b[2] - y1 * n.a[0] - y2 * n.a[1];
+        self.inputs = [u.into(), u1.into()];
+        self.outputs = [y.into(), y1.into()];
+        rest + y
+    }
+}
+
 /// The z-y-x angles (φ, θ, ψ) of a rotation `R_z(ψ) R_y(θ) R_x(φ)`, |θ| < π/2.
 fn zyx_angles(m: &Mat3) -> Vec3 {
     Vec3::new(m[(2, 1)].atan2(m[(2, 2)]), (-m[(2, 0)]).atan2(m[(2, 1)].hypot(m[(2, 2)])), m[(1, 0)].atan2(m[(0, 0)]))
@@ -466,6 +517,8 @@ pub struct CommandState {
     /// Index k of the next sample, taken at the first communication point ≥ k·T.
     next_sample: u64,
     rng: SplitMix64,
+    /// The notch's memory (with `notch_hz`).
+    notch: NotchState,
     /// With `[control.imu]`: the unit, the filter and the index of the next reading.
     fused: Option<Fused>,
 }
@@ -498,6 +551,7 @@ impl Clone for CommandState {
             pending: self.pending.clone(),
             next_sample: self.next_sample,
             rng: self.rng,
+            notch: self.notch,
             fused: self.fused.clone(),
         }
     }
@@ -508,6 +562,7 @@ impl Clone for CommandState {
         self.pending.clone_from(&source.pending);
         self.next_sample = source.next_sample;
         self.rng = source.rng;
+        self.notch = source.notch;
         self.fused.clone_from(&source.fused);
     }
 }
@@ -551,7 +606,7 @@ impl CommandState {
                 }
                 _ => {
                     let apply = t + c.delay;
-                    let command = c.command(&measured_p, &measured_q, apply);
+                    let command = self.notch.filter(c, c.command(&measured_p, &measured_q, apply));
                     self.pending.push_back((apply, command.into()));
                 }
             }
@@ -563,7 +618,7 @@ impl CommandState {
             fusion.add_reading(&mut state.filter, reading);
             fusion.absorb(&mut state.filter, t);
             let (position, attitude) = fusion.estimate(&state.filter, t).predicted(c.prediction, &fusion.gravity());
-            let command = c.command(&position, &attitude, t + c.prediction);
+            let command = self.notch.filter(c, c.command(&position, &attitude, t + c.prediction));
             self.pending.push_back((t, command.into()));
             state.next_reading = ((t + SAME_INSTANT) / imu.period).floor() as u64 + 1;
         }
@@ -683,6 +738,35 @@ mod tests {
             // nothing moves before the delay has passed
             assert_eq!(s.at(&c, 0.03).position, c.rest().position);
         }
+    }
+
+    /// The notch at the command rate: a sinusoid at its frequency is removed in the steady state,
+    /// a constant and a sinusoid a decade away pass (to 2 %); the quality sets the width (the
+    /// gain at f₀·(1 ± 1/(2Q)) is about 1/√2).
+    #[test]
+    fn the_notch_removes_its_frequency_and_passes_the_rest() {
+        let rate = 100.0;
+        let gain = |n: &Notch, f: f64| {
+            let (mut u, mut y) = ([0.0; 2], [0.0; 2]);
+            let mut peak: f64 = 0.0;
+            for k in 0..40_000 {
+                let x = (std::f64::consts::TAU * f * k as f64 / rate).sin();
+                let out = n.b[0] * x + n.b[1] * u[0] + n.b[2] * u[1] - n.a[0] * y[0] - n.a[1] * y[1];
+                (u, y) = ([x, u[0]], [out, y[0]]);
+                if k >= 30_000 {
+                    peak = peak.max(out.abs());
+                }
+            }
+            peak
+        };
+        let n = Notch::new(0.83, 8.0, rate);
+        assert!(gain(&n, 0.83) < 1e-3, "{}", gain(&n, 0.83));
+        assert!((gain(&n, 0.083) - 1.0).abs() < 0.02 && (gain(&n, 8.3) - 1.0).abs() < 0.02);
+        let edge = gain(&n, 0.83 * (1.0 + 1.0 / 16.0));
+        assert!((edge - std::f64::consts::FRAC_1_SQRT_2).abs() < 0.05, "{edge}");
+        // a constant passes exactly
+        let dc: f64 = n.b.iter().sum::<f64>() / (1.0 + n.a[0] + n.a[1]);
+        assert!((dc - 1.0).abs() < 1e-12);
     }
 
     /// The angular velocity of a relative orientation, cabin frame, by central differences:

@@ -1,7 +1,7 @@
 //! `master tune`: the second level's command filter chosen on runs of minutes, in parallel.
 //!
-//! Every candidate (a filter bandwidth, and with an inertial unit a prediction horizon as a share
-//! of the filter's lag 2τ) is run three ways: on the coupled (monolithic) model, on the
+//! Every candidate (a filter bandwidth; with an inertial unit a prediction horizon as a share of
+//! the filter's lag 2τ; with a notch frequency the notch's quality) is run three ways: on the coupled (monolithic) model, on the
 //! decoupled one (its commands replayed on the uncompensated run's cabin poses: the platform's
 //! reactions never reach the cabin), and on the coupled model with the sensor's delay ×0.5 and
 //! ×1.5 and the platform's mass ×0.8 and ×1.2. The design model (`--design`) picks: the lowest
@@ -55,6 +55,14 @@ pub(crate) struct Args {
     /// (comma-separated; ignored without an inertial unit).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_value = "0,0.25,0.5")]
     pub(crate) predictions: Vec<f64>,
+    /// A notch in the commands at this frequency (Hz; default: the scene's `notch_hz`, if any),
+    /// e.g. the cable–cabin mode the loop pumps (`master modes`).
+    #[arg(long, value_parser = positive, allow_negative_numbers = true)]
+    pub(crate) notch_hz: Option<f64>,
+    /// With a notch: its qualities tried (comma-separated).
+    #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
+          default_value = "2,4,8")]
+    pub(crate) notch_qs: Vec<f64>,
     /// Worker threads (default: one per core).
     #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
     pub(crate) jobs: Option<u16>,
@@ -94,12 +102,15 @@ impl Variant {
 struct Candidate {
     bandwidth_hz: f64,
     prediction_s: Option<f64>,
+    /// The notch: frequency, quality.
+    notch: Option<(f64, f64)>,
 }
 
 impl Candidate {
     fn apply(&self, s: &mut Scene) {
         if let Some(c) = s.control.as_mut() {
             (c.bandwidth_hz, c.prediction_s) = (Some(self.bandwidth_hz), self.prediction_s);
+            (c.notch_hz, c.notch_q) = (self.notch.map(|n| n.0), self.notch.map(|n| n.1));
         }
     }
 }
@@ -148,14 +159,19 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let shares: Vec<Option<f64>> =
         if control.imu.is_some() { args.predictions.iter().map(|&p| Some(p)).collect() } else { vec![None] };
-    let candidates: Vec<Candidate> = args
-        .bandwidths
-        .iter()
-        .flat_map(|&b| {
-            let lag = 2.0 / (std::f64::consts::TAU * b);
-            shares.iter().map(move |share| Candidate { bandwidth_hz: b, prediction_s: share.map(|s| s * lag) })
-        })
-        .collect();
+    let notches: Vec<Option<(f64, f64)>> = match args.notch_hz.or(control.notch_hz) {
+        Some(f) => args.notch_qs.iter().map(|&q| Some((f, q))).collect(),
+        None => vec![None],
+    };
+    let mut candidates = Vec::new();
+    for &b in &args.bandwidths {
+        let lag = 2.0 / (std::f64::consts::TAU * b);
+        for share in &shares {
+            for &notch in &notches {
+                candidates.push(Candidate { bandwidth_hz: b, prediction_s: share.map(|s| s * lag), notch });
+            }
+        }
+    }
 
     let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
     let mut declare = |f: &str| outputs.declare("--out", &args.out.join(f), f.rsplit('.').next());
@@ -205,15 +221,16 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     outputs.write(scene_id, |w| w.write_all(tuned_text.as_bytes()))?;
 
     outputs.write(csv_id, |w| {
-        writeln!(w, "bandwidth_hz,prediction_s,run,verdict,feed_err_rms_mm,feed_err_peak_mm,note")?;
+        writeln!(w, "bandwidth_hz,prediction_s,notch_hz,notch_q,run,verdict,feed_err_rms_mm,feed_err_peak_mm,note")?;
         for (i, c) in candidates.iter().enumerate() {
             for v in VARIANTS {
                 let r = verdict(i, v);
                 let p = c.prediction_s.map_or(String::new(), |p| format!("{p:e}"));
+                let notch = c.notch.map_or(",".to_string(), |(f, q)| format!("{f},{q}"));
                 let state = if r.stable { "stable" } else { "unstable" };
                 writeln!(
                     w,
-                    "{},{p},{},{state},{:e},{:e},\"{}\"",
+                    "{},{p},{notch},{},{state},{:e},{:e},\"{}\"",
                     c.bandwidth_hz,
                     v.label(),
                     r.rms,
@@ -228,10 +245,14 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     // the report: every candidate, the choice of each design model, and both on the coupled one
     let describe = |i: usize| {
         let c = &candidates[i];
-        match c.prediction_s {
-            Some(p) => format!("{} Hz, prediction {:.4} s", c.bandwidth_hz, p),
-            None => format!("{} Hz", c.bandwidth_hz),
+        let mut text = format!("{} Hz", c.bandwidth_hz);
+        if let Some(p) = c.prediction_s {
+            text += &format!(", prediction {p:.4} s");
         }
+        if let Some((f, q)) = c.notch {
+            text += &format!(", notch {f} Hz Q {q}");
+        }
+        text
     };
     let rms = |i: usize, v: Variant| {
         let r = verdict(i, v);
