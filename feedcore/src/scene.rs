@@ -705,7 +705,8 @@ impl Control {
             }
             if let Some(f) = self.notch_hz {
                 c.positive("control.notch_hz", f)?;
-                let rate = self.shortest_period().map_or(f64::INFINITY, |(t, _)| 1.0 / t);
+                // the commands come at the unit's readings with one, else at the samples
+                let rate = self.imu.as_ref().map(|imu| imu.rate_hz).or(self.sample_rate_hz).unwrap_or(f64::INFINITY);
                 if f >= 0.5 * rate {
                     return Err(c.err(
                         "control.notch_hz",
