@@ -9,7 +9,7 @@ use feedcore::stewart_geometry::BODIES;
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::Vector3;
 use stewart::kinematics::{forward_kinematics, leg_lengths};
-use stewart::{PathPoint, RigidMotion, Stewart};
+use stewart::{PathPoint, RelativeState, RigidMotion, Stewart};
 
 fn assert_close(what: &str, a: &Vec3, b: &Vec3, tol: f64) {
     assert!((a - b).norm() <= tol, "{what}: {a:?} vs {b:?} (diff {:e})", (a - b).norm());
@@ -26,6 +26,32 @@ fn check_derivatives(name: &str, motion: impl Fn(f64) -> RigidMotion, t: f64, h:
     assert_close(&format!("{name} acceleration at t={t}"), &m.acceleration, &a, tol);
     assert_close(&format!("{name} angular velocity at t={t}"), &m.angular_velocity, &w, tol);
     assert_close(&format!("{name} angular acceleration at t={t}"), &m.angular_acceleration, &dw, tol);
+}
+
+/// Every body's relative motion of a family of relative states against differences, and the
+/// strokes' rates and accelerations against differences of their lengths and rates.
+fn check_relative_motion(name: &str, rel: impl Fn(f64) -> RelativeState, t: f64) {
+    for i in 0..BODIES {
+        let body = |s: f64| {
+            let b = rel(s).bodies[i];
+            RigidMotion {
+                position: b.position,
+                orientation: Quat::from_matrix(&b.orientation),
+                velocity: b.velocity,
+                angular_velocity: b.angular_velocity,
+                acceleration: b.acceleration,
+                angular_acceleration: b.angular_acceleration,
+            }
+        };
+        check_derivatives(&format!("{name} body {i}"), body, t, 1e-3, 1e-11);
+    }
+    let now = rel(t);
+    for k in 0..LEGS {
+        let rate = derivative(|s| Vector3::repeat(rel(s).strokes[k].length), t, 1e-3);
+        let accel = derivative(|s| Vector3::repeat(rel(s).strokes[k].rate), t, 1e-3);
+        assert!((rate.x - now.strokes[k].rate).abs() < 1e-12, "{name} leg {k}");
+        assert!((accel.x - now.strokes[k].acceleration).abs() < 1e-12, "{name} leg {k}");
+    }
 }
 
 #[test]
@@ -50,27 +76,7 @@ fn relative_motion_matches_finite_differences() {
                 .unwrap();
             let st = Stewart::from_scene(&scene).unwrap();
             for t in [0.4, 1.1, 2.9, 4.2, 7.7] {
-                for i in 0..BODIES {
-                    let body = |s: f64| {
-                        let b = st.relative(s).unwrap().bodies[i];
-                        RigidMotion {
-                            position: b.position,
-                            orientation: Quat::from_matrix(&b.orientation),
-                            velocity: b.velocity,
-                            angular_velocity: b.angular_velocity,
-                            acceleration: b.acceleration,
-                            angular_acceleration: b.angular_acceleration,
-                        }
-                    };
-                    check_derivatives(&format!("{name} {start:?} body {i}"), body, t, 1e-3, 1e-11);
-                }
-                let rel = st.relative(t).unwrap();
-                for k in 0..LEGS {
-                    let rate = derivative(|s| Vector3::repeat(st.relative(s).unwrap().strokes[k].length), t, 1e-3);
-                    let accel = derivative(|s| Vector3::repeat(st.relative(s).unwrap().strokes[k].rate), t, 1e-3);
-                    assert!((rate.x - rel.strokes[k].rate).abs() < 1e-12);
-                    assert!((accel.x - rel.strokes[k].acceleration).abs() < 1e-12);
-                }
+                check_relative_motion(&format!("{name} {start:?}"), |s| st.relative(s).unwrap(), t);
             }
         }
     }
@@ -98,27 +104,10 @@ fn relative_motion_of_a_turning_platform_matches_finite_differences() {
     };
     for t in [0.3, 1.2, 2.6] {
         let rel = |s: f64| st.relative_at(&point(s), s).unwrap();
-        for i in 0..BODIES {
-            let body = |s: f64| {
-                let b = rel(s).bodies[i];
-                RigidMotion {
-                    position: b.position,
-                    orientation: Quat::from_matrix(&b.orientation),
-                    velocity: b.velocity,
-                    angular_velocity: b.angular_velocity,
-                    acceleration: b.acceleration,
-                    angular_acceleration: b.angular_acceleration,
-                }
-            };
-            check_derivatives(&format!("turning platform, body {i}"), body, t, 1e-3, 1e-11);
-        }
+        check_relative_motion("turning platform", rel, t);
         let now = rel(t);
         let p = point(t);
         for k in 0..LEGS {
-            let rate = derivative(|s| Vector3::repeat(rel(s).strokes[k].length), t, 1e-3);
-            let accel = derivative(|s| Vector3::repeat(rel(s).strokes[k].rate), t, 1e-3);
-            assert!((rate.x - now.strokes[k].rate).abs() < 1e-12);
-            assert!((accel.x - now.strokes[k].acceleration).abs() < 1e-12);
             let d = p.position + p.orientation * g.platform_joints[k] - g.base_joints[k];
             assert!((now.strokes[k].length - d.norm()).abs() < 1e-15);
             assert_close("leg axis", &now.bodies[1 + k].orientation.column(2).into_owned(), &d.normalize(), 1e-15);

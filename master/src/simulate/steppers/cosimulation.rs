@@ -173,8 +173,11 @@ impl CosimProbe {
         names.extend((1..=LEGS).map(|i| format!("leg.length[{i}]")));
         names.extend((1..=LEGS).map(|i| format!("actuator.force[{i}]")));
         names.extend((1..=4).map(|i| format!("platform.q[{i}]")));
-        names.extend((1..=3).map(|i| format!("estimate.r[{i}]")));
-        names.extend((1..=4).map(|i| format!("estimate.q[{i}]")));
+        // the filter's estimate, with an inertial unit
+        if comp.fused().is_some() {
+            names.extend((1..=3).map(|i| format!("estimate.r[{i}]")));
+            names.extend((1..=4).map(|i| format!("estimate.q[{i}]")));
+        }
         let vrs = names.iter().map(|n| inst.fmu().value_reference(n)).collect::<Result<Vec<_>, _>>()?;
         self.feed = Some((vrs, comp));
         Ok(self)
@@ -194,7 +197,8 @@ impl CosimProbe {
         let feed = match &self.feed {
             Some((vrs, comp)) => {
                 let mut v = [0.0; 33];
-                c.units_mut().instance("stewart").expect("checked in new").get_real(vrs, &mut v)?;
+                let read = &mut v[..vrs.len()];
+                c.units_mut().instance("stewart").expect("checked in new").get_real(vrs, read)?;
                 // the platform relative to the cabin the Stewart FMU saw, placed on the cabin
                 // of the cable model (the same one at convergence)
                 let quat = |i: usize| {
