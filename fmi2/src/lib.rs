@@ -23,6 +23,7 @@ pub mod description;
 pub mod digest;
 pub mod export;
 pub mod ffi;
+pub mod fmi3;
 pub mod import;
 pub mod package;
 pub mod resources;

@@ -1,4 +1,5 @@
-//! Writing `.fmu` archives: `modelDescription.xml`, `binaries/linux64/<id>.so`, `resources/...`.
+//! Writing `.fmu` archives: `modelDescription.xml`, the binary (`binaries/linux64/<id>.so` for
+//! FMI 2.0, `binaries/x86_64-linux/<id>.so` for FMI 3.0), `resources/...`.
 
 use std::fs::File;
 use std::io::Write;
@@ -44,6 +45,16 @@ pub fn package_model<M: Model>(out_dir: &Path, library: &Path) -> Result<PathBuf
     Ok(path)
 }
 
+/// As [`package_model`], the FMI 3.0 archive (the same library: it exports both versions).
+pub fn package_model3<M: Model>(out_dir: &Path, library: &Path) -> Result<PathBuf, PackageError> {
+    let description = M::description().map_err(|e| PackageError::Model(e.to_string()))?;
+    let path = out_dir.join(format!("{}.fmu", description.model_identifier));
+    let xml = crate::fmi3::checked_xml3(&description)?;
+    let binary = format!("binaries/{}/{}.so", crate::fmi3::PLATFORM, description.model_identifier);
+    write_archive(&path, &xml, &binary, library, &M::resources())?;
+    Ok(path)
+}
+
 /// The `modelDescription.xml` of a description, validated, and only if it reads back (through
 /// the importer's parser) as the description itself: what importers will see.
 pub fn checked_xml(description: &ModelDescription) -> Result<String, PackageError> {
@@ -73,8 +84,20 @@ pub fn write_fmu(
     library: &Path,
     resources: &[Resource],
 ) -> Result<(), PackageError> {
-    let identifier = description.model_identifier.clone();
     let xml = checked_xml(description)?;
+    let binary = format!("binaries/{PLATFORM}/{}.so", description.model_identifier);
+    write_archive(out, &xml, &binary, library, resources)
+}
+
+/// Writes the archive `out` (to a temporary name first, then renamed): `xml` as
+/// `modelDescription.xml`, `library` as `binary_name`, the resources.
+fn write_archive(
+    out: &Path,
+    xml: &str,
+    binary_name: &str,
+    library: &Path,
+    resources: &[Resource],
+) -> Result<(), PackageError> {
     let binary = std::fs::read(library).map_err(|source| PackageError::Library { path: library.into(), source })?;
     for r in resources {
         check_resource_name(&r.name)?;
@@ -92,7 +115,7 @@ pub fn write_fmu(
         // the rest of loading the FMU together (about 90 M instructions for 2.9 MB); the archive
         // grows from about 1 to 3 MB
         let stored = file.compression_method(CompressionMethod::Stored).unix_permissions(0o755);
-        zip.start_file(format!("binaries/{PLATFORM}/{identifier}.so"), stored)?;
+        zip.start_file(binary_name, stored)?;
         zip.write_all(&binary)?;
         zip.add_directory("resources/", file.unix_permissions(0o755))?;
         for r in resources {

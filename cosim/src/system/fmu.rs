@@ -1,4 +1,4 @@
-//! A system of FMI 2.0 Co-Simulation FMUs: loaded, connected, parameterized and initialized from
+//! A system of FMI 2.0 and 3.0 Co-Simulation FMUs: loaded, connected, parameterized and initialized from
 //! a [`SystemSpec`], then stepped by the schemes through [`Units`].
 //!
 //! Initialization follows FMI 2.0: parameters are set after instantiation, then in
@@ -669,8 +669,12 @@ fn article(t: VarType) -> String {
     if name.starts_with(['A', 'E', 'I', 'O', 'U']) { format!("an {name}") } else { format!("a {name}") }
 }
 
-/// fmi2Discard from doStep ends the run; anything else is a failure.
+/// The FMU's end ends the run (FMI 2.0: fmi2Discard from doStep; FMI 3.0: terminateSimulation
+/// or an early return); anything else is a failure.
 fn step_error(inst: &mut Instance, e: fmi2::import::Error) -> UnitError {
+    if let fmi2::import::Error::Ended { time, terminated, .. } = e {
+        return UnitError::Ended { last_successful_time: Some(time).filter(|t| t.is_finite()), terminated };
+    }
     if e.status() == Some(fmi2::ffi::Status::Discard) {
         let terminated = inst.terminated().unwrap_or(false);
         let last_successful_time = inst.last_successful_time().ok().filter(|t| t.is_finite());

@@ -11,28 +11,28 @@
 use std::ffi::{CStr, CString, c_char};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
-use super::instance::{Instance, Msg, Phase, describe, error_chain, log_to, panic_text};
+use super::instance::{Instance, Logger, Msg, Phase, describe, error_chain, log_to, panic_text};
 use super::state::{Snapshot, free_snapshot, from_serialized, serialized, serialized_len, snapshot_mut};
 use super::{Derivative, Model, ModelError, Seeds, StepOutcome};
 use crate::description::{Causality, DescriptionError, ModelInfo, VarType};
 use crate::ffi::*;
 use Phase::*;
 
-const ALL_BUT_FATAL: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, Error];
-const GETTABLE: &[Phase] = &[InitializationMode, StepMode, StepFailed, Terminated, Error];
-const SETTABLE: &[Phase] = &[Instantiated, InitializationMode, StepMode];
-const STATE_OK: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated];
+pub(crate) const ALL_BUT_FATAL: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, Error];
+pub(crate) const GETTABLE: &[Phase] = &[InitializationMode, StepMode, StepFailed, Terminated, Error];
+pub(crate) const SETTABLE: &[Phase] = &[Instantiated, InitializationMode, StepMode];
+pub(crate) const STATE_OK: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated];
 /// Where the `fmi2Get*Status` functions may be called.
 const STATUS_OK: &[Phase] = &[StepMode, StepFailed, Terminated, Error];
 /// Freeing a saved state touches no model data: allowed even after a fatal error.
-const ANY: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, Error, Fatal];
+pub(crate) const ANY: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, Error, Fatal];
 
 /// Relative tolerance for matching the importer's communication point with the instance's time.
-const TIME_RTOL: f64 = 1e-9;
+pub(crate) const TIME_RTOL: f64 = 1e-9;
 
 /// Runs `f`, containing a panic: its payload (dropped inside a guard too, as a payload's own
 /// destructor may panic) is passed to `on_panic` as text.
-fn contain<T>(f: impl FnOnce() -> T, on_panic: impl FnOnce(String) -> T) -> T {
+pub(crate) fn contain<T>(f: impl FnOnce() -> T, on_panic: impl FnOnce(String) -> T) -> T {
     match catch_unwind(AssertUnwindSafe(f)) {
         Ok(v) => v,
         Err(payload) => {
@@ -50,7 +50,7 @@ fn contain<T>(f: impl FnOnce() -> T, on_panic: impl FnOnce(String) -> T) -> T {
 ///
 /// # Safety
 /// `c` as in the module's contract.
-unsafe fn call<M: Model>(
+pub(crate) unsafe fn call<M: Model>(
     c: fmi2Component,
     func: &'static str,
     allowed: &[Phase],
@@ -82,7 +82,7 @@ unsafe fn call<M: Model>(
 ///
 /// # Safety
 /// A non-null `ptr` points to `n` aligned, initialized elements that nothing changes during `'a`.
-unsafe fn slice<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
+pub(crate) unsafe fn slice<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], String> {
     if n == 0 {
         Ok(&[])
     } else if ptr.is_null() {
@@ -95,7 +95,7 @@ unsafe fn slice<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], S
 
 /// # Safety
 /// A non-null `ptr` points to `n` aligned, writable elements that nothing else accesses during `'a`.
-unsafe fn slice_mut<'a, T>(ptr: *mut T, n: usize, what: &str) -> Result<&'a mut [T], String> {
+pub(crate) unsafe fn slice_mut<'a, T>(ptr: *mut T, n: usize, what: &str) -> Result<&'a mut [T], String> {
     if n == 0 {
         Ok(&mut [])
     } else if ptr.is_null() {
@@ -110,7 +110,7 @@ unsafe fn slice_mut<'a, T>(ptr: *mut T, n: usize, what: &str) -> Result<&'a mut 
 ///
 /// # Safety
 /// A non-null `out` is aligned and writable.
-unsafe fn write<T>(out: *mut T, value: T, what: &str) -> Result<(), String> {
+pub(crate) unsafe fn write<T>(out: *mut T, value: T, what: &str) -> Result<(), String> {
     // SAFETY: the caller's contract, for one element.
     let out = unsafe { slice_mut(out, 1, what) }?;
     out[0] = value;
@@ -121,7 +121,7 @@ unsafe fn write<T>(out: *mut T, value: T, what: &str) -> Result<(), String> {
 ///
 /// # Safety
 /// A non-null `s` is NUL-terminated and unchanged during the call.
-unsafe fn string(s: *const c_char) -> Option<String> {
+pub(crate) unsafe fn string(s: *const c_char) -> Option<String> {
     // SAFETY: the caller's contract.
     (!s.is_null()).then(|| unsafe { CStr::from_ptr(s) }.to_string_lossy().into_owned())
 }
@@ -138,7 +138,7 @@ pub fn version() -> *const c_char {
 /// by the first `fmi2Instantiate`, inside its panic guard; a panic leaves it unset).
 pub type InfoCell = std::sync::OnceLock<Result<ModelInfo, DescriptionError>>;
 
-fn model_info<M: Model>() -> Result<ModelInfo, DescriptionError> {
+pub(crate) fn model_info<M: Model>() -> Result<ModelInfo, DescriptionError> {
     ModelInfo::new(M::description().map_err(|e| DescriptionError(error_chain(&*e)))?)
 }
 
@@ -188,8 +188,8 @@ pub unsafe fn instantiate<M: Model>(
                 info,
                 name: name_c.clone(),
                 resources,
-                logger: cb.logger,
-                environment: cb.componentEnvironment,
+                logger: Logger::Fmi2(cb.logger, cb.componentEnvironment),
+                v3: None,
                 log_errors: true,
                 log_warnings: true,
                 log_info: logging_on != fmi2False,
@@ -211,7 +211,8 @@ pub unsafe fn instantiate<M: Model>(
     );
     result.unwrap_or_else(|msg| {
         let message = format!("fmi2Instantiate: {msg}");
-        contain(|| log_to(cb.logger, cb.componentEnvironment, &name_c, fmi2Error, "logError", &message), drop);
+        let logger = Logger::Fmi2(cb.logger, cb.componentEnvironment);
+        contain(|| log_to(logger, &name_c, fmi2Error, "logError", &message), drop);
         std::ptr::null_mut()
     })
 }
@@ -228,7 +229,9 @@ pub unsafe fn free_instance<M: Model>(c: fmi2Component) {
 
 /// # Safety
 /// As the module's contract; `categories` holds `n` strings.
-pub unsafe fn set_debug_logging<M: Model>(
+pub unsafe fn set_debug_logging_as<M: Model>(
+    func: &'static str,
+
     c: fmi2Component,
     logging_on: fmi2Boolean,
     n: usize,
@@ -236,7 +239,7 @@ pub unsafe fn set_debug_logging<M: Model>(
 ) -> fmi2Status {
     // SAFETY: `c`, the array and its strings as the contract says.
     unsafe {
-        call::<M>(c, "fmi2SetDebugLogging", ALL_BUT_FATAL, |inst| {
+        call::<M>(c, func, ALL_BUT_FATAL, |inst| {
             let on = logging_on != fmi2False;
             let cats = slice(categories, n, "categories")?;
             if cats.is_empty() {
@@ -258,6 +261,18 @@ pub unsafe fn set_debug_logging<M: Model>(
             Ok(fmi2OK)
         })
     }
+}
+
+/// # Safety
+/// As [`set_debug_logging_as`].
+pub unsafe fn set_debug_logging<M: Model>(
+    c: fmi2Component,
+    logging_on: fmi2Boolean,
+    n: usize,
+    categories: *const fmi2String,
+) -> fmi2Status {
+    // SAFETY: the same contract.
+    unsafe { set_debug_logging_as::<M>("fmi2SetDebugLogging", c, logging_on, n, categories) }
 }
 
 /// # Safety
@@ -303,16 +318,16 @@ pub unsafe fn enter_initialization_mode<M: Model>(c: fmi2Component) -> fmi2Statu
 
 /// # Safety
 /// As the module's contract.
-pub unsafe fn exit_initialization_mode<M: Model>(c: fmi2Component) -> fmi2Status {
+pub unsafe fn exit_initialization_mode_as<M: Model>(func: &'static str, c: fmi2Component) -> fmi2Status {
     // SAFETY: `c` as the contract says.
     unsafe {
-        call::<M>(c, "fmi2ExitInitializationMode", &[InitializationMode], |inst| {
+        call::<M>(c, func, &[InitializationMode], |inst| {
             inst.model.exit_initialization(inst.start_time).msg()?;
             (inst.phase, inst.time) = (StepMode, inst.start_time);
             inst.log(fmi2OK, &format!("entered step mode at t = {}", inst.time));
             match inst.model.initialization_warning() {
                 Some(warning) => {
-                    inst.log(fmi2Warning, &format!("fmi2ExitInitializationMode: {warning}"));
+                    inst.log(fmi2Warning, &format!("{func}: {warning}"));
                     Ok(fmi2Warning)
                 }
                 None => Ok(fmi2OK),
@@ -322,11 +337,18 @@ pub unsafe fn exit_initialization_mode<M: Model>(c: fmi2Component) -> fmi2Status
 }
 
 /// # Safety
+/// As [`exit_initialization_mode_as`].
+pub unsafe fn exit_initialization_mode<M: Model>(c: fmi2Component) -> fmi2Status {
+    // SAFETY: the same contract.
+    unsafe { exit_initialization_mode_as::<M>("fmi2ExitInitializationMode", c) }
+}
+
+/// # Safety
 /// As the module's contract.
-pub unsafe fn terminate<M: Model>(c: fmi2Component) -> fmi2Status {
+pub unsafe fn terminate_as<M: Model>(func: &'static str, c: fmi2Component) -> fmi2Status {
     // SAFETY: `c` as the contract says.
     unsafe {
-        call::<M>(c, "fmi2Terminate", &[StepMode, StepFailed], |inst| {
+        call::<M>(c, func, &[StepMode, StepFailed], |inst| {
             inst.phase = Terminated;
             Ok(fmi2OK)
         })
@@ -334,17 +356,31 @@ pub unsafe fn terminate<M: Model>(c: fmi2Component) -> fmi2Status {
 }
 
 /// # Safety
+/// As [`terminate_as`].
+pub unsafe fn terminate<M: Model>(c: fmi2Component) -> fmi2Status {
+    // SAFETY: the same contract.
+    unsafe { terminate_as::<M>("fmi2Terminate", c) }
+}
+
+/// # Safety
 /// As the module's contract.
-pub unsafe fn reset<M: Model>(c: fmi2Component) -> fmi2Status {
+pub unsafe fn reset_as<M: Model>(func: &'static str, c: fmi2Component) -> fmi2Status {
     // SAFETY: `c` as the contract says.
     unsafe {
-        call::<M>(c, "fmi2Reset", ALL_BUT_FATAL, |inst| {
+        call::<M>(c, func, ALL_BUT_FATAL, |inst| {
             inst.model = M::instantiate(inst.resources.as_deref()).msg()?;
             (inst.phase, inst.time, inst.start_time, inst.stop_time, inst.terminated) =
                 (Instantiated, 0.0, 0.0, None, false);
             Ok(fmi2OK)
         })
     }
+}
+
+/// # Safety
+/// As [`reset_as`].
+pub unsafe fn reset<M: Model>(c: fmi2Component) -> fmi2Status {
+    // SAFETY: the same contract.
+    unsafe { reset_as::<M>("fmi2Reset", c) }
 }
 
 /// Shared body of `fmi2Get{Real,Integer,Boolean}`; `invalid` refuses a value the model
@@ -418,7 +454,7 @@ unsafe fn set<M: Model, T: Copy>(
     }
 }
 
-fn finite(x: f64) -> Option<String> {
+pub(crate) fn finite(x: f64) -> Option<String> {
     (!x.is_finite()).then(|| format!("{x}: not a finite number"))
 }
 
@@ -520,10 +556,10 @@ pub unsafe fn set_string<M: Model>(c: fmi2Component, vr: *const u32, n: usize, v
 
 /// # Safety
 /// As the module's contract; `state` is writable and holds null or a state of this instance's FMU.
-pub unsafe fn get_fmu_state<M: Model>(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+pub unsafe fn get_fmu_state_as<M: Model>(func: &'static str, c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
     // SAFETY: `c`, `state` and the state it holds as the contract says.
     unsafe {
-        call::<M>(c, "fmi2GetFMUstate", STATE_OK, |inst| {
+        call::<M>(c, func, STATE_OK, |inst| {
             let state = slice_mut(state, 1, "FMUstate")?;
             if state[0].is_null() {
                 let mut snap = Snapshot::of_bytes(Vec::new());
@@ -539,11 +575,18 @@ pub unsafe fn get_fmu_state<M: Model>(c: fmi2Component, state: *mut fmi2FMUstate
 }
 
 /// # Safety
+/// As [`get_fmu_state_as`].
+pub unsafe fn get_fmu_state<M: Model>(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+    // SAFETY: the same contract.
+    unsafe { get_fmu_state_as::<M>("fmi2GetFMUstate", c, state) }
+}
+
+/// # Safety
 /// As the module's contract; `state` is null or a state of this instance's FMU.
-pub unsafe fn set_fmu_state<M: Model>(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
+pub unsafe fn set_fmu_state_as<M: Model>(func: &'static str, c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
     // SAFETY: `c` and `state` as the contract says.
     unsafe {
-        call::<M>(c, "fmi2SetFMUstate", ALL_BUT_FATAL, |inst| {
+        call::<M>(c, func, ALL_BUT_FATAL, |inst| {
             inst.restore_snapshot(snapshot_mut(state)?)?;
             Ok(fmi2OK)
         })
@@ -551,11 +594,22 @@ pub unsafe fn set_fmu_state<M: Model>(c: fmi2Component, state: fmi2FMUstate) -> 
 }
 
 /// # Safety
+/// As [`set_fmu_state_as`].
+pub unsafe fn set_fmu_state<M: Model>(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
+    // SAFETY: the same contract.
+    unsafe { set_fmu_state_as::<M>("fmi2SetFMUstate", c, state) }
+}
+
+/// # Safety
 /// As [`get_fmu_state`]; the state is freed and `*state` null afterwards.
-pub unsafe fn free_fmu_state<M: Model>(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+pub unsafe fn free_fmu_state_as<M: Model>(
+    func: &'static str,
+    c: fmi2Component,
+    state: *mut fmi2FMUstate,
+) -> fmi2Status {
     // SAFETY: `c`, `state` and the state it holds as the contract says.
     unsafe {
-        call::<M>(c, "fmi2FreeFMUstate", ANY, |_| {
+        call::<M>(c, func, ANY, |_| {
             if state.is_null() || (*state).is_null() {
                 return Ok(fmi2OK);
             }
@@ -567,15 +621,24 @@ pub unsafe fn free_fmu_state<M: Model>(c: fmi2Component, state: *mut fmi2FMUstat
 }
 
 /// # Safety
+/// As [`free_fmu_state_as`].
+pub unsafe fn free_fmu_state<M: Model>(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+    // SAFETY: the same contract.
+    unsafe { free_fmu_state_as::<M>("fmi2FreeFMUstate", c, state) }
+}
+
+/// # Safety
 /// As [`set_fmu_state`]; `size` is writable.
-pub unsafe fn serialized_fmu_state_size<M: Model>(
+pub unsafe fn serialized_fmu_state_size_as<M: Model>(
+    func: &'static str,
+
     c: fmi2Component,
     state: fmi2FMUstate,
     size: *mut usize,
 ) -> fmi2Status {
     // SAFETY: `c`, `state` and `size` as the contract says.
     unsafe {
-        call::<M>(c, "fmi2SerializedFMUstateSize", ALL_BUT_FATAL, |inst| {
+        call::<M>(c, func, ALL_BUT_FATAL, |inst| {
             write(size, serialized_len(inst.snapshot_bytes(snapshot_mut(state)?)?), "size")?;
             Ok(fmi2OK)
         })
@@ -583,8 +646,21 @@ pub unsafe fn serialized_fmu_state_size<M: Model>(
 }
 
 /// # Safety
+/// As [`serialized_fmu_state_size_as`].
+pub unsafe fn serialized_fmu_state_size<M: Model>(
+    c: fmi2Component,
+    state: fmi2FMUstate,
+    size: *mut usize,
+) -> fmi2Status {
+    // SAFETY: the same contract.
+    unsafe { serialized_fmu_state_size_as::<M>("fmi2SerializedFMUstateSize", c, state, size) }
+}
+
+/// # Safety
 /// As [`set_fmu_state`]; `bytes` holds `size` writable bytes.
-pub unsafe fn serialize_fmu_state<M: Model>(
+pub unsafe fn serialize_fmu_state_as<M: Model>(
+    func: &'static str,
+
     c: fmi2Component,
     state: fmi2FMUstate,
     bytes: *mut fmi2Byte,
@@ -592,7 +668,7 @@ pub unsafe fn serialize_fmu_state<M: Model>(
 ) -> fmi2Status {
     // SAFETY: `c`, `state` and the buffer as the contract says.
     unsafe {
-        call::<M>(c, "fmi2SerializeFMUstate", ALL_BUT_FATAL, |inst| {
+        call::<M>(c, func, ALL_BUT_FATAL, |inst| {
             let state_bytes = inst.snapshot_bytes(snapshot_mut(state)?)?;
             let needed = serialized_len(state_bytes);
             if size < needed {
@@ -606,8 +682,22 @@ pub unsafe fn serialize_fmu_state<M: Model>(
 }
 
 /// # Safety
+/// As [`serialize_fmu_state_as`].
+pub unsafe fn serialize_fmu_state<M: Model>(
+    c: fmi2Component,
+    state: fmi2FMUstate,
+    bytes: *mut fmi2Byte,
+    size: usize,
+) -> fmi2Status {
+    // SAFETY: the same contract.
+    unsafe { serialize_fmu_state_as::<M>("fmi2SerializeFMUstate", c, state, bytes, size) }
+}
+
+/// # Safety
 /// As [`get_fmu_state`]; `bytes` holds `size` readable bytes.
-pub unsafe fn deserialize_fmu_state<M: Model>(
+pub unsafe fn deserialize_fmu_state_as<M: Model>(
+    func: &'static str,
+
     c: fmi2Component,
     bytes: *const fmi2Byte,
     size: usize,
@@ -615,7 +705,7 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
 ) -> fmi2Status {
     // SAFETY: `c`, the buffer, `state` and the state it holds as the contract says.
     unsafe {
-        call::<M>(c, "fmi2DeSerializeFMUstate", ALL_BUT_FATAL, |inst| {
+        call::<M>(c, func, ALL_BUT_FATAL, |inst| {
             let data = from_serialized(slice(bytes.cast::<u8>(), size, "serializedState")?)?;
             let state = slice_mut(state, 1, "FMUstate")?;
             inst.check_state(data)?;
@@ -627,6 +717,18 @@ pub unsafe fn deserialize_fmu_state<M: Model>(
             Ok(fmi2OK)
         })
     }
+}
+
+/// # Safety
+/// As [`deserialize_fmu_state_as`].
+pub unsafe fn deserialize_fmu_state<M: Model>(
+    c: fmi2Component,
+    bytes: *const fmi2Byte,
+    size: usize,
+    state: *mut fmi2FMUstate,
+) -> fmi2Status {
+    // SAFETY: the same contract.
+    unsafe { deserialize_fmu_state_as::<M>("fmi2DeSerializeFMUstate", c, bytes, size, state) }
 }
 
 /// `fmi2GetDirectionalDerivative` ([`Derivative::Instant`]) and the extension
@@ -678,7 +780,7 @@ pub unsafe fn derivative<M: Model>(
 /// The checks around a model's derivative: unknowns and knowns of the right causality, finite
 /// seeds (parameters with a zero seed dropped into `k`, `s`), a finite result.
 #[allow(clippy::too_many_arguments)]
-fn derivative_checked<M: Model>(
+pub(crate) fn derivative_checked<M: Model>(
     inst: &mut Instance<M>,
     kind: Derivative,
     unknowns: &[u32],
@@ -780,10 +882,10 @@ pub unsafe fn get_real_output_derivatives<M: Model>(
 /// As the module's contract.
 pub unsafe fn do_step<M: Model>(c: fmi2Component, t: f64, h: f64, _no_prior: fmi2Boolean) -> fmi2Status {
     // SAFETY: `c` as the contract says.
-    unsafe { call::<M>(c, "fmi2DoStep", &[StepMode], |inst| step(inst, t, h)) }
+    unsafe { call::<M>(c, "fmi2DoStep", &[StepMode], |inst| step("fmi2DoStep", inst, t, h)) }
 }
 
-fn step<M: Model>(inst: &mut Instance<M>, t: f64, h: f64) -> Result<fmi2Status, String> {
+pub(crate) fn step<M: Model>(func: &str, inst: &mut Instance<M>, t: f64, h: f64) -> Result<fmi2Status, String> {
     if !(t.is_finite() && h.is_finite() && h > 0.0) {
         return Err(format!("currentCommunicationPoint = {t}, communicationStepSize = {h}: need finite t and h > 0"));
     }
@@ -811,7 +913,7 @@ fn step<M: Model>(inst: &mut Instance<M>, t: f64, h: f64) -> Result<fmi2Status, 
                 return Err(format!("the model stopped at t = {time}, outside the step [{t}, {}]", t + h));
             }
             (inst.time, inst.terminated, inst.phase) = (time, true, StepFailed);
-            inst.log(fmi2Discard, &format!("fmi2DoStep: the model stopped at t = {time}: {reason}"));
+            inst.log(fmi2Discard, &format!("{func}: the model stopped at t = {time}: {reason}"));
             Ok(fmi2Discard)
         }
     }

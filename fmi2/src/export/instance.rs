@@ -9,6 +9,8 @@ use serde::{Deserialize, Serialize};
 use super::{Model, ModelError};
 use crate::description::{ModelInfo, SetPhase, VarInfo, VarType};
 use crate::ffi::*;
+use crate::fmi3::ffi::{fmi3InstanceEnvironment, fmi3LogMessageCallback};
+use crate::fmi3::layout::Layout3;
 
 /// The phases of the FMI 2.0 Co-Simulation state machine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -47,13 +49,35 @@ impl Phase {
     }
 }
 
+/// Where an instance's messages go: the importer's callback, as its FMI version defines it.
+#[derive(Clone, Copy)]
+pub(crate) enum Logger {
+    /// printf-style (variadic), with the instance name.
+    Fmi2(fmi2CallbackLogger, fmi2ComponentEnvironment),
+    /// Plain text.
+    Fmi3(fmi3LogMessageCallback, fmi3InstanceEnvironment),
+}
+
+/// What an instance exported as FMI 3.0 holds besides: its variables, the importer's choice
+/// of early return, and buffers reused by every call.
+pub(crate) struct V3 {
+    pub(crate) layout: &'static Layout3,
+    pub(crate) early_return_allowed: bool,
+    /// The model's value references of one call's elements (a derivative's unknowns).
+    pub(crate) scalars: Vec<u32>,
+    /// A derivative's knowns; the Float64 elements the model answers for one `fmi3GetFloat64`.
+    pub(crate) knowns: Vec<u32>,
+    pub(crate) reals: Vec<f64>,
+}
+
 /// One FMU instance.
 pub(crate) struct Instance<M: Model> {
     pub(crate) info: &'static ModelInfo,
     pub(crate) name: CString,
     pub(crate) resources: Option<PathBuf>,
-    pub(crate) logger: fmi2CallbackLogger,
-    pub(crate) environment: fmi2ComponentEnvironment,
+    pub(crate) logger: Logger,
+    /// `Some` for an instance of the FMI 3.0 export.
+    pub(crate) v3: Option<V3>,
     pub(crate) log_errors: bool,
     /// On unless the importer switches `logWarning` off: a warning is meant to be seen.
     pub(crate) log_warnings: bool,
@@ -81,7 +105,7 @@ impl<M: Model> Instance<M> {
             _ => ("logInfo", self.log_info),
         };
         if enabled {
-            log_to(self.logger, self.environment, &self.name, status, category, message);
+            log_to(self.logger, &self.name, status, category, message);
         }
     }
 
@@ -96,7 +120,8 @@ impl<M: Model> Instance<M> {
     ) -> fmi2Status {
         if !allowed.contains(&self.phase) {
             if self.phase == Phase::Fatal {
-                let message = format!("{func}: the instance is in the fatal state; only fmi2FreeInstance is allowed");
+                let free = if self.v3.is_some() { "fmi3FreeInstance" } else { "fmi2FreeInstance" };
+                let message = format!("{func}: the instance is in the fatal state; only {free} is allowed");
                 self.log(fmi2Fatal, &message);
                 return fmi2Fatal;
             }
@@ -126,23 +151,29 @@ pub(crate) fn describe(v: &VarInfo) -> String {
     format!("`{}` ({}, {})", v.var.name, v.var.causality.as_str(), v.var.variability.as_str())
 }
 
-/// Calls the importer's printf-style logger with `message` as the format: `%` is escaped.
-pub(crate) fn log_to(
-    logger: fmi2CallbackLogger,
-    env: fmi2ComponentEnvironment,
-    name: &CStr,
-    status: fmi2Status,
-    category: &str,
-    message: &str,
-) {
-    let Some(logger) = logger else { return };
-    let text = CString::new(message.replace('%', "%%").replace('\0', "")).unwrap_or_default();
+/// Calls the importer's logger; for FMI 2.0's printf-style one `message` is the format, its
+/// `%` escaped.
+pub(crate) fn log_to(logger: Logger, name: &CStr, status: fmi2Status, category: &str, message: &str) {
     let cat = CString::new(category).unwrap_or_default();
-    // SAFETY: `logger` is the function the importer gave in fmi2CallbackFunctions, which FMI 2.0
-    // requires to stay callable while the instance lives, with its own environment pointer;
-    // the three strings are NUL-terminated and outlive the call; `text` has no conversion
-    // specifier left (every `%` is doubled), so no variadic argument is read.
-    unsafe { logger(env, name.as_ptr(), status, cat.as_ptr(), text.as_ptr()) };
+    match logger {
+        Logger::Fmi2(Some(logger), env) => {
+            let text = CString::new(message.replace('%', "%%").replace('\0', "")).unwrap_or_default();
+            // SAFETY: `logger` is the function the importer gave in fmi2CallbackFunctions, which
+            // FMI 2.0 requires to stay callable while the instance lives, with its own
+            // environment pointer; the three strings are NUL-terminated and outlive the call;
+            // `text` has no conversion specifier left (every `%` is doubled), so no variadic
+            // argument is read.
+            unsafe { logger(env, name.as_ptr(), status, cat.as_ptr(), text.as_ptr()) };
+        }
+        Logger::Fmi3(Some(logger), env) => {
+            let text = CString::new(message.replace('\0', "")).unwrap_or_default();
+            // SAFETY: `logger` is the importer's logMessage of fmi3InstantiateCoSimulation,
+            // callable while the instance lives (FMI 3.0), with its instanceEnvironment; both
+            // strings are NUL-terminated and outlive the call.
+            unsafe { logger(env, status, cat.as_ptr(), text.as_ptr()) };
+        }
+        Logger::Fmi2(None, _) | Logger::Fmi3(None, _) => {}
+    }
 }
 
 /// Model errors as the layer's messages.

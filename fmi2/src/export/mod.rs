@@ -12,7 +12,7 @@
 
 #[doc(hidden)]
 pub mod exported;
-mod instance;
+pub(crate) mod instance;
 mod state;
 
 use std::path::Path;

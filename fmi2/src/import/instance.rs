@@ -6,7 +6,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::api::Api;
 use super::log::{LogMessage, LogSink};
-use super::{Capability, Error, Fmu};
+use super::v3::Calls3;
+use super::{Binary, Capability, Error, Fmu};
 use crate::description::{Causality, VarType};
 use crate::ffi::*;
 
@@ -16,7 +17,7 @@ pub struct FmuState {
     id: u64,
 }
 
-/// One FMU instance. Freed (`fmi2FreeInstance`) on drop. `Send`: an instance may move between
+/// One FMU instance of either FMI version. Freed (`fmi2FreeInstance`, `fmi3FreeInstance`) on drop. `Send`: an instance may move between
 /// threads, but it is not shared (`&mut self` for every call).
 ///
 /// The invariants every call into the FMU relies on: `component` is what `fmi2Instantiate`
@@ -29,8 +30,11 @@ pub struct Instance {
     pub(super) component: fmi2Component,
     pub(super) name: String,
     pub(super) sink: Box<LogSink>,
-    pub(super) _callbacks: Box<fmi2CallbackFunctions>,
+    /// FMI 2.0: the callbacks the component was given.
+    pub(super) _callbacks: Option<Box<fmi2CallbackFunctions>>,
     pub(super) states: Vec<(u64, fmi2FMUstate)>,
+    /// FMI 3.0: what the calls keep (plans, buffers, the step's end).
+    pub(super) v3: Option<Box<Calls3>>,
 }
 
 // SAFETY: FMI 2.0 instances carry no thread affinity (the standard asks only that one instance
@@ -42,6 +46,17 @@ impl fmt::Debug for Instance {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "Instance({} of {})", self.name, self.fmu.name())
     }
+}
+
+/// Calls function `$f` of the binary's version (the state functions of FMI 2.0 and 3.0 take the
+/// same C types), with the standard's name of that version: `(status, name)`.
+macro_rules! either {
+    ($self:ident . $f:ident ( $($arg:expr),* ), $n2:literal, $n3:literal) => {
+        match &$self.fmu.inner.api {
+            Binary::V2(a) => ((a.$f)($($arg),*), $n2),
+            Binary::V3(a) => ((a.$f)($($arg),*), $n3),
+        }
+    };
 }
 
 fn same_len(what: &str, a: usize, b: usize) -> Result<(), Error> {
@@ -63,10 +78,13 @@ impl Instance {
     }
 
     fn api(&self) -> &Api {
-        &self.fmu.inner.api
+        match &self.fmu.inner.api {
+            Binary::V2(api) => api,
+            Binary::V3(_) => unreachable!("an FMI 2.0 call on an FMI 3.0 instance"),
+        }
     }
 
-    fn check(&self, function: &'static str, status: fmi2Status) -> Result<(), Error> {
+    pub(super) fn check(&self, function: &'static str, status: fmi2Status) -> Result<(), Error> {
         if status == fmi2OK || status == fmi2Warning {
             Ok(())
         } else {
@@ -86,6 +104,9 @@ impl Instance {
             .map(|c| CString::new(*c).map_err(|_| Error::Usage(format!("category `{c}` contains NUL"))))
             .collect::<Result<_, _>>()?;
         let ptrs: Vec<fmi2String> = owned.iter().map(|c| c.as_ptr()).collect();
+        if self.v3.is_some() {
+            return self.set_debug_logging3(on, &ptrs);
+        }
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
         // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().set_debug_logging)(self.component, c_int::from(on), ptrs.len(), ptrs.as_ptr()) };
@@ -93,6 +114,10 @@ impl Instance {
     }
 
     pub fn setup_experiment(&mut self, tolerance: Option<f64>, start: f64, stop: Option<f64>) -> Result<(), Error> {
+        if self.v3.is_some() {
+            self.setup_experiment3(tolerance, start, stop);
+            return Ok(());
+        }
         // SAFETY: a live component and its loaded function (the invariants of `Instance`).
         let s = unsafe {
             (self.api().setup_experiment)(
@@ -108,23 +133,38 @@ impl Instance {
     }
 
     pub fn enter_initialization_mode(&mut self) -> Result<(), Error> {
+        if self.v3.is_some() {
+            return self.enter_initialization_mode3();
+        }
         self.call_plain(self.api().enter_initialization_mode, "fmi2EnterInitializationMode")
     }
 
     pub fn exit_initialization_mode(&mut self) -> Result<(), Error> {
+        if self.v3.is_some() {
+            return self.exit_initialization_mode3();
+        }
         self.call_plain(self.api().exit_initialization_mode, "fmi2ExitInitializationMode")
     }
 
     pub fn terminate(&mut self) -> Result<(), Error> {
+        if self.v3.is_some() {
+            return self.terminate3();
+        }
         self.call_plain(self.api().terminate, "fmi2Terminate")
     }
 
     pub fn reset(&mut self) -> Result<(), Error> {
+        if self.v3.is_some() {
+            return self.reset3();
+        }
         self.call_plain(self.api().reset, "fmi2Reset")
     }
 
     pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), Error> {
         same_len("get_real", vrs.len(), out.len())?;
+        if self.v3.is_some() {
+            return self.get_real3(vrs, out);
+        }
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
         // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().get_real)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
@@ -133,6 +173,9 @@ impl Instance {
 
     pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Result<(), Error> {
         same_len("get_integer", vrs.len(), out.len())?;
+        if self.v3.is_some() {
+            return self.get_integer3(vrs, out);
+        }
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
         // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().get_integer)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
@@ -141,6 +184,9 @@ impl Instance {
 
     pub fn get_boolean(&mut self, vrs: &[u32], out: &mut [bool]) -> Result<(), Error> {
         same_len("get_boolean", vrs.len(), out.len())?;
+        if self.v3.is_some() {
+            return self.get_boolean3(vrs, out);
+        }
         let mut raw = vec![0 as fmi2Boolean; vrs.len()];
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
         // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
@@ -153,6 +199,9 @@ impl Instance {
     }
 
     pub fn get_string(&mut self, vrs: &[u32]) -> Result<Vec<String>, Error> {
+        if self.v3.is_some() {
+            return self.get_string3(vrs);
+        }
         let mut raw = vec![std::ptr::null::<c_char>(); vrs.len()];
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
         // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
@@ -169,6 +218,9 @@ impl Instance {
 
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), Error> {
         same_len("set_real", vrs.len(), values.len())?;
+        if self.v3.is_some() {
+            return self.set_real3(vrs, values);
+        }
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
         // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
@@ -177,6 +229,9 @@ impl Instance {
 
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<(), Error> {
         same_len("set_integer", vrs.len(), values.len())?;
+        if self.v3.is_some() {
+            return self.set_integer3(vrs, values);
+        }
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
         // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
         let s = unsafe { (self.api().set_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
@@ -185,6 +240,9 @@ impl Instance {
 
     pub fn set_boolean(&mut self, vrs: &[u32], values: &[bool]) -> Result<(), Error> {
         same_len("set_boolean", vrs.len(), values.len())?;
+        if self.v3.is_some() {
+            return self.set_boolean3(vrs, values);
+        }
         let raw: Vec<fmi2Boolean> = values.iter().map(|&b| c_int::from(b)).collect();
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
         // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
@@ -194,6 +252,9 @@ impl Instance {
 
     pub fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Result<(), Error> {
         same_len("set_string", vrs.len(), values.len())?;
+        if self.v3.is_some() {
+            return self.set_string3(vrs, values);
+        }
         let owned: Vec<CString> = values
             .iter()
             .map(|v| CString::new(*v).map_err(|_| Error::Usage(format!("string `{v}` contains a NUL byte"))))
@@ -207,6 +268,9 @@ impl Instance {
 
     /// `fmi2DoStep(t, h, noSetFMUStatePriorToCurrentPoint = false)`.
     pub fn do_step(&mut self, t: f64, h: f64) -> Result<(), Error> {
+        if self.v3.is_some() {
+            return self.do_step3(t, h);
+        }
         // SAFETY: a live component and its loaded function (the invariants of `Instance`).
         let s = unsafe { (self.api().do_step)(self.component, t, h, fmi2False) };
         self.check("fmi2DoStep", s)
@@ -214,6 +278,9 @@ impl Instance {
 
     /// `fmi2CancelStep` (only meaningful for asynchronous FMUs).
     pub fn cancel_step(&mut self) -> Result<(), Error> {
+        if self.v3.is_some() {
+            return Err(Error::Usage("FMI 3.0 has no fmi3CancelStep (no asynchronous steps)".into()));
+        }
         self.call_plain(self.api().cancel_step, "fmi2CancelStep")
     }
 
@@ -226,6 +293,9 @@ impl Instance {
 
     /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)`.
     pub fn last_successful_time(&mut self) -> Result<f64, Error> {
+        if self.v3.is_some() {
+            return Ok(self.last_successful_time3());
+        }
         let mut t = f64::NAN;
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the answer goes to a
         // local.
@@ -236,6 +306,9 @@ impl Instance {
 
     /// `fmi2GetBooleanStatus(fmi2Terminated)`.
     pub fn terminated(&mut self) -> Result<bool, Error> {
+        if self.v3.is_some() {
+            return Ok(self.terminated3());
+        }
         let mut b = fmi2False;
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the answer goes to a
         // local.
@@ -250,8 +323,9 @@ impl Instance {
         let mut raw: fmi2FMUstate = std::ptr::null_mut();
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is null or a state
         // this component made and has not freed (`states`).
-        let s = unsafe { (self.api().get_fmu_state)(self.component, &mut raw) };
-        self.check("fmi2GetFMUstate", s)?;
+        let (s, name) =
+            unsafe { either!(self.get_fmu_state(self.component, &mut raw), "fmi2GetFMUstate", "fmi3GetFMUState") };
+        self.check(name, s)?;
         Ok(self.adopt(raw))
     }
 
@@ -276,9 +350,10 @@ impl Instance {
         let (i, mut raw) = self.raw_state(state)?;
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is null or a state
         // this component made and has not freed (`states`).
-        let s = unsafe { (self.api().get_fmu_state)(self.component, &mut raw) };
+        let (s, name) =
+            unsafe { either!(self.get_fmu_state(self.component, &mut raw), "fmi2GetFMUstate", "fmi3GetFMUState") };
         self.states[i].1 = raw;
-        self.check("fmi2GetFMUstate", s)
+        self.check(name, s)
     }
 
     /// Restore a saved state (`fmi2SetFMUstate`).
@@ -286,8 +361,12 @@ impl Instance {
         let (_, raw) = self.raw_state(state)?;
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a state this
         // component made and has not freed (`states`).
-        let s = unsafe { (self.api().set_fmu_state)(self.component, raw) };
-        self.check("fmi2SetFMUstate", s)
+        let (s, name) =
+            unsafe { either!(self.set_fmu_state(self.component, raw), "fmi2SetFMUstate", "fmi3SetFMUState") };
+        if self.v3.is_some() {
+            self.state_restored3();
+        }
+        self.check(name, s)
     }
 
     /// Free a saved state now (otherwise it is freed with the instance).
@@ -296,8 +375,9 @@ impl Instance {
         self.states.swap_remove(i);
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a state this
         // component made and has not freed (`states`).
-        let s = unsafe { (self.api().free_fmu_state)(self.component, &mut raw) };
-        self.check("fmi2FreeFMUstate", s)
+        let (s, name) =
+            unsafe { either!(self.free_fmu_state(self.component, &mut raw), "fmi2FreeFMUstate", "fmi3FreeFMUState") };
+        self.check(name, s)
     }
 
     /// Serialize a saved state to bytes. Requires [`Capability::SerializeState`].
@@ -307,13 +387,25 @@ impl Instance {
         let mut size = 0usize;
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a state this
         // component made and has not freed (`states`).
-        let s = unsafe { (self.api().serialized_fmu_state_size)(self.component, raw, &mut size) };
-        self.check("fmi2SerializedFMUstateSize", s)?;
+        let (s, name) = unsafe {
+            either!(
+                self.serialized_fmu_state_size(self.component, raw, &mut size),
+                "fmi2SerializedFMUstateSize",
+                "fmi3SerializedFMUStateSize"
+            )
+        };
+        self.check(name, s)?;
         let mut bytes = vec![0u8; size];
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); `raw` is a live state of
         // this component; `bytes` holds `size` bytes.
-        let s = unsafe { (self.api().serialize_fmu_state)(self.component, raw, bytes.as_mut_ptr().cast(), size) };
-        self.check("fmi2SerializeFMUstate", s)?;
+        let (s, name) = unsafe {
+            either!(
+                self.serialize_fmu_state(self.component, raw, bytes.as_mut_ptr().cast(), size),
+                "fmi2SerializeFMUstate",
+                "fmi3SerializeFMUState"
+            )
+        };
+        self.check(name, s)?;
         Ok(bytes)
     }
 
@@ -323,9 +415,14 @@ impl Instance {
         let mut raw: fmi2FMUstate = std::ptr::null_mut();
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); `bytes` holds
         // `bytes.len()` bytes; the new state goes to a local.
-        let s =
-            unsafe { (self.api().deserialize_fmu_state)(self.component, bytes.as_ptr().cast(), bytes.len(), &mut raw) };
-        self.check("fmi2DeSerializeFMUstate", s)?;
+        let (s, name) = unsafe {
+            either!(
+                self.deserialize_fmu_state(self.component, bytes.as_ptr().cast(), bytes.len(), &mut raw),
+                "fmi2DeSerializeFMUstate",
+                "fmi3DeserializeFMUState"
+            )
+        };
+        self.check(name, s)?;
         Ok(self.adopt(raw))
     }
 
@@ -338,6 +435,11 @@ impl Instance {
         out: &mut [f64],
     ) -> Result<(), Error> {
         self.fmu.require(Capability::DirectionalDerivative)?;
+        if self.v3.is_some() {
+            same_len("directional_derivative", knowns.len(), seed.len())?;
+            same_len("directional_derivative", unknowns.len(), out.len())?;
+            return self.directional_derivative3(unknowns, knowns, seed, out);
+        }
         let f = self.api().get_directional_derivative;
         self.derivative("fmi2GetDirectionalDerivative", f, unknowns, knowns, seed, out)
     }
@@ -353,6 +455,11 @@ impl Instance {
         out: &mut [f64],
     ) -> Result<(), Error> {
         self.fmu.require(Capability::StepMapDerivative)?;
+        if self.v3.is_some() {
+            same_len("step_map_derivative", knowns.len(), seed.len())?;
+            same_len("step_map_derivative", unknowns.len(), out.len())?;
+            return self.step_map_derivative3(unknowns, knowns, seed, out);
+        }
         let f = self.api().step_map_derivative.ok_or_else(|| Error::Capability {
             fmu: self.fmu.name().to_owned(),
             capability: Capability::StepMapDerivative,
@@ -412,6 +519,9 @@ impl Instance {
     /// Output derivatives. Requires [`Capability::OutputDerivatives`].
     pub fn get_real_output_derivatives(&mut self, vrs: &[u32], orders: &[i32], out: &mut [f64]) -> Result<(), Error> {
         self.fmu.require(Capability::OutputDerivatives)?;
+        if self.v3.is_some() {
+            return Err(Error::Usage("fmi3GetOutputDerivatives is not supported by this importer".into()));
+        }
         same_len("get_real_output_derivatives", vrs.len(), out.len())?;
         same_len("get_real_output_derivatives (orders)", vrs.len(), orders.len())?;
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); every array holds the
@@ -446,9 +556,12 @@ impl Drop for Instance {
         // state was made by this component and is freed once; the component is not used again.
         unsafe {
             for (_, mut raw) in std::mem::take(&mut self.states) {
-                (self.api().free_fmu_state)(self.component, &mut raw);
+                let _ = either!(self.free_fmu_state(self.component, &mut raw), "", "");
             }
-            (self.api().free_instance)(self.component);
+            match &self.fmu.inner.api {
+                Binary::V2(a) => (a.free_instance)(self.component),
+                Binary::V3(a) => (a.free_instance)(self.component),
+            }
         }
     }
 }

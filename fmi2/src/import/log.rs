@@ -63,6 +63,12 @@ impl LogSink {
         }
     }
 
+    /// FMI 3.0's `instanceEnvironment` and `logMessage`: this sink and [`log_sink3`]. The sink
+    /// must stay where it is (it is boxed) and outlive every instance that uses them.
+    pub(crate) fn fmi3_logger(&self) -> (*mut c_void, crate::fmi3::ffi::fmi3LogMessageCallback) {
+        ((self as *const LogSink).cast_mut().cast(), Some(log_sink3))
+    }
+
     /// Take all messages logged so far.
     pub(crate) fn take(&self) -> Vec<LogMessage> {
         self.messages.lock().unwrap_or_else(|p| p.into_inner()).drain(..).collect()
@@ -93,6 +99,31 @@ fn cut(text: &str) -> std::borrow::Cow<'_, str> {
 /// `env` is the componentEnvironment of [`LogSink::callbacks`], so a live `LogSink`; the strings
 /// are null or NUL-terminated (the shim passes the FMU's own and its formatted text).
 unsafe extern "C" fn log_sink(
+    env: *mut c_void,
+    instance: fmi2String,
+    status: fmi2Status,
+    category: fmi2String,
+    message: fmi2String,
+) {
+    // SAFETY: the contract of this function is `record`'s.
+    unsafe { record(env, instance, status, category, message) }
+}
+
+/// What an FMI 3.0 FMU calls as `logMessage` (the message is plain text).
+///
+/// # Safety
+/// `env` is the instanceEnvironment of [`LogSink::fmi3_logger`], so a live `LogSink`; the strings
+/// are null or NUL-terminated.
+unsafe extern "C" fn log_sink3(env: *mut c_void, status: fmi2Status, category: fmi2String, message: fmi2String) {
+    // SAFETY: the contract of this function is `record`'s.
+    unsafe { record(env, std::ptr::null(), status, category, message) }
+}
+
+/// Keeps one message in the sink `env` (and echoes it if asked).
+///
+/// # Safety
+/// `env` is a live `LogSink`; the strings are null or NUL-terminated.
+unsafe fn record(
     env: *mut c_void,
     instance: fmi2String,
     status: fmi2Status,

@@ -1,5 +1,8 @@
-//! Importing any FMI 2.0 Co-Simulation FMU: unpack, read the description, load the binary,
-//! and call it through a safe API.
+//! Importing any FMI 2.0 or FMI 3.0 Co-Simulation FMU: unpack, read the description, load the
+//! binary, and call it through one safe API. An FMI 3.0 FMU is seen through the scalar view of
+//! [`Description3`](crate::fmi3::xml::Description3): each array element is a variable of its own
+//! (`name[k]`), so that systems connect FMUs of both versions by the same names; the importer
+//! gathers and scatters the elements of each call into whole arrays.
 //!
 //! ```no_run
 //! # fn main() -> Result<(), fmi2::import::Error> {
@@ -24,8 +27,10 @@
 //! arguments through a non-variadic function pointer.
 
 mod api;
+mod api3;
 mod instance;
 mod log;
+mod v3;
 
 /// The description types under the names an importer meets them by (`<ScalarVariable>`, the
 /// FMU's description, its default experiment).
@@ -44,6 +49,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::ffi::*;
 use api::Api;
+use api3::Api3;
 
 /// The description at an FMU's root.
 const MODEL_DESCRIPTION: &str = "modelDescription.xml";
@@ -63,6 +69,9 @@ pub enum Error {
     Capability { fmu: String, capability: Capability },
     /// Misuse of this API (unknown variable name, slices of different lengths, ...).
     Usage(String),
+    /// An FMI 3.0 FMU asked to end the simulation (`terminateSimulation`) or returned early
+    /// from `fmi3DoStep`, at `time`.
+    Ended { fmu: String, instance: String, time: f64, terminated: bool },
 }
 
 impl Error {
@@ -80,8 +89,11 @@ impl fmt::Display for Error {
         match self {
             Error::Load { path, message } => write!(f, "{}: {message}", path.display()),
             Error::Call { fmu, instance, function, status, messages } => {
-                let status =
-                    Status::from_raw(*status).map_or_else(|| format!("invalid status {status}"), |s| s.name().into());
+                let status = if function.starts_with("fmi3") || function.starts_with("feedsim3") {
+                    crate::fmi3::ffi::status_name(*status)
+                } else {
+                    Status::from_raw(*status).map_or_else(|| format!("invalid status {status}"), |s| s.name().into())
+                };
                 write!(f, "FMU `{fmu}` (instance `{instance}`): {function} returned {status}")?;
                 if messages.is_empty() {
                     write!(f, " (the FMU logged nothing)")
@@ -93,6 +105,10 @@ impl fmt::Display for Error {
                 write!(f, "FMU `{fmu}` does not declare {} in modelDescription.xml", capability.attribute())
             }
             Error::Usage(m) => f.write_str(m),
+            Error::Ended { fmu, instance, time, terminated } => {
+                let why = if *terminated { "terminateSimulation" } else { "earlyReturn" };
+                write!(f, "FMU `{fmu}` (instance `{instance}`): fmi3DoStep ended the simulation at t = {time} ({why})")
+            }
         }
     }
 }
@@ -160,13 +176,42 @@ impl Drop for TempDir {
 /// A loaded FMU: description, binary and (for archives) the unpacked directory.
 /// Field order matters: the library is unloaded before the directory is removed.
 struct Loaded {
-    api: Api,
+    api: Binary,
     description: FmuDescription,
+    /// FMI 3.0: where each scalar of the view lives, and the variables left out of it.
+    v3: Option<View3>,
     root: PathBuf,
     _unpacked: Option<TempDir>,
 }
 
-/// An FMI 2.0 Co-Simulation FMU, ready to instantiate (any number of times).
+/// The functions of the binary, by FMI version.
+enum Binary {
+    V2(Api),
+    V3(Api3),
+}
+
+/// What the importer keeps of an FMI 3.0 description besides its scalar view.
+struct View3 {
+    elements: Vec<crate::fmi3::xml::Element>,
+    skipped: Vec<(String, String)>,
+}
+
+/// The major FMI version a `modelDescription.xml` declares (`None` if it cannot be read).
+fn major_version(text: &str) -> Option<u32> {
+    let doc = roxmltree::Document::parse(text).ok()?;
+    doc.root_element().attribute("fmiVersion")?.trim().split('.').next()?.parse().ok()
+}
+
+/// The binary an archive's description names: `binaries/<platform>/<identifier>.so`.
+fn binary_entry(text: &str) -> Option<String> {
+    let (platform, identifier) = match major_version(text)? {
+        3 => (crate::fmi3::PLATFORM, crate::fmi3::xml::parse_model_description3(text).ok()?.view.model_identifier),
+        _ => (crate::package::PLATFORM, parse_model_description(text).ok()?.model_identifier),
+    };
+    Some(format!("binaries/{platform}/{identifier}.so"))
+}
+
+/// An FMI 2.0 or 3.0 Co-Simulation FMU, ready to instantiate (any number of times).
 #[derive(Clone)]
 pub struct Fmu {
     inner: Arc<Loaded>,
@@ -203,11 +248,7 @@ impl Fmu {
             unpack(&mut zip, MODEL_DESCRIPTION)?;
         }
         // the binary's name comes from the description (open() reports a missing or bad one)
-        let identifier = std::fs::read_to_string(dir.0.join(MODEL_DESCRIPTION))
-            .ok()
-            .and_then(|text| parse_model_description(&text).ok())
-            .map(|d| d.model_identifier);
-        let binary = identifier.map(|id| format!("binaries/{}/{id}.so", crate::package::PLATFORM));
+        let binary = std::fs::read_to_string(dir.0.join(MODEL_DESCRIPTION)).ok().and_then(|text| binary_entry(&text));
         let needed: Vec<String> = zip
             .file_names()
             .filter_map(Result::ok)
@@ -236,42 +277,61 @@ impl Fmu {
             let what = if e.kind() == std::io::ErrorKind::NotFound { "missing".to_owned() } else { e.to_string() };
             err(&md_path, format!("modelDescription.xml: {what}"))
         })?;
-        let description =
-            parse_model_description(&text).map_err(|m| err(&md_path, format!("modelDescription.xml: {m}")))?;
-        let binary =
-            root.join("binaries").join(crate::package::PLATFORM).join(format!("{}.so", description.model_identifier));
+        let read_error = |m: crate::xml::ReadError| err(&md_path, format!("modelDescription.xml: {m}"));
+        let (description, v3) = if major_version(&text) == Some(3) {
+            let d = crate::fmi3::xml::parse_model_description3(&text).map_err(read_error)?;
+            (d.view, Some(View3 { elements: d.elements, skipped: d.skipped }))
+        } else {
+            (parse_model_description(&text).map_err(read_error)?, None)
+        };
+        let platform = if v3.is_some() { crate::fmi3::PLATFORM } else { crate::package::PLATFORM };
+        let binary = root.join("binaries").join(platform).join(format!("{}.so", description.model_identifier));
         if !binary.is_file() {
             let platforms: Vec<String> = std::fs::read_dir(root.join("binaries"))
                 .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
                 .unwrap_or_default();
-            return Err(err(
-                &binary,
-                format!("missing: no {} binary (binaries/ holds: {:?})", crate::package::PLATFORM, platforms),
-            ));
+            return Err(err(&binary, format!("missing: no {platform} binary (binaries/ holds: {platforms:?})")));
         }
-        // SAFETY: the binary named by an FMU's description is, by the FMI 2.0 contract an importer
-        // accepts when it loads an FMU, code of that FMU with the standard's functions; running
-        // its initializers and trusting its signatures is what loading an FMU means.
-        let api = unsafe { Api::load(&binary) }.map_err(|m| err(&binary, m))?;
-        let text = |f: fmi2GetVersionTYPE| {
-            // SAFETY: a loaded function of the standard's type without arguments; it returns a
-            // static NUL-terminated string (or, if broken, null, which is checked).
-            let p = unsafe { f() };
-            // SAFETY: non-null, so a static NUL-terminated string.
+        let text = |p: *const std::ffi::c_char| {
+            // SAFETY: a string the FMU's version functions return: static and NUL-terminated, or
+            // (if broken) null, which is checked.
             if p.is_null() { "(null)".to_owned() } else { unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned() }
         };
-        let version = text(api.get_version);
-        if !version.starts_with("2.") {
-            return Err(err(&binary, format!("fmi2GetVersion returned `{version}`, expected 2.0")));
-        }
-        let platform = text(api.get_types_platform);
-        if platform != "default" {
-            return Err(err(&binary, format!("fmi2GetTypesPlatform returned `{platform}`, expected `default`")));
-        }
         let mut description = description;
-        // The extension counts only where it is both announced and exported.
-        description.flags.provides_step_map_derivative &= api.step_map_derivative.is_some();
-        Ok(Fmu { inner: Arc::new(Loaded { api, description, root: root.to_owned(), _unpacked: unpacked }) })
+        let api = if v3.is_some() {
+            // SAFETY: the binary named by an FMU's description is, by the FMI 3.0 contract an
+            // importer accepts when it loads an FMU, code of that FMU with the standard's
+            // functions; running its initializers and trusting its signatures is what loading
+            // an FMU means.
+            let api = unsafe { Api3::load(&binary) }.map_err(|m| err(&binary, m))?;
+            // SAFETY: a loaded function of the standard's type without arguments.
+            let version = text(unsafe { (api.get_version)() });
+            if !version.starts_with("3.") {
+                return Err(err(&binary, format!("fmi3GetVersion returned `{version}`, expected 3.x")));
+            }
+            description.flags.provides_step_map_derivative &= api.step_map_derivative.is_some();
+            Binary::V3(api)
+        } else {
+            // SAFETY: as above, under the FMI 2.0 contract.
+            let api = unsafe { Api::load(&binary) }.map_err(|m| err(&binary, m))?;
+            // SAFETY: loaded functions of the standard's types without arguments.
+            let (version, platform) = unsafe { (text((api.get_version)()), text((api.get_types_platform)())) };
+            if !version.starts_with("2.") {
+                return Err(err(&binary, format!("fmi2GetVersion returned `{version}`, expected 2.0")));
+            }
+            if platform != "default" {
+                return Err(err(&binary, format!("fmi2GetTypesPlatform returned `{platform}`, expected `default`")));
+            }
+            // The extension counts only where it is both announced and exported.
+            description.flags.provides_step_map_derivative &= api.step_map_derivative.is_some();
+            Binary::V2(api)
+        };
+        Ok(Fmu { inner: Arc::new(Loaded { api, description, v3, root: root.to_owned(), _unpacked: unpacked }) })
+    }
+
+    /// The FMI version's major number: 2 or 3.
+    pub fn fmi_major_version(&self) -> u32 {
+        if self.inner.v3.is_some() { 3 } else { 2 }
     }
 
     pub fn description(&self) -> &FmuDescription {
@@ -289,10 +349,13 @@ impl Fmu {
 
     /// The variable with this name.
     pub fn variable(&self, name: &str) -> Result<&ScalarVariable, Error> {
-        self.inner
-            .description
-            .variable(name)
-            .ok_or_else(|| Error::Usage(format!("FMU `{}` has no variable named `{name}`", self.name())))
+        self.inner.description.variable(name).ok_or_else(|| {
+            let skipped = self.inner.v3.as_ref().and_then(|v| v.skipped.iter().find(|(n, _)| n == name));
+            Error::Usage(match skipped {
+                Some((_, why)) => format!("FMU `{}`: variable `{name}` is not exchanged ({why})", self.name()),
+                None => format!("FMU `{}` has no variable named `{name}`", self.name()),
+            })
+        })
     }
 
     /// The value reference of a variable.
@@ -315,35 +378,68 @@ impl Fmu {
         if has { Ok(()) } else { Err(Error::Capability { fmu: self.name().to_owned(), capability }) }
     }
 
-    /// A new instance (`fmi2Instantiate` for Co-Simulation, resources from the unpacked directory).
+    /// A new instance (`fmi2Instantiate` or `fmi3InstantiateCoSimulation`, resources from the
+    /// unpacked directory; FMI 3.0 without event mode and without early return).
     pub fn instantiate(&self, instance_name: &str, logging_on: bool) -> Result<Instance, Error> {
         let d = &self.inner.description;
         let fail = |m: String| Error::Usage(format!("FMU `{}`: {m}", d.model_identifier));
         let name = CString::new(instance_name).map_err(|_| fail("instance name contains a NUL byte".into()))?;
         let guid = CString::new(d.guid.as_str()).map_err(|_| fail("GUID contains a NUL byte".into()))?;
         let resources = self.inner.root.join("resources");
-        let location = CString::new(crate::uri::file_uri(&resources)).map_err(|_| fail("path contains NUL".into()))?;
         let sink = LogSink::new();
-        let callbacks = Box::new(sink.callbacks());
-        // SAFETY: a loaded function (`self` keeps the binary); the strings are NUL-terminated and
-        // live for the call; `callbacks` and the sink it points to are boxed and moved into the
-        // instance, so they stay where they are until it is freed.
-        let component = unsafe {
-            (self.inner.api.instantiate)(
-                name.as_ptr(),
-                fmi2CoSimulation,
-                guid.as_ptr(),
-                location.as_ptr(),
-                &*callbacks,
-                fmi2False,
-                c_int::from(logging_on),
-            )
+        let (component, callbacks, function) = match &self.inner.api {
+            Binary::V2(api) => {
+                let uri = crate::uri::file_uri(&resources);
+                let location = CString::new(uri).map_err(|_| fail("path contains NUL".into()))?;
+                let callbacks = Box::new(sink.callbacks());
+                // SAFETY: a loaded function (`self` keeps the binary); the strings are
+                // NUL-terminated and live for the call; `callbacks` and the sink it points to are
+                // boxed and moved into the instance, so they stay where they are until it is freed.
+                let component = unsafe {
+                    (api.instantiate)(
+                        name.as_ptr(),
+                        fmi2CoSimulation,
+                        guid.as_ptr(),
+                        location.as_ptr(),
+                        &*callbacks,
+                        fmi2False,
+                        c_int::from(logging_on),
+                    )
+                };
+                (component, Some(callbacks), "fmi2Instantiate")
+            }
+            Binary::V3(api) => {
+                // FMI 3.0: a native path ending with a separator
+                let path = format!("{}/", resources.display());
+                let location = CString::new(path).map_err(|_| fail("path contains NUL".into()))?;
+                let (env, logger) = sink.fmi3_logger();
+                // SAFETY: a loaded function (`self` keeps the binary); the strings are
+                // NUL-terminated and live for the call; the sink (`env`) is boxed and moved into
+                // the instance, so it stays where it is until the instance is freed.
+                let component = unsafe {
+                    (api.instantiate)(
+                        name.as_ptr(),
+                        guid.as_ptr(),
+                        location.as_ptr(),
+                        0,
+                        u8::from(logging_on),
+                        0,
+                        0,
+                        std::ptr::null(),
+                        0,
+                        env,
+                        logger,
+                        None,
+                    )
+                };
+                (component, None, "fmi3InstantiateCoSimulation")
+            }
         };
         if component.is_null() {
             return Err(Error::Call {
                 fmu: d.model_identifier.clone(),
                 instance: instance_name.to_owned(),
-                function: "fmi2Instantiate",
+                function,
                 status: fmi2Error,
                 messages: sink.recent(),
             });
@@ -355,6 +451,7 @@ impl Fmu {
             sink,
             _callbacks: callbacks,
             states: Vec::new(),
+            v3: self.inner.v3.as_ref().map(|_| Box::default()),
         })
     }
 }

@@ -2,16 +2,16 @@
 //! generator the exporter uses and the parser the importer uses, over the same types, so that
 //! what is written reads back equal (tested for every FMU of the workspace).
 
-mod read;
-mod write;
+pub(crate) mod read;
+pub(crate) mod write;
 
 pub use read::{ReadError, parse_model_description};
 pub use write::{escape, model_description_xml};
 
 /// `<VendorAnnotations><Tool name=...>` of this workspace's extensions.
-const VENDOR_TOOL: &str = "feedsim";
+pub(crate) const VENDOR_TOOL: &str = "feedsim";
 /// The element inside the tool's annotation that announces `feedsimGetStepMapDerivative`.
-const STEP_MAP_ANNOTATION: &str = "StepMapDerivative";
+pub(crate) const STEP_MAP_ANNOTATION: &str = "StepMapDerivative";
 
 #[cfg(test)]
 pub(crate) mod tests {

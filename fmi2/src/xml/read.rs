@@ -17,18 +17,23 @@ pub struct ReadError {
     pub message: String,
 }
 
-fn fail<T>(message: String) -> Result<T, ReadError> {
+pub(crate) fn fail<T>(message: String) -> Result<T, ReadError> {
     Err(ReadError { message })
 }
 
 /// Where a node starts, `line L:C`.
-fn at(n: Node) -> String {
+pub(crate) fn at(n: Node) -> String {
     let p = n.document().text_pos_at(n.range().start);
     format!("line {}:{}", p.row, p.col)
 }
 
 /// An attribute parsed by `parse`, or `None` where absent; an error names element, place and value.
-fn attr<T>(n: Node, name: &str, what: &str, parse: impl Fn(&str) -> Option<T>) -> Result<Option<T>, ReadError> {
+pub(crate) fn attr<T>(
+    n: Node,
+    name: &str,
+    what: &str,
+    parse: impl Fn(&str) -> Option<T>,
+) -> Result<Option<T>, ReadError> {
     match n.attribute(name) {
         None => Ok(None),
         Some(v) => match parse(v.trim()) {
@@ -38,14 +43,14 @@ fn attr<T>(n: Node, name: &str, what: &str, parse: impl Fn(&str) -> Option<T>) -
     }
 }
 
-fn required(n: Node, name: &str) -> Result<String, ReadError> {
+pub(crate) fn required(n: Node, name: &str) -> Result<String, ReadError> {
     match n.attribute(name) {
         Some(v) => Ok(v.to_owned()),
         None => fail(format!("<{}> at {} has no `{name}` attribute", n.tag_name().name(), at(n))),
     }
 }
 
-fn boolean(v: &str) -> Option<bool> {
+pub(crate) fn boolean(v: &str) -> Option<bool> {
     match v {
         "true" | "1" => Some(true),
         "false" | "0" => Some(false),
@@ -53,7 +58,7 @@ fn boolean(v: &str) -> Option<bool> {
     }
 }
 
-fn real(v: &str) -> Option<f64> {
+pub(crate) fn real(v: &str) -> Option<f64> {
     v.parse().ok()
 }
 
@@ -149,7 +154,7 @@ pub fn parse_model_description(text: &str) -> Result<ModelDescription, ReadError
     })
 }
 
-fn parse_unit(u: Node) -> Result<Unit, ReadError> {
+pub(crate) fn parse_unit(u: Node) -> Result<Unit, ReadError> {
     let name = required(u, "name")?;
     let base_unit = match u.children().find(|c| c.has_tag_name("BaseUnit")) {
         None => None,

@@ -32,7 +32,7 @@ pub fn escape(s: &str) -> String {
     out
 }
 
-fn bool_attr(b: bool) -> &'static str {
+pub(crate) fn bool_attr(b: bool) -> &'static str {
     if b { "true" } else { "false" }
 }
 
@@ -68,48 +68,9 @@ pub(crate) fn write(d: &ModelDescription) -> String {
         bool_attr(f.can_serialize_fmu_state),
         bool_attr(f.provides_directional_derivative),
     );
-    if !d.units.is_empty() {
-        x.push_str("  <UnitDefinitions>\n");
-        for u in &d.units {
-            let _ = write!(x, r#"    <Unit name="{}">"#, escape(&u.name));
-            if let Some(b) = &u.base_unit {
-                x.push_str("<BaseUnit");
-                for (name, e) in BASE_UNIT_NAMES.iter().zip(b.exponents) {
-                    if e != 0 {
-                        let _ = write!(x, r#" {name}="{e}""#);
-                    }
-                }
-                if b.factor != 1.0 {
-                    let _ = write!(x, r#" factor="{:?}""#, b.factor);
-                }
-                if b.offset != 0.0 {
-                    let _ = write!(x, r#" offset="{:?}""#, b.offset);
-                }
-                x.push_str("/>");
-            }
-            x.push_str("</Unit>\n");
-        }
-        x.push_str("  </UnitDefinitions>\n");
-    }
-    x.push_str("  <LogCategories>\n");
-    for (name, text) in LOG_CATEGORIES {
-        let _ = writeln!(x, r#"    <Category name="{name}" description="{}"/>"#, escape(text));
-    }
-    x.push_str("  </LogCategories>\n");
-    if let Some(e) = &d.default_experiment {
-        x.push_str("  <DefaultExperiment");
-        for (name, value) in [
-            ("startTime", e.start_time),
-            ("stopTime", e.stop_time),
-            ("tolerance", e.tolerance),
-            ("stepSize", e.step_size),
-        ] {
-            if let Some(v) = value {
-                let _ = write!(x, r#" {name}="{v:?}""#);
-            }
-        }
-        x.push_str("/>\n");
-    }
+    units(&mut x, d);
+    log_categories(&mut x);
+    default_experiment(&mut x, d);
     if f.provides_step_map_derivative {
         // Schema order: VendorAnnotations after DefaultExperiment, before ModelVariables.
         x.push_str("  <VendorAnnotations>\n");
@@ -170,6 +131,57 @@ pub(crate) fn write(d: &ModelDescription) -> String {
     }
     x.push_str("  </ModelStructure>\n</fmiModelDescription>\n");
     x
+}
+
+/// `<UnitDefinitions>` (the same elements in FMI 2.0 and 3.0).
+pub(crate) fn units(x: &mut String, d: &ModelDescription) {
+    if d.units.is_empty() {
+        return;
+    }
+    x.push_str("  <UnitDefinitions>\n");
+    for u in &d.units {
+        let _ = write!(x, r#"    <Unit name="{}">"#, escape(&u.name));
+        if let Some(b) = &u.base_unit {
+            x.push_str("<BaseUnit");
+            for (name, e) in BASE_UNIT_NAMES.iter().zip(b.exponents) {
+                if e != 0 {
+                    let _ = write!(x, r#" {name}="{e}""#);
+                }
+            }
+            if b.factor != 1.0 {
+                let _ = write!(x, r#" factor="{:?}""#, b.factor);
+            }
+            if b.offset != 0.0 {
+                let _ = write!(x, r#" offset="{:?}""#, b.offset);
+            }
+            x.push_str("/>");
+        }
+        x.push_str("</Unit>\n");
+    }
+    x.push_str("  </UnitDefinitions>\n");
+}
+
+/// `<LogCategories>` of the export layer (both versions).
+pub(crate) fn log_categories(x: &mut String) {
+    x.push_str("  <LogCategories>\n");
+    for (name, text) in LOG_CATEGORIES {
+        let _ = writeln!(x, r#"    <Category name="{name}" description="{}"/>"#, escape(text));
+    }
+    x.push_str("  </LogCategories>\n");
+}
+
+/// `<DefaultExperiment>`, if any (both versions).
+pub(crate) fn default_experiment(x: &mut String, d: &ModelDescription) {
+    let Some(e) = &d.default_experiment else { return };
+    x.push_str("  <DefaultExperiment");
+    for (name, value) in
+        [("startTime", e.start_time), ("stopTime", e.stop_time), ("tolerance", e.tolerance), ("stepSize", e.step_size)]
+    {
+        if let Some(v) = value {
+            let _ = write!(x, r#" {name}="{v:?}""#);
+        }
+    }
+    x.push_str("/>\n");
 }
 
 /// `<Unknown>` with its dependencies (names validated, so every one has an index).

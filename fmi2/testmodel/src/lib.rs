@@ -359,6 +359,7 @@ impl Model for Oscillator {
 }
 
 fmi2::export_fmu!(Oscillator);
+fmi2::export_fmu3!(Oscillator);
 
 #[cfg(test)]
 mod tests {

@@ -1,5 +1,6 @@
-//! `master package`: build the FMI 2.0 Co-Simulation archives (`.fmu`) of every model the
-//! workspace exports, from the in-process model descriptions and the built shared libraries.
+//! `master package`: build the Co-Simulation archives (`.fmu`) of every model the workspace
+//! exports, FMI 2.0 in `<out>/` and FMI 3.0 in `<out>/fmi3/`, from the in-process model
+//! descriptions and the built shared libraries (each exports both versions).
 
 use std::path::{Path, PathBuf};
 
@@ -23,13 +24,18 @@ pub(crate) struct Exportable {
     pub package: &'static str,
     /// Writes `<out>/<modelIdentifier>.fmu` from the library; returns the archive path.
     pub write: fn(&Path, &Path) -> Result<PathBuf, fmi2::package::PackageError>,
+    /// The same as FMI 3.0.
+    pub write3: fn(&Path, &Path) -> Result<PathBuf, fmi2::package::PackageError>,
 }
 
 impl Exportable {
     pub(crate) const fn of<M: Model>(package: &'static str) -> Exportable {
-        Exportable { package, write: fmi2::package::package_model::<M> }
+        Exportable { package, write: fmi2::package::package_model::<M>, write3: fmi2::package::package_model3::<M> }
     }
 }
+
+/// The folder below `--out` of the FMI 3.0 archives.
+pub(crate) const FMI3_DIR: &str = "fmi3";
 
 /// Every FMU of the workspace: one line per model (its `Model` type and its cdylib package).
 pub(crate) const EXPORTABLE: &[Exportable] = &[
@@ -60,9 +66,10 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             )
             .into());
         }
-        let fmu = (e.write)(&args.out, &lib)?;
-        let size = std::fs::metadata(&fmu)?.len();
-        println!("{} ({:.1} MB, from {})", fmu.display(), size as f64 / 1e6, lib.display());
+        for fmu in [(e.write)(&args.out, &lib)?, (e.write3)(&args.out.join(FMI3_DIR), &lib)?] {
+            let size = std::fs::metadata(&fmu)?.len();
+            println!("{} ({:.1} MB, from {})", fmu.display(), size as f64 / 1e6, lib.display());
+        }
     }
     Ok(())
 }
