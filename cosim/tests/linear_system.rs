@@ -89,7 +89,11 @@ impl Units for TwoMasses {
             && let Some(end) = self.end_at
             && t + h > end + 1e-12
         {
-            return Err(UnitError::Ended { last_successful_time: Some(t), terminated: true });
+            return Err(UnitError::Ended {
+                last_successful_time: Some(t),
+                terminated: true,
+                signal: "fmi2Discard, fmi2Terminated",
+            });
         }
         self.steps += 1;
         // trapezoidal rule: x⁺ = x + h/2 (v + v⁺), v⁺ = v + h/2 (f(x, u0) + f(x⁺, u1)) / m

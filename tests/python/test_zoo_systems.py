@@ -28,9 +28,11 @@ from zoo import (
     SCHEMES,
     SYSTEMS,
     ball_exact,
+    chain_expected,
     dahlquist_steps,
     delayed,
     fmu_file,
+    loop_expected,
     pack,
     read_table,
     rk4_van_der_pol,
@@ -53,20 +55,6 @@ def test_every_system_is_valid_ssp(systems, name):
     """fmpy validates the .ssd against the SSP 1.0 schema; the .ssv files travel in the archive."""
     ssd = read_ssd(str(systems[name]), validate=True)
     assert ssd.system.connections and len(ssd.system.elements) >= 2
-
-
-def chain_expected(t, scheme):
-    """chain.ssd: x1 = 1 - e^{-t} exactly; f passes it on; x2 from the input d2 holds."""
-    h = t[1] - t[0]
-    x1 = 1.0 - np.exp(-t)
-    if scheme in END_VALUES:
-        f_out = x1.copy()
-        u2 = x1[1:]
-    else:
-        # f steps with x1(t_n): its output at t_{n+1} is x1(t_n); d2 takes f's output at t_n
-        f_out = np.concatenate([[x1[0]], x1[:-1]])
-        u2 = f_out[:-1]
-    return x1, f_out, dahlquist_steps(2.0, 0.0, h, u2)
 
 
 @pytest.mark.parametrize("scheme", SCHEMES)
@@ -121,14 +109,6 @@ def test_chain_jacobi_matches_fmpy(systems):
     assert n >= 499
     for name in ("d1.x", "f.real_continuous_out", "d2.x"):
         assert np.max(np.abs(theirs[name][:n] - cols[name][1:n + 1])) < 1e-12, name
-
-
-def loop_expected(t):
-    """loop.ssd, solved every step with d.u held at its end value u = 2x/3 (the loop's
-    equation): x_{n+1} = x_n e^{-h} / (1 - (2/3)(1 - e^{-h}))."""
-    h = t[1] - t[0]
-    rho = math.exp(-h) / (1.0 - 2.0 / 3.0 * -math.expm1(-h))
-    return rho ** np.arange(len(t))
 
 
 @pytest.mark.parametrize("scheme", SCHEMES)

@@ -37,31 +37,34 @@ def _sources(text):
     return re.findall(r'source="([^"]+)"', text)
 
 
-def pack(name, out_dir, archive=True, edit=None):
+def pack(name, out_dir, archive=True, edit=None, fmus=None):
     """tests/systems/<name>.ssd with the FMUs under test (its sources `../../dist/<id>.fmu`): an
     `.ssp` archive (FMUs under resources/, .ssv files beside the .ssd), or with `archive=False` a
     directory holding the .ssd (sources pointing at DIST) and its .ssv files. `edit(text)` may
-    change the .ssd first (a source it sets elsewhere is left as it is)."""
+    change the .ssd first (a source it sets elsewhere is left as it is). `fmus` ({id: path})
+    replaces FMUs of DIST by others of the same names (e.g. their FMI 3.0 versions)."""
+    fmus_by_id = fmus or {}
+    fmu_path = lambda stem: fmus_by_id.get(stem) or fmu_file(stem)  # noqa: E731
     text = (SYSTEMS / f"{name}.ssd").read_text()
     if edit is not None:
         text = edit(text)
-    fmus = [s for s in _sources(text) if s.startswith("../../dist/")]
+    sources = [s for s in _sources(text) if s.startswith("../../dist/")]
     ssvs = [s for s in _sources(text) if s.endswith(".ssv")]
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     if not archive:
-        for s in fmus:
-            text = text.replace(f'source="{s}"', f'source="{fmu_file(pathlib.Path(s).stem)}"')
+        for s in sources:
+            text = text.replace(f'source="{s}"', f'source="{fmu_path(pathlib.Path(s).stem)}"')
         (out_dir / f"{name}.ssd").write_text(text)
         for s in ssvs:
             shutil.copy(SYSTEMS / s, out_dir / s)
         return out_dir / f"{name}.ssd"
     path = out_dir / f"{name}.ssp"
     with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
-        for s in sorted(set(fmus)):
+        for s in sorted(set(sources)):
             stem = pathlib.Path(s).stem
             text = text.replace(f'source="{s}"', f'source="resources/{stem}.fmu"')
-            z.write(fmu_file(stem), f"resources/{stem}.fmu")
+            z.write(fmu_path(stem), f"resources/{stem}.fmu")
         z.writestr("SystemStructure.ssd", text)
         for s in ssvs:
             z.write(SYSTEMS / s, s)
@@ -186,3 +189,25 @@ def rk4_van_der_pol(t_end, dt, x0, x1, mu=1.0):
         x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
         out[i + 1] = x
     return out
+
+
+def chain_expected(t, scheme):
+    """chain.ssd: x1 = 1 - e^{-t} exactly; f passes it on; x2 from the input d2 holds."""
+    h = t[1] - t[0]
+    x1 = 1.0 - np.exp(-t)
+    if scheme in END_VALUES:
+        f_out = x1.copy()
+        u2 = x1[1:]
+    else:
+        # f steps with x1(t_n): its output at t_{n+1} is x1(t_n); d2 takes f's output at t_n
+        f_out = np.concatenate([[x1[0]], x1[:-1]])
+        u2 = f_out[:-1]
+    return x1, f_out, dahlquist_steps(2.0, 0.0, h, u2)
+
+
+def loop_expected(t):
+    """loop.ssd, solved every step with d.u held at its end value u = 2x/3 (the loop's
+    equation): x_{n+1} = x_n e^{-h} / (1 - (2/3)(1 - e^{-h}))."""
+    h = t[1] - t[0]
+    rho = math.exp(-h) / (1.0 - 2.0 / 3.0 * -math.expm1(-h))
+    return rho ** np.arange(len(t))

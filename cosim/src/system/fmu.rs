@@ -673,12 +673,14 @@ fn article(t: VarType) -> String {
 /// or an early return); anything else is a failure.
 fn step_error(inst: &mut Instance, e: fmi2::import::Error) -> UnitError {
     if let fmi2::import::Error::Ended { time, terminated, .. } = e {
-        return UnitError::Ended { last_successful_time: Some(time).filter(|t| t.is_finite()), terminated };
+        let signal = if terminated { "fmi3DoStep: terminateSimulation" } else { "fmi3DoStep: earlyReturn" };
+        return UnitError::Ended { last_successful_time: Some(time).filter(|t| t.is_finite()), terminated, signal };
     }
     if e.status() == Some(fmi2::ffi::Status::Discard) {
         let terminated = inst.terminated().unwrap_or(false);
         let last_successful_time = inst.last_successful_time().ok().filter(|t| t.is_finite());
-        return UnitError::Ended { last_successful_time, terminated };
+        let signal = if terminated { "fmi2Discard, fmi2Terminated" } else { "fmi2Discard" };
+        return UnitError::Ended { last_successful_time, terminated, signal };
     }
     UnitError::Fmi(e)
 }

@@ -181,11 +181,12 @@ pub struct Capabilities {
 /// Why a unit could not do what it was asked.
 #[derive(Debug, thiserror::Error)]
 pub enum UnitError {
-    /// The unit refused the step and will not go on (fmi2Discard): the run ends at the last
-    /// communication point all units reached.
-    #[error("ended the run (fmi2Discard{}){}", if *.terminated { ", fmi2Terminated" } else { "" },
+    /// The unit ended the run on purpose (FMI 2.0: fmi2Discard; FMI 3.0: terminateSimulation or
+    /// an early return): the run ends at the last communication point all units reached.
+    /// `signal` says how, in the standard's words.
+    #[error("ended the run ({signal}){}",
         .last_successful_time.map_or(String::new(), |t| format!(" at its last successful time {t} s")))]
-    Ended { last_successful_time: Option<f64>, terminated: bool },
+    Ended { last_successful_time: Option<f64>, terminated: bool, signal: &'static str },
     #[error(transparent)]
     Fmi(#[from] fmi2::import::Error),
     /// Any other failure of an in-process unit.

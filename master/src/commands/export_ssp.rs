@@ -2,6 +2,9 @@
 //! archive — both FMUs, every connection (one output to one input), the parameter values — that
 //! `master run --system` runs with the same result as `--scene`, and other SSP tools load.
 //!
+//! `--fmi 3` packs the FMI 3.0 twins of the scene's FMUs (`fmi3/<name>.fmu` beside each, as
+//! `master package` writes them) instead.
+//!
 //! The scene file itself travels inside each FMU that reads it (`resources/exported_scene.toml`,
 //! the parameter set to that relative name, which the FMU resolves against its resources), so
 //! the archive stands alone.
@@ -29,13 +32,39 @@ pub(crate) struct Args {
     /// The SSP archive to write (`.ssp`).
     #[arg(long)]
     pub(crate) out: PathBuf,
+    /// The FMI version of the FMUs packed: 2 (the scene's FMUs) or 3 (their FMI 3.0 twins,
+    /// `fmi3/<name>.fmu` beside each).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(2..=3))]
+    pub(crate) fmi: u32,
+}
+
+/// The FMI 3.0 twin of a workspace FMU: `<dir>/fmi3/<name>.fmu`, as `master package` writes it.
+fn fmi3_twin(fmu: &std::path::Path) -> anyhow::Result<PathBuf> {
+    let twin = fmu
+        .parent()
+        .map(|d| d.join(super::package::FMI3_DIR))
+        .zip(fmu.file_name())
+        .map(|(d, n)| d.join(n))
+        .with_context(|| format!("{}: not a file path", fmu.display()))?;
+    anyhow::ensure!(
+        twin.is_file(),
+        "{}: the FMI 3.0 twin of {} is missing (`master package --out DIR` writes both versions)",
+        twin.display(),
+        fmu.display()
+    );
+    Ok(twin)
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
     let id = outputs.declare("--out", &args.out, Some("ssp"))?;
-    let spec = scene_spec(&scene, &args.scene)?;
+    let mut spec = scene_spec(&scene, &args.scene)?;
+    if args.fmi == 3 {
+        for c in &mut spec.components {
+            c.source = fmi3_twin(&c.source)?;
+        }
+    }
     let sys = scene.system.as_ref().expect("scene_spec needs a [system]");
     let resolved = resolve(&spec)?;
     let scene_bytes = std::fs::read(&args.scene).with_context(|| format!("{}: cannot read", args.scene.display()))?;

@@ -12,6 +12,7 @@
 //! * `cosim`: the coupling schemes and the adaptive step against the monolithic model;
 //! * `step_map`: IJCSA with the FMUs' step-map extension against finite differences;
 //! * `ssp_system`: SSP systems of FMUs that know nothing of the project's physics;
+//! * `fmi3`: the LT50m system of FMI 3.0 FMUs, and of both versions, against FMI 2.0;
 //! * `sweep`: sweeps and their shards against the library, point by point;
 //! * `calibrate`: model updating against modes of scenes with known keys;
 //! * `resume`: long commands killed halfway and continued with --resume.
@@ -25,6 +26,7 @@ mod archive_mutants;
 mod calibrate;
 mod cosim;
 mod feed;
+mod fmi3;
 mod misuse;
 mod mutants;
 mod package;

@@ -21,13 +21,16 @@ fn library(name: &str) -> PathBuf {
     panic!("lib{name}.so not found next to {}: run `cargo build --release --workspace` first", exe.display());
 }
 
-/// Both FMUs, packaged once per test binary.
+/// Both FMUs, packaged once per test binary; their FMI 3.0 twins in `fmi3/` below.
 pub(crate) fn fmu_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("master-tests-{}", std::process::id()));
-        fmi2::package::package_model::<cable_fmu::CableFmu>(&dir, &library("cable_fmu_cdylib")).unwrap();
-        fmi2::package::package_model::<stewart_fmu::StewartFmu>(&dir, &library("stewart_fmu_cdylib")).unwrap();
+        let (cable, stewart) = (library("cable_fmu_cdylib"), library("stewart_fmu_cdylib"));
+        fmi2::package::package_model::<cable_fmu::CableFmu>(&dir, &cable).unwrap();
+        fmi2::package::package_model::<stewart_fmu::StewartFmu>(&dir, &stewart).unwrap();
+        fmi2::package::package_model3::<cable_fmu::CableFmu>(&dir.join("fmi3"), &cable).unwrap();
+        fmi2::package::package_model3::<stewart_fmu::StewartFmu>(&dir.join("fmi3"), &stewart).unwrap();
         dir
     })
 }
