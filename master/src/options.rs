@@ -237,8 +237,10 @@ impl SystemFileArgs {
 /// Options of the coupling schemes.
 #[derive(clap::Args, Clone, Debug)]
 pub struct SchemeOptions {
-    /// First guess of the end-of-step inputs [default: linear for ijcsa (its reused Jacobian
-    /// then needs no more iterations than a fresh one), constant for the other schemes].
+    /// First guess of the end-of-step inputs [default: linear for the iterating schemes (nearer
+    /// the answer: at LT50m C fewer iterations per step — iqn-ils 2.33 against 3.12, iterative
+    /// 24 against 41 — and ijcsa's reused Jacobian needs no more than a fresh one), constant for
+    /// the others (linear would pass slopes to the FMUs: another method)].
     #[arg(long, value_enum)]
     pub extrapolation: Option<ExtrapolationArg>,
     /// Interface tolerance of iterating schemes: every |U − C·Y| ≤ tol · s, with s the largest
@@ -334,7 +336,9 @@ impl SchemeOptions {
             extrapolation: match self.extrapolation {
                 Some(ExtrapolationArg::Constant) => Extrapolation::Constant,
                 Some(ExtrapolationArg::Linear) => Extrapolation::Linear,
-                None if scheme == SchemeName::Ijcsa => Extrapolation::Linear,
+                None if matches!(scheme, SchemeName::Ijcsa | SchemeName::IqnIls | SchemeName::Iterative) => {
+                    Extrapolation::Linear
+                }
                 None => Extrapolation::Constant,
             },
             relaxation: self.relaxation,
