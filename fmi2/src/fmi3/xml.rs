@@ -127,6 +127,10 @@ fn unknown(x: &mut String, tag: &str, vr: u32, dependencies: Option<&[u32]>) {
     x.push_str("/>\n");
 }
 
+/// The most scalars the importer's view of one FMU holds: a description declaring arrays of
+/// more elements is refused (its sizes are the FMU's word, the view is allocated from them).
+pub const MAX_VIEW_SCALARS: usize = 1 << 22;
+
 /// Where one scalar of the importer's view lives in an FMI 3.0 FMU.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Element {
@@ -288,6 +292,10 @@ fn parse_variable(
         }
     };
     let causality = n.attribute("causality").unwrap_or("local");
+    if causality == "structuralParameter" {
+        skipped.push((name, "a structural parameter (this importer does not use configuration mode)".into()));
+        return Ok(vr);
+    }
     let causality = Causality::from_xml(causality).ok_or_else(|| ctx(format!("unknown causality `{causality}`")))?;
     let default_variability = if var_type == VarType::Real { "continuous" } else { "discrete" };
     let variability = n.attribute("variability").unwrap_or(default_variability);
@@ -307,7 +315,13 @@ fn parse_variable(
             }
         }
     }
-    let len: usize = dims.iter().product();
+    let len = dims
+        .iter()
+        .try_fold(1usize, |n, &d| n.checked_mul(d))
+        .filter(|&n| variables.len() + n <= MAX_VIEW_SCALARS)
+        .ok_or_else(|| {
+            ctx(format!("dimensions {dims:?}: more than the {MAX_VIEW_SCALARS} scalars this importer takes in all"))
+        })?;
     let parse = |text: &str| -> Result<Value, ReadError> {
         let t = text.trim();
         let value = match var_type {
@@ -416,6 +430,19 @@ mod tests {
     }
 
     #[test]
+    fn structural_parameters_are_left_out() {
+        let xml = SAMPLE.replace(
+            r#"name="n" valueReference="8" causality="parameter""#,
+            r#"name="n" valueReference="8" causality="structuralParameter""#,
+        );
+        let d = parse_model_description3(&xml).unwrap();
+        assert!(
+            d.view.variable("n").is_none() && d.skipped.iter().any(|(n, why)| n == "n" && why.contains("structural"))
+        );
+        assert_eq!(d.view.variable("y").unwrap().depends_on, Some(vec!["u[1]".into(), "u[2]".into(), "u[3]".into()]));
+    }
+
+    #[test]
     fn malformed_descriptions_give_located_errors() {
         let cases = [
             (SAMPLE.replace(r#"fmiVersion="3.0""#, r#"fmiVersion="2.0""#), "expected 3.x"),
@@ -423,6 +450,14 @@ mod tests {
             (SAMPLE.replace(r#"dependencies="5 8""#, r#"dependencies="5 99""#), "dependency `99`"),
             (SAMPLE.replace(r#"valueReference="9""#, r#"valueReference="8""#), "used twice"),
             (SAMPLE.replace(r#"start="4""#, r#"start="four""#), "start `four` is not a Int32 value"),
+            (SAMPLE.replace(r#"<Dimension start="3"/>"#, r#"<Dimension start="100000000"/>"#), "more than the 4194304"),
+            (
+                SAMPLE.replace(
+                    r#"<Dimension start="3"/>"#,
+                    r#"<Dimension start="4294967296"/><Dimension start="4294967296"/>"#,
+                ),
+                "more than the 4194304",
+            ),
         ];
         for (xml, fragment) in cases {
             let e = parse_model_description3(&xml).unwrap_err().to_string();
