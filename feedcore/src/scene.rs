@@ -518,6 +518,68 @@ pub struct Imu {
     /// Seed of the unit's noise (default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
+    /// What the fusion's Kalman filter assumes (`[control.imu.filter]`); by default the
+    /// instruments' own figures.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub filter: Option<ImuFilter>,
+}
+
+/// The noise model of the fusion's Kalman filter (`[control.imu.filter]`), where it is not the
+/// instruments' own: each key left out takes the instrument's figure (the unit's densities and
+/// walks, the size of its largest start bias, the sampled sensor's noise).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuFilter {
+    /// White-noise densities: accelerometer, m/s²/√Hz; gyro, rad/s/√Hz.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accel_noise_density: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gyro_noise_density: Option<f64>,
+    /// Bias random walks: accelerometer, m/s²/√s; gyro, rad/s/√s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accel_bias_walk: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gyro_bias_walk: Option<f64>,
+    /// The size of the start biases (standard deviation per component): m/s², rad/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accel_bias_m_s2: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gyro_bias_rad_s: Option<f64>,
+    /// The fixes' noise: within ±fix_noise_m per position and ±fix_noise_rad per rotation
+    /// component (uniform).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fix_noise_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fix_noise_rad: Option<f64>,
+}
+
+/// The fusion filter's noise model, every figure resolved (see [`ImuFilter`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FusionModel {
+    pub accel_noise_density: f64,
+    pub gyro_noise_density: f64,
+    pub accel_bias_walk: f64,
+    pub gyro_bias_walk: f64,
+    pub accel_bias_m_s2: f64,
+    pub gyro_bias_rad_s: f64,
+    pub fix_noise_m: f64,
+    pub fix_noise_rad: f64,
+}
+
+impl FusionModel {
+    /// The same model written out as `[control.imu.filter]` (every key given).
+    pub fn as_filter(&self) -> ImuFilter {
+        ImuFilter {
+            accel_noise_density: Some(self.accel_noise_density),
+            gyro_noise_density: Some(self.gyro_noise_density),
+            accel_bias_walk: Some(self.accel_bias_walk),
+            gyro_bias_walk: Some(self.gyro_bias_walk),
+            accel_bias_m_s2: Some(self.accel_bias_m_s2),
+            gyro_bias_rad_s: Some(self.gyro_bias_rad_s),
+            fix_noise_m: Some(self.fix_noise_m),
+            fix_noise_rad: Some(self.fix_noise_rad),
+        }
+    }
 }
 
 /// Largest biases an inertial unit may have: m/s², rad/s (a larger one is a unit mistake).
@@ -546,11 +608,55 @@ impl Imu {
                 c.within(&format!("{key}[{i}]"), *b, (-limit, limit), &format!("a bias within ±{limit} {unit}"))?;
             }
         }
+        let Some(f) = &self.filter else { return Ok(()) };
+        for (key, value) in [
+            ("accel_noise_density", f.accel_noise_density),
+            ("gyro_noise_density", f.gyro_noise_density),
+            ("accel_bias_walk", f.accel_bias_walk),
+            ("gyro_bias_walk", f.gyro_bias_walk),
+            ("fix_noise_m", f.fix_noise_m),
+            ("fix_noise_rad", f.fix_noise_rad),
+        ] {
+            if let Some(v) = value {
+                c.finite_nonneg(&format!("control.imu.filter.{key}"), v)?;
+            }
+        }
+        for (key, value, limit, unit) in [
+            ("accel_bias_m_s2", f.accel_bias_m_s2, IMU_BIAS_LIMITS.0, "m/s²"),
+            ("gyro_bias_rad_s", f.gyro_bias_rad_s, IMU_BIAS_LIMITS.1, "rad/s"),
+        ] {
+            if let Some(v) = value {
+                c.within(
+                    &format!("control.imu.filter.{key}"),
+                    v,
+                    (0.0, limit),
+                    &format!("a bias size within 0…{limit} {unit}"),
+                )?;
+            }
+        }
         Ok(())
     }
 }
 
 impl Control {
+    /// The fusion filter's noise model: `[control.imu.filter]`, its keys left out taken from the
+    /// instruments (`None` without an inertial unit).
+    pub fn fusion_model(&self) -> Option<FusionModel> {
+        let imu = self.imu.as_ref()?;
+        let f = imu.filter.clone().unwrap_or_default();
+        let largest = |b: &[f64; 3]| b.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        Some(FusionModel {
+            accel_noise_density: f.accel_noise_density.unwrap_or(imu.accel_noise_density),
+            gyro_noise_density: f.gyro_noise_density.unwrap_or(imu.gyro_noise_density),
+            accel_bias_walk: f.accel_bias_walk.unwrap_or(imu.accel_bias_walk),
+            gyro_bias_walk: f.gyro_bias_walk.unwrap_or(imu.gyro_bias_walk),
+            accel_bias_m_s2: f.accel_bias_m_s2.unwrap_or(largest(&imu.accel_bias_m_s2)),
+            gyro_bias_rad_s: f.gyro_bias_rad_s.unwrap_or(largest(&imu.gyro_bias_rad_s)),
+            fix_noise_m: f.fix_noise_m.unwrap_or(self.noise_m),
+            fix_noise_rad: f.fix_noise_rad.unwrap_or(self.noise_rad),
+        })
+    }
+
     /// Switches the compensation off (the uncompensated reference): the platform holds its start
     /// pose relative to the cabin, the feed error is still reported; the sensor's keys go with it.
     pub fn switch_off(&mut self) {

@@ -342,6 +342,17 @@ fn values_beyond_engineering_bounds_are_refused_by_key() {
         (with_imu.clone() + "accel_bias_m_s2 = [0.0, 1e3, 0.0]\n", "control.imu.accel_bias_m_s2[1]", "±100 m/s²"),
         (with_imu.replace("= 4e-5", "= -1.0"), "control.imu.gyro_noise_density", "must not be negative"),
         (with_imu.replace("rate_hz = 100.0", "rate_hz = 0.0"), "control.imu.rate_hz", "positive"),
+        // the filter's own noise model
+        (
+            with_imu.clone() + "[control.imu.filter]\nfix_noise_m = -1e-3\n",
+            "control.imu.filter.fix_noise_m",
+            "must not be negative",
+        ),
+        (
+            with_imu.clone() + "[control.imu.filter]\ngyro_bias_rad_s = 20.0\n",
+            "control.imu.filter.gyro_bias_rad_s",
+            "0…10 rad/s",
+        ),
         // the notch: its quality only with its frequency, which lies below half the command rate
         (
             compensated.replace("bandwidth_hz = 0.5\n", "bandwidth_hz = 0.5\nnotch_q = 2.0\n"),
@@ -358,6 +369,21 @@ fn values_beyond_engineering_bounds_are_refused_by_key() {
         assert_eq!(e.key, key, "{e}");
         assert!(e.to_string().contains(why), "{e}");
     }
+    // the filter's model: the instruments' figures, each key given overriding its own
+    let plain = Scene::from_toml(&with_imu, "imu.toml").unwrap();
+    let c = plain.control.as_ref().unwrap();
+    let m = c.fusion_model().unwrap();
+    assert_eq!((m.accel_noise_density, m.gyro_noise_density, m.accel_bias_m_s2), (6e-4, 4e-5, 0.0));
+    assert_eq!((m.fix_noise_m, m.fix_noise_rad), (c.noise_m, c.noise_rad));
+    let own =
+        Scene::from_toml(&(with_imu.clone() + "[control.imu.filter]\ngyro_noise_density = 1e-3\n"), "f.toml").unwrap();
+    let o = own.control.as_ref().unwrap().fusion_model().unwrap();
+    assert_eq!(o, feedcore::scene::FusionModel { gyro_noise_density: 1e-3, ..m });
+    // written out in full it reads back as the same model
+    let mut full = plain.to_scene();
+    full.control.as_mut().unwrap().imu.as_mut().unwrap().filter = Some(m.as_filter());
+    let back = Scene::from_toml(&full.to_toml(), "full.toml").unwrap();
+    assert_eq!(back.control.as_ref().unwrap().fusion_model(), Some(m));
     let e = edited(feed, &format!("{feed}\nprediction_s = 0.1"));
     assert_eq!(e.key, "control.prediction_s", "{e}");
     assert!(e.to_string().contains("[control.imu]"), "{e}");

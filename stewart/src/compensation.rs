@@ -140,10 +140,9 @@ impl Compensation {
             }
         };
         let period = control.sample_period().unwrap_or(f64::INFINITY);
-        let fused = control.imu.as_ref().map(|spec| {
+        let fused = control.imu.as_ref().zip(control.fusion_model()).map(|(spec, model)| {
             let imu = Imu::new(spec, scene.gravity());
-            let noise = (control.noise_m, control.noise_rad);
-            let fusion = Fusion::new(&imu, scene.gravity(), noise, control.delay_s, reference);
+            let fusion = Fusion::new(&model, scene.gravity(), control.delay_s, reference);
             (imu, fusion)
         });
         let command_period = fused.as_ref().map_or(period, |(imu, _)| imu.period);

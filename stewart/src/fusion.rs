@@ -22,7 +22,9 @@ use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{Quaternion, SMatrix, SVector};
 use serde::{Deserialize, Serialize};
 
-use crate::imu::{Imu, ImuReading};
+use feedcore::scene::FusionModel;
+
+use crate::imu::ImuReading;
 
 /// Error-state size.
 const N: usize = 15;
@@ -188,22 +190,24 @@ impl Clone for FusionState {
 }
 
 impl Fusion {
-    /// The filter for an instrument `imu`, fixes of uniform noise within ±`noise_m` per position
-    /// component and ±`noise_rad` per rotation component arriving `delay` after they are
-    /// measured, and a cabin starting at rest at `start`.
-    pub fn new(imu: &Imu, gravity: Vec3, (noise_m, noise_rad): (f64, f64), delay: f64, start: (Vec3, Quat)) -> Fusion {
+    /// The filter of the noise model `model` (`[control.imu.filter]` resolved: the unit's
+    /// densities, walks and bias sizes, the fixes' uniform noise), fixes arriving `delay` after
+    /// they are measured, and a cabin starting at rest at `start`.
+    pub fn new(model: &FusionModel, gravity: Vec3, delay: f64, start: (Vec3, Quat)) -> Fusion {
         // the variance of a uniform number on [−a, a] is a²/3
+        let (noise_m, noise_rad) = (model.fix_noise_m, model.fix_noise_rad);
         let fix_variance = (
             (noise_m * noise_m / 3.0).max(FIX_VARIANCE_FLOOR.0),
             (noise_rad * noise_rad / 3.0).max(FIX_VARIANCE_FLOOR.1),
         );
-        let (bias_a, bias_g) = imu.bias_sigma();
+        // a floor, so that a perfect instrument's biases are still estimated
+        let (bias_a, bias_g) = (model.accel_bias_m_s2.max(1e-4), model.gyro_bias_rad_s.max(1e-6));
         Fusion {
             gravity,
-            accel_noise2: imu.accel_noise * imu.accel_noise,
-            gyro_noise2: imu.gyro_noise * imu.gyro_noise,
-            accel_walk2: imu.accel_walk * imu.accel_walk,
-            gyro_walk2: imu.gyro_walk * imu.gyro_walk,
+            accel_noise2: model.accel_noise_density * model.accel_noise_density,
+            gyro_noise2: model.gyro_noise_density * model.gyro_noise_density,
+            accel_walk2: model.accel_bias_walk * model.accel_bias_walk,
+            gyro_walk2: model.gyro_bias_walk * model.gyro_bias_walk,
             fix_variance,
             delay,
             start,
@@ -353,6 +357,7 @@ impl Fusion {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::imu::Imu;
     use crate::wrench::CabinMotion;
     use feedcore::random::SplitMix64;
     use feedcore::scene::Imu as ImuSpec;
@@ -396,12 +401,23 @@ mod tests {
             accel_bias_walk: 0.0,
             gyro_bias_walk: 0.0,
             seed: Some(seed),
+            filter: None,
         };
-        let mut imu = Imu::new(&spec, G);
-        // the prior the biases were drawn from (not the drawn values' size)
-        imu.set_bias_sigma((0.02, 1e-4));
-        imu
+        Imu::new(&spec, G)
     }
+
+    /// The filter's model of those instruments: their densities, the prior the biases were drawn
+    /// from (not the drawn values' size), the fixes' noise.
+    const MODEL: FusionModel = FusionModel {
+        accel_noise_density: 2e-3,
+        gyro_noise_density: 3e-5,
+        accel_bias_walk: 0.0,
+        gyro_bias_walk: 0.0,
+        accel_bias_m_s2: 0.02,
+        gyro_bias_rad_s: 1e-4,
+        fix_noise_m: NOISE.0,
+        fix_noise_rad: NOISE.1,
+    };
 
     fn fix_at(t: f64, rng: &mut SplitMix64) -> Fix {
         let m = truth(t);
@@ -416,7 +432,7 @@ mod tests {
     fn run(seed: u64, delay: f64, mut seen: impl FnMut(&Estimate, &Matrix, (Vec3, Vec3))) {
         let imu = instrument(seed);
         let start = truth(0.0);
-        let fusion = Fusion::new(&imu, G, NOISE, delay, (start.position, start.orientation));
+        let fusion = Fusion::new(&MODEL, G, delay, (start.position, start.orientation));
         let mut state = fusion.start_state();
         let mut unit = imu.start();
         let mut rng = SplitMix64::new(seed);

@@ -42,8 +42,6 @@ pub struct Imu {
     gyro_bias: Vec3,
     seed: u64,
     gravity: Vec3,
-    /// The filter's prior on the biases, when not the given biases' size.
-    bias_sigma: Option<(f64, f64)>,
 }
 
 /// What the instrument carries from reading to reading: its biases, the motion it last read
@@ -78,7 +76,6 @@ impl Imu {
             gyro_bias: Vec3::from(spec.gyro_bias_rad_s),
             seed: spec.seed.unwrap_or(0),
             gravity,
-            bias_sigma: None,
         }
     }
 
@@ -86,19 +83,6 @@ impl Imu {
     pub fn sample_sigma(&self) -> (f64, f64) {
         let root_rate = (1.0 / self.period).sqrt();
         (self.accel_noise * root_rate, self.gyro_noise * root_rate)
-    }
-
-    /// The biases a filter starts believing in, as standard deviations: the given biases'
-    /// largest component (the filter knows their size, not their value), with a floor so that
-    /// a perfect instrument is still estimated.
-    pub fn bias_sigma(&self) -> (f64, f64) {
-        self.bias_sigma.unwrap_or((self.accel_bias.amax().max(1e-4), self.gyro_bias.amax().max(1e-6)))
-    }
-
-    /// Sets what [`Imu::bias_sigma`] says (tests: biases drawn from a known prior).
-    #[cfg(test)]
-    pub(crate) fn set_bias_sigma(&mut self, sigma: (f64, f64)) {
-        self.bias_sigma = Some(sigma);
     }
 
     pub fn start(&self) -> ImuState {
@@ -160,6 +144,7 @@ mod tests {
             accel_bias_walk: 0.0,
             gyro_bias_walk: 0.0,
             seed: None,
+            filter: None,
         }
     }
 

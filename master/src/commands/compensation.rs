@@ -532,7 +532,8 @@ fn sweep_figure(
 /// A run of the error budget: the scene with part of its instrument made perfect.
 #[derive(Clone, Copy, Debug)]
 enum Budget {
-    /// No noise on the sampled sensor; the inertial unit without noise, bias or walk.
+    /// No noise on the sampled sensor; the inertial unit without noise, bias or walk; the
+    /// fusion filter's noise model as it was (`[control.imu.filter]` written out).
     Noiseless,
     /// No delay.
     Prompt,
@@ -552,8 +553,11 @@ impl Budget {
     fn apply(&self, s: &mut Scene) {
         let Some(c) = s.control.as_mut() else { return };
         if matches!(self, Budget::Noiseless | Budget::Perfect) {
+            // the filter keeps its noise model: only the instruments lose their noise
+            let model = c.fusion_model();
             (c.noise_m, c.noise_rad) = (0.0, 0.0);
             if let Some(imu) = c.imu.as_mut() {
+                imu.filter = model.map(|m| m.as_filter());
                 (imu.accel_noise_density, imu.gyro_noise_density) = (0.0, 0.0);
                 (imu.accel_bias_m_s2, imu.gyro_bias_rad_s) = ([0.0; 3], [0.0; 3]);
                 (imu.accel_bias_walk, imu.gyro_bias_walk) = (0.0, 0.0);
@@ -561,6 +565,29 @@ impl Budget {
         }
         if matches!(self, Budget::Prompt | Budget::Perfect) {
             c.delay_s = 0.0;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The budget's instrument without noise keeps the filter that expects the noise: only the
+    /// readings change, so the difference is the noise's share.
+    #[test]
+    fn a_noiseless_instrument_keeps_its_filters_noise_model() {
+        let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/lt50m_C_total_station.toml");
+        let scene = feedcore::scene::Scene::load(file).unwrap().to_scene();
+        let before = scene.control.as_ref().unwrap().fusion_model().unwrap();
+        assert!(before.accel_noise_density > 0.0 && before.fix_noise_m > 0.0);
+        for budget in [Budget::Noiseless, Budget::Perfect] {
+            let mut s = scene.clone();
+            budget.apply(&mut s);
+            let c = s.control.as_ref().unwrap();
+            let imu = c.imu.as_ref().unwrap();
+            assert_eq!((c.noise_m, c.noise_rad, imu.accel_noise_density, imu.gyro_noise_density), (0.0, 0.0, 0.0, 0.0));
+            assert_eq!(c.fusion_model(), Some(before), "{}", budget.label());
         }
     }
 }

@@ -15,7 +15,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use feedcore::scene::{Scene, SensorKind, ValidScene};
+use feedcore::scene::{FusionModel, Scene, SensorKind, ValidScene};
 use master::table::Table;
 use stewart::Stewart;
 
@@ -55,6 +55,11 @@ pub(crate) struct Args {
     /// (comma-separated; ignored without an inertial unit).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_value = "0,0.25,0.5")]
     pub(crate) predictions: Vec<f64>,
+    /// With [control.imu]: scales of the noise the fusion filter assumes of the unit (its noise
+    /// densities and bias walks; 1: the instrument's own figures) tried (comma-separated; ignored
+    /// without an inertial unit). Above 1 the filter leans on the fixes, below on the unit.
+    #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true, default_value = "1")]
+    pub(crate) fusion_scales: Vec<f64>,
     /// A notch in the commands at this frequency (Hz; default: the scene's `notch_hz`, if any),
     /// e.g. the cable–cabin mode the loop pumps (`master modes`).
     #[arg(long, value_parser = positive, allow_negative_numbers = true)]
@@ -104,6 +109,8 @@ struct Candidate {
     prediction_s: Option<f64>,
     /// The notch: frequency, quality.
     notch: Option<(f64, f64)>,
+    /// The scale of the unit's noise the fusion filter assumes (with an inertial unit).
+    fusion_scale: Option<f64>,
 }
 
 impl Candidate {
@@ -111,6 +118,18 @@ impl Candidate {
         if let Some(c) = s.control.as_mut() {
             (c.bandwidth_hz, c.prediction_s) = (Some(self.bandwidth_hz), self.prediction_s);
             (c.notch_hz, c.notch_q) = (self.notch.map(|n| n.0), self.notch.map(|n| n.1));
+            if let (Some(k), Some(m)) = (self.fusion_scale.filter(|&k| k != 1.0), c.fusion_model())
+                && let Some(imu) = c.imu.as_mut()
+            {
+                let scaled = FusionModel {
+                    accel_noise_density: m.accel_noise_density * k,
+                    gyro_noise_density: m.gyro_noise_density * k,
+                    accel_bias_walk: m.accel_bias_walk * k,
+                    gyro_bias_walk: m.gyro_bias_walk * k,
+                    ..m
+                };
+                imu.filter = Some(scaled.as_filter());
+            }
         }
     }
 }
@@ -159,6 +178,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let shares: Vec<Option<f64>> =
         if control.imu.is_some() { args.predictions.iter().map(|&p| Some(p)).collect() } else { vec![None] };
+    let scales: Vec<Option<f64>> =
+        if control.imu.is_some() { args.fusion_scales.iter().map(|&k| Some(k)).collect() } else { vec![None] };
     let notches: Vec<Option<(f64, f64)>> = match args.notch_hz.or(control.notch_hz) {
         Some(f) => args.notch_qs.iter().map(|&q| Some((f, q))).collect(),
         None => vec![None],
@@ -168,7 +189,10 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         let lag = 2.0 / (std::f64::consts::TAU * b);
         for share in &shares {
             for &notch in &notches {
-                candidates.push(Candidate { bandwidth_hz: b, prediction_s: share.map(|s| s * lag), notch });
+                for &fusion_scale in &scales {
+                    let prediction_s = share.map(|s| s * lag);
+                    candidates.push(Candidate { bandwidth_hz: b, prediction_s, notch, fusion_scale });
+                }
             }
         }
     }
@@ -221,16 +245,20 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     outputs.write(scene_id, |w| w.write_all(tuned_text.as_bytes()))?;
 
     outputs.write(csv_id, |w| {
-        writeln!(w, "bandwidth_hz,prediction_s,notch_hz,notch_q,run,verdict,feed_err_rms_mm,feed_err_peak_mm,note")?;
+        writeln!(
+            w,
+            "bandwidth_hz,prediction_s,notch_hz,notch_q,fusion_scale,run,verdict,feed_err_rms_mm,feed_err_peak_mm,note"
+        )?;
         for (i, c) in candidates.iter().enumerate() {
             for v in VARIANTS {
                 let r = verdict(i, v);
                 let p = c.prediction_s.map_or(String::new(), |p| format!("{p:e}"));
                 let notch = c.notch.map_or(",".to_string(), |(f, q)| format!("{f},{q}"));
+                let scale = c.fusion_scale.map_or(String::new(), |k| k.to_string());
                 let state = if r.stable { "stable" } else { "unstable" };
                 writeln!(
                     w,
-                    "{},{p},{notch},{},{state},{:e},{:e},\"{}\"",
+                    "{},{p},{notch},{scale},{},{state},{:e},{:e},\"{}\"",
                     c.bandwidth_hz,
                     v.label(),
                     r.rms,
@@ -251,6 +279,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         }
         if let Some((f, q)) = c.notch {
             text += &format!(", notch {f} Hz Q {q}");
+        }
+        if let Some(k) = c.fusion_scale.filter(|&k| k != 1.0) {
+            text += &format!(", unit noise assumed ×{k}");
         }
         text
     };

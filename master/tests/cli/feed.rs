@@ -416,8 +416,8 @@ fn tune_is_reproducible_and_its_report_is_its_runs() {
             decoupled: f64::NAN,
             robust: true,
         });
-        // bandwidth, prediction, notch frequency, notch quality, run, verdict, RMS, …
-        let (run, stable, rms) = (cells[4], cells[5] == "stable", cells[6].parse::<f64>().unwrap());
+        // bandwidth, prediction, notch frequency, notch quality, fusion scale, run, verdict, RMS, …
+        let (run, stable, rms) = (cells[5], cells[6] == "stable", cells[7].parse::<f64>().unwrap());
         match run {
             "coupled" => e.coupled = rms,
             "decoupled" => e.decoupled = rms,
