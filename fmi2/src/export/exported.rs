@@ -755,32 +755,50 @@ pub unsafe fn derivative<M: Model>(
     // SAFETY: `c` and the four arrays as the contract says.
     unsafe {
         call::<M>(c, func, GETTABLE, |inst| {
-            let flags = inst.info.description.flags;
-            match kind {
-                Derivative::Instant if !flags.provides_directional_derivative => {
-                    return Err("not provided by this FMU (providesDirectionalDerivative = false)".into());
-                }
-                Derivative::StepMap if !flags.provides_step_map_derivative => {
-                    return Err("not provided by this FMU (no StepMapDerivative vendor annotation)".into());
-                }
-                _ => {}
-            }
+            provided(inst, kind, "providesDirectionalDerivative")?;
             let unknowns = slice(v_unknown, n_unknown, "vUnknown_ref")?;
             let knowns = slice(v_known, n_known, "vKnown_ref")?;
             let seed = slice(dv_known, n_known, "dvKnown")?;
             let out = slice_mut(dv_unknown, n_unknown, "dvUnknown")?;
-            let (mut k, mut s) = (std::mem::take(&mut inst.scratch_knowns), std::mem::take(&mut inst.scratch_seed));
-            let result = derivative_checked(inst, kind, unknowns, knowns, seed, out, &mut k, &mut s);
-            (inst.scratch_knowns, inst.scratch_seed) = (k, s);
-            result.map(|()| fmi2OK)
+            derivative_checked(inst, kind, unknowns, knowns, seed, out).map(|()| fmi2OK)
         })
     }
 }
 
+/// Refuses a derivative the description does not announce (`attribute`: the version's name of
+/// the capability flag).
+pub(crate) fn provided<M: Model>(inst: &Instance<M>, kind: Derivative, attribute: &str) -> Result<(), String> {
+    let flags = inst.info.description.flags;
+    match kind {
+        Derivative::Instant if !flags.provides_directional_derivative => {
+            Err(format!("not provided by this FMU ({attribute} = false)"))
+        }
+        Derivative::StepMap if !flags.provides_step_map_derivative => {
+            Err("not provided by this FMU (no StepMapDerivative annotation)".into())
+        }
+        _ => Ok(()),
+    }
+}
+
 /// The checks around a model's derivative: unknowns and knowns of the right causality, finite
-/// seeds (parameters with a zero seed dropped into `k`, `s`), a finite result.
-#[allow(clippy::too_many_arguments)]
+/// seeds (parameters with a zero seed dropped, in the instance's reused buffers), a finite result.
 pub(crate) fn derivative_checked<M: Model>(
+    inst: &mut Instance<M>,
+    kind: Derivative,
+    unknowns: &[u32],
+    knowns: &[u32],
+    seed: &[f64],
+    out: &mut [f64],
+) -> Result<(), String> {
+    let (mut k, mut s) = (std::mem::take(&mut inst.scratch_knowns), std::mem::take(&mut inst.scratch_seed));
+    let result = derivative_into(inst, kind, unknowns, knowns, seed, out, &mut k, &mut s);
+    (inst.scratch_knowns, inst.scratch_seed) = (k, s);
+    result
+}
+
+/// [`derivative_checked`] with the buffers `k`, `s` for the knowns kept.
+#[allow(clippy::too_many_arguments)]
+fn derivative_into<M: Model>(
     inst: &mut Instance<M>,
     kind: Derivative,
     unknowns: &[u32],

@@ -23,8 +23,8 @@ use super::ffi::*;
 use super::layout::{Layout3, TIME_VR, Var3};
 use crate::description::{DescriptionError, ModelInfo, VarType};
 use crate::export::exported::{
-    ALL_BUT_FATAL, GETTABLE, SETTABLE, call, contain, derivative_checked, finite, model_info, slice, slice_mut, step,
-    string, write,
+    ALL_BUT_FATAL, GETTABLE, SETTABLE, call, contain, derivative_checked, finite, model_info, provided, slice,
+    slice_mut, step, string, write,
 };
 use crate::export::instance::{Instance, Logger, Msg, Phase, V3, describe, log_to};
 use crate::export::{Derivative, Model};
@@ -523,16 +523,7 @@ pub unsafe fn derivative<M: Model>(
     // SAFETY: `c` and the four arrays as the contract says.
     unsafe {
         call::<M>(c, func, GETTABLE, |inst| {
-            let flags = inst.info.description.flags;
-            match kind {
-                Derivative::Instant if !flags.provides_directional_derivative => {
-                    return Err("not provided by this FMU (providesDirectionalDerivatives = false)".into());
-                }
-                Derivative::StepMap if !flags.provides_step_map_derivative => {
-                    return Err("not provided by this FMU (no StepMapDerivative annotation)".into());
-                }
-                _ => {}
-            }
+            provided(inst, kind, "providesDirectionalDerivatives")?;
             let u = slice(unknowns, n_unknowns, "unknowns")?;
             let k = slice(knowns, n_knowns, "knowns")?;
             let seed = slice(seed, n_seed, "seed")?;
@@ -546,11 +537,7 @@ pub unsafe fn derivative<M: Model>(
                     if us.contains(&TIME_SCALAR) || ks.contains(&TIME_SCALAR) {
                         return Err(format!("`time` (value reference {TIME_VR}) has no derivatives here"));
                     }
-                    let (mut kk, mut s) =
-                        (std::mem::take(&mut inst.scratch_knowns), std::mem::take(&mut inst.scratch_seed));
-                    let r = derivative_checked(inst, kind, &us, &ks, seed, out, &mut kk, &mut s);
-                    (inst.scratch_knowns, inst.scratch_seed) = (kk, s);
-                    r.map(|()| fmi2OK)
+                    derivative_checked(inst, kind, &us, &ks, seed, out).map(|()| fmi2OK)
                 });
             let v3 = v3_of(inst)?;
             (v3.scalars, v3.knowns) = (us, ks);

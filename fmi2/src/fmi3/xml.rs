@@ -8,9 +8,9 @@ use roxmltree::{Document, Node};
 
 use super::layout::{Layout3, Var3};
 use crate::description::{
-    Causality, CoSimulationFlags, DefaultExperiment, Initial, ModelDescription, Value, VarType, Variability, Variable,
+    Causality, CoSimulationFlags, Initial, ModelDescription, Value, VarType, Variability, Variable,
 };
-use crate::xml::read::{ReadError, at, attr, boolean, fail, parse_unit, real, required};
+use crate::xml::read::{ReadError, at, attr, boolean, fail, parse_default_experiment, parse_units, real, required};
 use crate::xml::write::{bool_attr, default_experiment, escape, log_categories, units};
 use crate::xml::{STEP_MAP_ANNOTATION, VENDOR_TOOL};
 
@@ -195,19 +195,7 @@ pub fn parse_model_description3(text: &str) -> Result<Description3, ReadError> {
         provides_directional_derivative: flag("providesDirectionalDerivatives")?,
         provides_step_map_derivative: annotated(root) || annotated(cs),
     };
-    let mut units = Vec::new();
-    for u in child("UnitDefinitions").iter().flat_map(|d| d.children().filter(|c| c.has_tag_name("Unit"))) {
-        units.push(parse_unit(u)?);
-    }
-    let default_experiment = match child("DefaultExperiment") {
-        None => None,
-        Some(n) => Some(DefaultExperiment {
-            start_time: attr(n, "startTime", "a number", real)?,
-            stop_time: attr(n, "stopTime", "a number", real)?,
-            step_size: attr(n, "stepSize", "a number", real)?,
-            tolerance: attr(n, "tolerance", "a number", real)?,
-        }),
-    };
+    let (units, default_experiment) = (parse_units(root)?, parse_default_experiment(root)?);
     let Some(mv) = child("ModelVariables") else {
         return fail("no <ModelVariables> element".into());
     };

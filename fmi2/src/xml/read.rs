@@ -100,19 +100,7 @@ pub fn parse_model_description(text: &str) -> Result<ModelDescription, ReadError
                 .any(|t| t.children().any(|c| c.has_tag_name(STEP_MAP_ANNOTATION)))
         }),
     };
-    let mut units = Vec::new();
-    for u in child("UnitDefinitions").iter().flat_map(|d| d.children().filter(|c| c.has_tag_name("Unit"))) {
-        units.push(parse_unit(u)?);
-    }
-    let default_experiment = match child("DefaultExperiment") {
-        None => None,
-        Some(n) => Some(DefaultExperiment {
-            start_time: attr(n, "startTime", "a number", real)?,
-            stop_time: attr(n, "stopTime", "a number", real)?,
-            step_size: attr(n, "stepSize", "a number", real)?,
-            tolerance: attr(n, "tolerance", "a number", real)?,
-        }),
-    };
+    let (units, default_experiment) = (parse_units(root)?, parse_default_experiment(root)?);
     let Some(mv) = child("ModelVariables") else {
         return fail("no <ModelVariables> element".into());
     };
@@ -154,7 +142,24 @@ pub fn parse_model_description(text: &str) -> Result<ModelDescription, ReadError
     })
 }
 
-pub(crate) fn parse_unit(u: Node) -> Result<Unit, ReadError> {
+/// `<UnitDefinitions>` of the description `root` (the same in FMI 2.0 and 3.0).
+pub(crate) fn parse_units(root: Node) -> Result<Vec<Unit>, ReadError> {
+    let defs = root.children().filter(|c| c.has_tag_name("UnitDefinitions"));
+    defs.flat_map(|d| d.children().filter(|c| c.has_tag_name("Unit"))).map(parse_unit).collect()
+}
+
+/// `<DefaultExperiment>` of the description `root`, if any (the same in FMI 2.0 and 3.0).
+pub(crate) fn parse_default_experiment(root: Node) -> Result<Option<DefaultExperiment>, ReadError> {
+    let Some(n) = root.children().find(|c| c.has_tag_name("DefaultExperiment")) else { return Ok(None) };
+    Ok(Some(DefaultExperiment {
+        start_time: attr(n, "startTime", "a number", real)?,
+        stop_time: attr(n, "stopTime", "a number", real)?,
+        step_size: attr(n, "stepSize", "a number", real)?,
+        tolerance: attr(n, "tolerance", "a number", real)?,
+    }))
+}
+
+fn parse_unit(u: Node) -> Result<Unit, ReadError> {
     let name = required(u, "name")?;
     let base_unit = match u.children().find(|c| c.has_tag_name("BaseUnit")) {
         None => None,
