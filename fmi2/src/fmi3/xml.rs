@@ -453,6 +453,34 @@ mod tests {
         }
     }
 
+    /// Careless and hostile descriptions: every byte of a written one replaced by characters that
+    /// break XML, numbers or lists, and the text cut at every point — read or refused, never a
+    /// panic (and nothing allocated from a size the text claims beyond the limit).
+    #[test]
+    fn mutated_descriptions_are_read_or_refused() {
+        let info = ModelInfo::new(crate::xml::tests::sample()).unwrap();
+        let text = model_description_xml3(&info.description, &Layout3::new(&info.description).unwrap());
+        let bytes = text.as_bytes();
+        let mut outcomes = [0usize; 2];
+        for i in 0..bytes.len() {
+            for b in [b'<', b'"', b'9', b' ', b'-', b'x'] {
+                let mut m = bytes.to_vec();
+                m[i] = b;
+                let Ok(t) = std::str::from_utf8(&m) else { continue };
+                outcomes[usize::from(parse_model_description3(t).is_ok())] += 1;
+            }
+            if text.is_char_boundary(i) {
+                outcomes[usize::from(parse_model_description3(&text[..i]).is_ok())] += 1;
+            }
+        }
+        assert!(outcomes[0] > 1000 && outcomes[1] > 100, "refused, read: {outcomes:?}");
+        let huge = SAMPLE.replace(r#"<Dimension start="3"/>"#, r#"<Dimension start="18446744073709551615"/>"#);
+        assert!(parse_model_description3(&huge).is_err());
+        let empty = SAMPLE.replace(r#"start="1 2 3"><Dimension start="3"/>"#, r#"><Dimension start="0"/>"#);
+        let d = parse_model_description3(&empty).unwrap();
+        assert!(d.view.variable("u[1]").is_none() && d.view.variable("y").is_some(), "an empty array has no scalars");
+    }
+
     #[test]
     fn what_is_written_reads_back_as_the_model_declares_it() {
         let info = ModelInfo::new(crate::xml::tests::sample()).unwrap();
