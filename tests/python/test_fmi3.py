@@ -25,9 +25,9 @@ from conftest import DIST
 from fmus import CASES
 from test_fmus import drive_table
 from zoo import (
-    END_VALUES,
     ITERATING,
     SCHEMES,
+    ball_exact,
     chain_expected,
     dahlquist_steps,
     delayed,
@@ -226,6 +226,21 @@ def test_fmi3_stair_ends_the_run_early_and_cleanly(fmi3_systems, scheme):
     counter = 1 + np.floor(t + 1e-9)
     assert np.array_equal(cols["stair.counter"], counter)
     assert np.array_equal(cols["f.int_out"], np.concatenate([[1], counter[:-1]]))
+
+
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_fmi3_ball_carries_int32_and_boolean_connections(tmp_path_factory, scheme):
+    """The exported FMI 3.0 bouncing ball and feedthrough: the ball's closed form; Int32 and
+    Boolean values passed a step late, as with FMI 2.0."""
+    fmus = {n: fmi3_file(n) for n in ["bouncing_ball", "feedthrough"]}
+    system = pack("ball", tmp_path_factory.mktemp(f"fmi3-ball-{scheme}"), fmus=fmus)
+    cols, _, _ = run(system, scheme, 0.01, *TIGHT)
+    h, v, bounces, resting = ball_exact(cols["time"])
+    assert np.max(np.abs(cols["ball.h"] - h)) < 1e-12 and np.max(np.abs(cols["ball.v"] - v)) < 1e-12
+    late = lambda x: np.concatenate([x[:1], x[:-1]])  # noqa: E731
+    assert np.array_equal(cols["f.int_out"], late(bounces))
+    assert np.array_equal(cols["f.bool_out"] == 1, late(resting))
+    assert bounces[-1] == 11 and resting[-1]
 
 
 def test_a_system_of_both_versions_runs_like_the_fmi2_system(tmp_path):

@@ -143,14 +143,17 @@ impl Instance {
         self.check(function, s)
     }
 
-    pub(super) fn get3<T: Copy + Default>(
+    /// The values of `vrs` (of type `t`) into `out`, each as `convert` makes it from the C value.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn get3<T: Copy + Default, U>(
         &mut self,
         t: VarType,
         vrs: &[u32],
-        out: &mut [T],
+        out: &mut [U],
         get: fmi3GetTYPE<T>,
         function: &'static str,
         buffer: impl Fn(&mut Buffers) -> &mut Vec<T> + Copy,
+        convert: impl Fn(T) -> U,
     ) -> Result<(), Error> {
         self.check_get3(function)?;
         let i = self.plan(t, vrs)?;
@@ -158,19 +161,22 @@ impl Instance {
         let calls = self.calls3();
         let buf = buffer(&mut calls.buf);
         for (o, &a) in out.iter_mut().zip(&calls.plans[i].at) {
-            *o = buf[a];
+            *o = convert(buf[a]);
         }
         Ok(())
     }
 
-    pub(super) fn set3<T: Copy + Default>(
+    /// Sets `vrs` (of type `t`) to `values`, each as `convert` makes the C value of it.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn set3<T: Copy + Default, U: Copy>(
         &mut self,
         t: VarType,
         vrs: &[u32],
-        values: &[T],
+        values: &[U],
         (get, set): (fmi3GetTYPE<T>, fmi3SetTYPE<T>),
         (get_name, set_name): (&'static str, &'static str),
         buffer: impl Fn(&mut Buffers) -> &mut Vec<T> + Copy,
+        convert: impl Fn(U) -> T,
     ) -> Result<(), Error> {
         let i = self.plan(t, vrs)?;
         if self.calls3().plans[i].partial {
@@ -185,7 +191,7 @@ impl Instance {
         let plan = &calls.plans[i];
         let buf = buffer(&mut calls.buf);
         for (&a, &x) in plan.at.iter().zip(values) {
-            buf[a] = x;
+            buf[a] = convert(x);
         }
         // SAFETY: a live instance and a function of its loaded binary (the invariants of
         // `Instance`); the plan's variables and the buffer of their values outlive the call.
@@ -197,41 +203,37 @@ impl Instance {
 
     pub(super) fn get_real3(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), Error> {
         let get = self.api3().get_float64;
-        self.get3(VarType::Real, vrs, out, get, "fmi3GetFloat64", |b| &mut b.reals)
+        self.get3(VarType::Real, vrs, out, get, "fmi3GetFloat64", |b| &mut b.reals, |x| x)
     }
 
     pub(super) fn get_integer3(&mut self, vrs: &[u32], out: &mut [i32]) -> Result<(), Error> {
         let get = self.api3().get_int32;
-        self.get3(VarType::Integer, vrs, out, get, "fmi3GetInt32", |b| &mut b.integers)
+        self.get3(VarType::Integer, vrs, out, get, "fmi3GetInt32", |b| &mut b.integers, |x| x)
     }
 
     pub(super) fn get_boolean3(&mut self, vrs: &[u32], out: &mut [bool]) -> Result<(), Error> {
         let get = self.api3().get_boolean;
-        let mut raw = vec![0u8; vrs.len()];
-        self.get3(VarType::Boolean, vrs, &mut raw, get, "fmi3GetBoolean", |b| &mut b.booleans)?;
-        for (o, r) in out.iter_mut().zip(raw) {
-            *o = r != fmi3False;
-        }
-        Ok(())
+        self.get3(VarType::Boolean, vrs, out, get, "fmi3GetBoolean", |b| &mut b.booleans, |x| x != fmi3False)
     }
 
     pub(super) fn set_real3(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), Error> {
         let api = self.api3();
         let fns = (api.get_float64, api.set_float64);
-        self.set3(VarType::Real, vrs, values, fns, ("fmi3GetFloat64", "fmi3SetFloat64"), |b| &mut b.reals)
+        self.set3(VarType::Real, vrs, values, fns, ("fmi3GetFloat64", "fmi3SetFloat64"), |b| &mut b.reals, |x| x)
     }
 
     pub(super) fn set_integer3(&mut self, vrs: &[u32], values: &[i32]) -> Result<(), Error> {
         let api = self.api3();
         let fns = (api.get_int32, api.set_int32);
-        self.set3(VarType::Integer, vrs, values, fns, ("fmi3GetInt32", "fmi3SetInt32"), |b| &mut b.integers)
+        let names = ("fmi3GetInt32", "fmi3SetInt32");
+        self.set3(VarType::Integer, vrs, values, fns, names, |b| &mut b.integers, |x| x)
     }
 
     pub(super) fn set_boolean3(&mut self, vrs: &[u32], values: &[bool]) -> Result<(), Error> {
         let api = self.api3();
         let fns = (api.get_boolean, api.set_boolean);
-        let raw: Vec<u8> = values.iter().map(|&b| u8::from(b)).collect();
-        self.set3(VarType::Boolean, vrs, &raw, fns, ("fmi3GetBoolean", "fmi3SetBoolean"), |b| &mut b.booleans)
+        let names = ("fmi3GetBoolean", "fmi3SetBoolean");
+        self.set3(VarType::Boolean, vrs, values, fns, names, |b| &mut b.booleans, u8::from)
     }
 
     pub(super) fn get_string3(&mut self, vrs: &[u32]) -> Result<Vec<String>, Error> {
