@@ -184,27 +184,8 @@ pub unsafe fn instantiate<M: Model>(
             }
             let resources = crate::uri::resource_dir(location.as_deref().unwrap_or(""))?;
             let model = M::instantiate(resources.as_deref()).msg()?;
-            let inst = Instance {
-                info,
-                name: name_c.clone(),
-                resources,
-                logger: Logger::Fmi2(cb.logger, cb.componentEnvironment),
-                v3: None,
-                log_errors: true,
-                log_warnings: true,
-                log_info: logging_on != fmi2False,
-                phase: Instantiated,
-                time: 0.0,
-                start_time: 0.0,
-                stop_time: None,
-                terminated: false,
-                model,
-                strings: Vec::new(),
-                scratch_knowns: Vec::new(),
-                scratch_seed: Vec::new(),
-            };
-            let resources = &inst.resources;
-            inst.log(fmi2OK, &format!("instantiated `{}` (resources: {resources:?})", info.description.model_name));
+            let logger = Logger::Fmi2(cb.logger, cb.componentEnvironment);
+            let inst = Instance::new(info, name_c.clone(), resources, logger, None, logging_on != fmi2False, model);
             Ok(Box::into_raw(Box::new(inst)).cast())
         },
         |panic| Err(format!("internal error (panic): {panic}")),

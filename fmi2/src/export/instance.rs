@@ -97,6 +97,41 @@ pub(crate) struct Instance<M: Model> {
 }
 
 impl<M: Model> Instance<M> {
+    /// A new instance of `model`, in the instantiated state, its instantiation logged; the
+    /// FMI 3.0 part for an instance of that export.
+    pub(crate) fn new(
+        info: &'static ModelInfo,
+        name: CString,
+        resources: Option<PathBuf>,
+        logger: Logger,
+        v3: Option<V3>,
+        log_info: bool,
+        model: M,
+    ) -> Instance<M> {
+        let inst = Instance {
+            info,
+            name,
+            resources,
+            logger,
+            v3,
+            log_errors: true,
+            log_warnings: true,
+            log_info,
+            phase: Phase::Instantiated,
+            time: 0.0,
+            start_time: 0.0,
+            stop_time: None,
+            terminated: false,
+            model,
+            strings: Vec::new(),
+            scratch_knowns: Vec::new(),
+            scratch_seed: Vec::new(),
+        };
+        let resources = &inst.resources;
+        inst.log(fmi2OK, &format!("instantiated `{}` (resources: {resources:?})", info.description.model_name));
+        inst
+    }
+
     pub(crate) fn log(&self, status: fmi2Status, message: &str) {
         // A discarded step is reported like an error: the importer must learn why the model ended.
         let (category, enabled) = match status {

@@ -23,8 +23,8 @@ use super::ffi::*;
 use super::layout::{Layout3, TIME_VR, Var3};
 use crate::description::{DescriptionError, ModelInfo, VarType};
 use crate::export::exported::{
-    ALL_BUT_FATAL, GETTABLE, SETTABLE, call, contain, derivative_checked, finite, model_info, provided, slice,
-    slice_mut, step, string, write,
+    ALL_BUT_FATAL, GETTABLE, SETTABLE, TIME_RTOL, call, contain, derivative_checked, finite, model_info, provided,
+    slice, slice_mut, step, string, write,
 };
 use crate::export::instance::{Instance, Logger, Msg, Phase, V3, describe, log_to};
 use crate::export::{Derivative, Model};
@@ -94,33 +94,14 @@ pub unsafe fn instantiate_co_simulation<M: Model>(
             }
             let resources = resource_path(location.as_deref())?;
             let model = M::instantiate(resources.as_deref()).msg()?;
-            let inst = Instance {
-                info,
-                name: name_c.clone(),
-                resources,
-                logger,
-                v3: Some(V3 {
-                    layout,
-                    early_return_allowed: early_return_allowed != fmi3False,
-                    scalars: Vec::new(),
-                    knowns: Vec::new(),
-                    reals: Vec::new(),
-                }),
-                log_errors: true,
-                log_warnings: true,
-                log_info: logging_on != fmi3False,
-                phase: Phase::Instantiated,
-                time: 0.0,
-                start_time: 0.0,
-                stop_time: None,
-                terminated: false,
-                model,
-                strings: Vec::new(),
-                scratch_knowns: Vec::new(),
-                scratch_seed: Vec::new(),
+            let v3 = V3 {
+                layout,
+                early_return_allowed: early_return_allowed != fmi3False,
+                scalars: Vec::new(),
+                knowns: Vec::new(),
+                reals: Vec::new(),
             };
-            let resources = &inst.resources;
-            inst.log(fmi2OK, &format!("instantiated `{}` (resources: {resources:?})", info.description.model_name));
+            let inst = Instance::new(info, name_c.clone(), resources, logger, Some(v3), logging_on != fmi3False, model);
             Ok(Box::into_raw(Box::new(inst)).cast())
         },
         |panic| Err(format!("internal error (panic): {panic}")),
@@ -564,7 +545,7 @@ pub unsafe fn do_step<M: Model>(
         call::<M>(c, "fmi3DoStep", &[Phase::StepMode], |inst| {
             let status = step("fmi3DoStep", inst, t, h)?;
             let ended = status == fmi2Discard;
-            let early = ended && inst.time < t + h - 1e-9 * (t + h).abs().max(h);
+            let early = ended && inst.time < t + h - TIME_RTOL * (t + h).abs().max(h);
             if ended {
                 // the model's end is no failure in FMI 3.0: reported through terminateSimulation
                 inst.phase = Phase::StepFailed;
