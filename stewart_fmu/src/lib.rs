@@ -24,6 +24,7 @@
 //! velocity (polarization); an orientation change acts through the cabin-frame components of
 //! gravity, acceleration and angular velocity.
 
+use std::any::Any;
 use std::path::Path;
 
 use feedcore::rigid::{MotionChange, rotation_of_quaternion_change};
@@ -31,7 +32,7 @@ use feedcore::scene::{Scene, SceneError, Start, ValidScene};
 use feedcore::{Quat, Vec3};
 use fmi2::description::Causality;
 use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
-use fmi2::resources::{FileKind, FileParameter, SavedFile};
+use fmi2::resources::{FileKind, FileParameter, KeptFile, SavedFile};
 use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::Vector6;
 use serde::{Deserialize, Serialize};
@@ -135,7 +136,7 @@ pub struct StewartFmu {
 }
 
 /// Everything but the scene file: time, and with a sampled sensor its state.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Debug, Serialize, Deserialize)]
 struct Data {
     settings: Settings,
     initialized: bool,
@@ -150,12 +151,36 @@ struct Data {
     command: Option<CommandState>,
 }
 
+impl Clone for Data {
+    fn clone(&self) -> Self {
+        let mut copy = Data { command: None, ..*self };
+        copy.command.clone_from(&self.command);
+        copy
+    }
+
+    /// Reuses the sensor's queues (a state saved at every step allocates nothing).
+    fn clone_from(&mut self, source: &Self) {
+        let Data { settings, initialized, time, inputs, rates, accepted, command } = source;
+        (self.settings, self.initialized, self.time) = (*settings, *initialized, *time);
+        (self.inputs, self.rates, self.accepted) = (*inputs, *rates, *accepted);
+        self.command.clone_from(command);
+    }
+}
+
 /// A saved state: the scene file's name and the rest.
 #[derive(Serialize, Deserialize)]
 pub struct SavedStewart<'a> {
     #[serde(borrow)]
     scene: SavedFile<'a>,
     data: Data,
+}
+
+/// A state kept in memory ([`Model::save_in_memory`]): the same parts, copied into storage that
+/// the next save into the same FMU state reuses, serialized only when an importer asks.
+#[derive(Default)]
+struct InMemory {
+    scene: KeptFile,
+    data: Option<Data>,
 }
 
 /// The scene's static pose at rest, as input values.
@@ -404,6 +429,17 @@ impl StewartFmu {
         }
         self.cache = cache;
         result
+    }
+
+    /// Restores a saved state from its parts (the scene and settings adopted where they differ).
+    fn restore_parts(&mut self, scene: SavedFile<'_>, data: &Data) -> Result<(), ModelError> {
+        if self.scene.restore(scene)? || data.settings != self.data.settings {
+            self.settings_changed();
+        }
+        self.data.clone_from(data);
+        self.model()?;
+        self.cache = Cache::default();
+        Ok(())
     }
 
     fn settings_changed(&mut self) {
@@ -735,12 +771,27 @@ impl Model for StewartFmu {
     }
 
     fn restore(&mut self, saved: SavedStewart<'_>) -> Result<(), ModelError> {
-        if self.scene.restore(saved.scene)? || saved.data.settings != self.data.settings {
-            self.settings_changed();
+        self.restore_parts(saved.scene, &saved.data)
+    }
+
+    fn save_in_memory(&mut self, saved: &mut Option<Box<dyn Any + Send>>) -> Result<bool, ModelError> {
+        if !saved.as_ref().is_some_and(|b| b.is::<InMemory>()) {
+            *saved = Some(Box::new(InMemory::default()));
         }
-        self.data = saved.data;
-        self.model()?;
-        self.cache = Cache::default();
-        Ok(())
+        let Some(kept) = saved.as_mut().and_then(|b| b.downcast_mut::<InMemory>()) else {
+            return Ok(false);
+        };
+        kept.scene.keep(self.scene.saved());
+        match &mut kept.data {
+            Some(data) => data.clone_from(&self.data),
+            empty => *empty = Some(self.data.clone()),
+        }
+        Ok(true)
+    }
+
+    fn restore_in_memory(&mut self, saved: &(dyn Any + Send)) -> Result<(), ModelError> {
+        let kept = saved.downcast_ref::<InMemory>().ok_or("not a state of the Stewart FMU")?;
+        let data = kept.data.as_ref().ok_or("an empty state of the Stewart FMU")?;
+        self.restore_parts(kept.scene.saved(), data)
     }
 }
