@@ -10,7 +10,9 @@ use super::layout::{Layout3, Var3};
 use crate::description::{
     Causality, CoSimulationFlags, Initial, ModelDescription, Value, VarType, Variability, Variable,
 };
-use crate::xml::read::{ReadError, at, attr, boolean, fail, parse_default_experiment, parse_units, real, required};
+use crate::xml::read::{
+    ReadError, at, attr, boolean, fail, parse_default_experiment, parse_document, parse_units, real, required,
+};
 use crate::xml::write::{bool_attr, default_experiment, escape, log_categories, units};
 use crate::xml::{STEP_MAP_ANNOTATION, VENDOR_TOOL};
 
@@ -157,7 +159,11 @@ pub struct Description3 {
 
 /// Reads the text of an FMI 3.0 `modelDescription.xml` into the importer's view.
 pub fn parse_model_description3(text: &str) -> Result<Description3, ReadError> {
-    let doc = Document::parse(text).map_err(|e| ReadError { message: format!("not well-formed XML: {e}") })?;
+    read_model_description3(&parse_document(text)?)
+}
+
+/// Reads an FMI 3.0 description from its parsed document.
+pub(crate) fn read_model_description3(doc: &Document<'_>) -> Result<Description3, ReadError> {
     let root = doc.root_element();
     if root.tag_name().name() != "fmiModelDescription" {
         return fail(format!("root element is <{}>, expected <fmiModelDescription>", root.tag_name().name()));

@@ -196,19 +196,31 @@ struct View3 {
     skipped: Vec<(String, String)>,
 }
 
-/// The major FMI version a `modelDescription.xml` declares (`None` if it cannot be read).
-fn major_version(text: &str) -> Option<u32> {
-    let doc = roxmltree::Document::parse(text).ok()?;
-    doc.root_element().attribute("fmiVersion")?.trim().split('.').next()?.parse().ok()
+/// A description as the importer reads it, once per load: the scalar view, and of an FMI 3.0
+/// one what the importer keeps besides.
+struct Described {
+    view: crate::description::ModelDescription,
+    v3: Option<View3>,
 }
 
-/// The binary an archive's description names: `binaries/<platform>/<identifier>.so`.
-fn binary_entry(text: &str) -> Option<String> {
-    let (platform, identifier) = match major_version(text)? {
-        3 => (crate::fmi3::PLATFORM, crate::fmi3::xml::parse_model_description3(text).ok()?.view.model_identifier),
-        _ => (crate::package::PLATFORM, parse_model_description(text).ok()?.model_identifier),
-    };
-    Some(format!("binaries/{platform}/{identifier}.so"))
+impl Described {
+    /// Reads the text of a `modelDescription.xml` of FMI 2.0 or 3.0 (the version it declares).
+    fn read(text: &str) -> Result<Described, crate::xml::ReadError> {
+        let doc = crate::xml::read::parse_document(text)?;
+        let major = doc.root_element().attribute("fmiVersion").and_then(|v| v.trim().split('.').next()?.parse().ok());
+        if major == Some(3u32) {
+            let d = crate::fmi3::xml::read_model_description3(&doc)?;
+            Ok(Described { view: d.view, v3: Some(View3 { elements: d.elements, skipped: d.skipped }) })
+        } else {
+            Ok(Described { view: crate::xml::read::read_model_description(&doc)?, v3: None })
+        }
+    }
+
+    /// The binary the description names: `binaries/<platform>/<identifier>.so`.
+    fn binary_entry(&self) -> String {
+        let platform = if self.v3.is_some() { crate::fmi3::PLATFORM } else { crate::package::PLATFORM };
+        format!("binaries/{platform}/{}.so", self.view.model_identifier)
+    }
 }
 
 /// An FMI 2.0 or 3.0 Co-Simulation FMU, ready to instantiate (any number of times).
@@ -248,7 +260,9 @@ impl Fmu {
             unpack(&mut zip, MODEL_DESCRIPTION)?;
         }
         // the binary's name comes from the description (open() reports a missing or bad one)
-        let binary = std::fs::read_to_string(dir.0.join(MODEL_DESCRIPTION)).ok().and_then(|text| binary_entry(&text));
+        let described =
+            std::fs::read_to_string(dir.0.join(MODEL_DESCRIPTION)).ok().and_then(|text| Described::read(&text).ok());
+        let binary = described.as_ref().map(Described::binary_entry);
         let needed: Vec<String> = zip
             .file_names()
             .filter_map(Result::ok)
@@ -259,7 +273,7 @@ impl Fmu {
             unpack(&mut zip, &name)?;
         }
         let root = dir.0.clone();
-        Self::open(&root, Some(dir)).map_err(|e| match e {
+        Self::open(&root, Some(dir), described).map_err(|e| match e {
             Error::Load { message, .. } => err(message),
             other => other,
         })
@@ -267,23 +281,25 @@ impl Fmu {
 
     /// Load an FMU that is already unpacked in `dir` (it must stay there while in use).
     pub fn load_unpacked(dir: &Path) -> Result<Fmu, Error> {
-        Self::open(dir, None)
+        Self::open(dir, None, None)
     }
 
-    fn open(root: &Path, unpacked: Option<TempDir>) -> Result<Fmu, Error> {
+    /// Loads the FMU in `root`, its description read there unless `described` holds it already.
+    fn open(root: &Path, unpacked: Option<TempDir>, described: Option<Described>) -> Result<Fmu, Error> {
         let md_path = root.join("modelDescription.xml");
         let err = |path: &Path, message: String| Error::Load { path: path.to_owned(), message };
-        let text = std::fs::read_to_string(&md_path).map_err(|e| {
-            let what = if e.kind() == std::io::ErrorKind::NotFound { "missing".to_owned() } else { e.to_string() };
-            err(&md_path, format!("modelDescription.xml: {what}"))
-        })?;
-        let read_error = |m: crate::xml::ReadError| err(&md_path, format!("modelDescription.xml: {m}"));
-        let (description, v3) = if major_version(&text) == Some(3) {
-            let d = crate::fmi3::xml::parse_model_description3(&text).map_err(read_error)?;
-            (d.view, Some(View3 { elements: d.elements, skipped: d.skipped }))
-        } else {
-            (parse_model_description(&text).map_err(read_error)?, None)
+        let described = match described {
+            Some(d) => d,
+            None => {
+                let text = std::fs::read_to_string(&md_path).map_err(|e| {
+                    let what =
+                        if e.kind() == std::io::ErrorKind::NotFound { "missing".to_owned() } else { e.to_string() };
+                    err(&md_path, format!("modelDescription.xml: {what}"))
+                })?;
+                Described::read(&text).map_err(|m| err(&md_path, format!("modelDescription.xml: {m}")))?
+            }
         };
+        let Described { view: description, v3 } = described;
         let platform = if v3.is_some() { crate::fmi3::PLATFORM } else { crate::package::PLATFORM };
         let binary = root.join("binaries").join(platform).join(format!("{}.so", description.model_identifier));
         if !binary.is_file() {

@@ -64,7 +64,16 @@ pub(crate) fn real(v: &str) -> Option<f64> {
 
 /// Parse the text of a `modelDescription.xml`. Errors say what is wrong and where (line:column).
 pub fn parse_model_description(text: &str) -> Result<ModelDescription, ReadError> {
-    let doc = Document::parse(text).map_err(|e| ReadError { message: format!("not well-formed XML: {e}") })?;
+    read_model_description(&parse_document(text)?)
+}
+
+/// The XML document of a description's text.
+pub(crate) fn parse_document(text: &str) -> Result<Document<'_>, ReadError> {
+    Document::parse(text).map_err(|e| ReadError { message: format!("not well-formed XML: {e}") })
+}
+
+/// Reads an FMI 2.0 description from its parsed document.
+pub(crate) fn read_model_description(doc: &Document<'_>) -> Result<ModelDescription, ReadError> {
     let root = doc.root_element();
     if root.tag_name().name() != "fmiModelDescription" {
         return fail(format!("root element is <{}>, expected <fmiModelDescription>", root.tag_name().name()));
