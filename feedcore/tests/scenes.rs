@@ -307,7 +307,7 @@ fn values_beyond_engineering_bounds_are_refused_by_key() {
         assert_eq!(e.key, key, "{e}");
         assert!(e.to_string().contains(why), "{e}");
     }
-    let compensated = text("lt50m_C_compensated.toml");
+    let compensated = text("lt50m_C_sampled.toml");
     let edited = |from: &str, to: &str| {
         assert_eq!(compensated.matches(from).count(), 1, "{from}");
         Scene::from_toml(&compensated.replace(from, to), "edited.toml").unwrap_err()

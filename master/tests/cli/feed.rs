@@ -9,7 +9,7 @@ use crate::{common, master};
 
 /// Scene C with the feed on a target, compensated by the given sensor.
 fn controlled(tag: &str, edit: impl FnOnce(&mut Control)) -> (ValidScene, std::path::PathBuf) {
-    common::scene("lt50m_C_compensated.toml", tag, |s| edit(s.control.as_mut().unwrap()))
+    common::scene("lt50m_C_sampled.toml", tag, |s| edit(s.control.as_mut().unwrap()))
 }
 
 /// Runs `master run --json --out` on `file` and returns the JSON and the CSV rows by column.
@@ -119,7 +119,7 @@ fn a_position_only_compensation_leaves_the_feed_tilting_with_the_cabin() {
 /// The cabin held still (the platform at rest, nothing moves it) with an ideal sensor: zero error.
 #[test]
 fn a_cabin_held_still_with_an_ideal_sensor_gives_zero_feed_error() {
-    let (_, file) = common::scene("lt50m_C_compensated.toml", "still", |s| {
+    let (_, file) = common::scene("lt50m_C_sampled.toml", "still", |s| {
         s.wind = None;
         let c = s.control.as_mut().unwrap();
         c.sensor = SensorKind::Ideal;
@@ -195,12 +195,12 @@ fn feed_gap(a: &Trace, b: &Trace) -> f64 {
 }
 
 /// The wind ([wind]) on the cabin, in the cable FMU and in the monolithic model alike: the
-/// shipped compensated scene (10 m/s, 15 % Kaimal turbulence, sampled sensor), IJCSA against the
+/// bare-sensor scene (`lt50m_C_sampled`: 10 m/s, 15 % Kaimal turbulence, 50 Hz sensor), IJCSA against the
 /// monolithic model at h = T/8 over 10 s: the wind moves the cabin by centimetres, and the feed
 /// errors and the cabin displacements agree within 1e-3 of their peaks.
 #[test]
 fn with_wind_ijcsa_agrees_with_the_monolithic_model() {
-    let (scene, file) = common::scene("lt50m_C_compensated.toml", "wind", |_| {});
+    let (scene, file) = common::scene("lt50m_C_sampled.toml", "wind", |_| {});
     assert!(scene.wind.is_some());
     let h = scene.control.as_ref().unwrap().sample_period().unwrap() / 8.0;
     let run = |m: Method| simulate(&scene, &file, m, h, 10.0, true).unwrap();
@@ -262,7 +262,7 @@ fn with_an_inertial_unit_the_schemes_converge_to_the_monolithic_model() {
 /// errors and the cabin displacements agree within 1e-3 of their peaks.
 #[test]
 fn ijcsa_agrees_with_the_monolithic_model_on_a_sampled_compensation() {
-    let (scene, file) = common::scene("lt50m_C_compensated.toml", "mono", |s| {
+    let (scene, file) = common::scene("lt50m_C_sampled.toml", "mono", |s| {
         s.wind = None;
         let c = s.control.as_mut().unwrap();
         c.target = TargetKind::Circle;
@@ -287,7 +287,7 @@ fn ijcsa_agrees_with_the_monolithic_model_on_a_sampled_compensation() {
 /// (another code path: the recorder's), and the sweep's cases all listed.
 #[test]
 fn the_compensation_command_writes_its_figures_and_agrees_with_run() {
-    let (_, file) = common::scene("lt50m_C_compensated.toml", "command", |_| {});
+    let (_, file) = common::scene("lt50m_C_sampled.toml", "command", |_| {});
     let dir = file.with_extension("out");
     let f = file.to_str().unwrap();
     let out = master(&[
@@ -327,7 +327,7 @@ fn the_compensation_command_writes_its_figures_and_agrees_with_run() {
         line.split(',').nth(1).unwrap().parse().unwrap()
     };
     let (_, prompt) =
-        common::scene("lt50m_C_compensated.toml", "prompt", |s| s.control.as_mut().unwrap().delay_s = 0.0);
+        common::scene("lt50m_C_sampled.toml", "prompt", |s| s.control.as_mut().unwrap().delay_s = 0.0);
     let (v, _, _) = run(&prompt, "monolithic", "2", "0.0025");
     let prompt_rms = v["feed_err_rms_mm"].as_f64().unwrap();
     assert!((rms_in("without the delay") - prompt_rms).abs() <= 1e-12 * prompt_rms, "{budget} against {prompt_rms}");
@@ -387,7 +387,7 @@ fn compensation_off_is_the_scene_with_its_sensor_off() {
 /// model and pumps the coupled one (README, "The second level").
 #[test]
 fn tune_is_reproducible_and_its_report_is_its_runs() {
-    let (_, file) = common::scene("lt50m_C_compensated.toml", "tune", |_| {});
+    let (_, file) = common::scene("lt50m_C_sampled.toml", "tune", |_| {});
     let dirs = [file.with_extension("tune-a"), file.with_extension("tune-b")];
     for dir in &dirs {
         let out = master(&[

@@ -365,7 +365,7 @@ fn every_scene_key_survives_hostile_values() {
     let cable_only = std::fs::read_to_string(common::scene_path("lt50m_C_cable_only.toml")).unwrap();
     let mut mutants = mutants_of(&coupled, None);
     mutants.extend(mutants_of(&cable_only, Some("disturbance")));
-    let (compensated, _) = scene_text("lt50m_C_compensated.toml");
+    let (compensated, _) = scene_text("lt50m_C_sampled.toml");
     mutants.extend(mutants_of(&compensated, Some("control")));
     mutants.extend(mutants_of(&compensated, Some("wind")));
     let results = run_all(&mutants);

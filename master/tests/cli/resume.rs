@@ -113,7 +113,7 @@ fn a_killed_bench_resumes_to_the_same_table() {
 
 #[test]
 fn a_killed_compensation_study_resumes_to_the_same_tables() {
-    let (_, scene) = common::scene("lt50m_C_compensated.toml", "resume-compensation", |_| {});
+    let (_, scene) = common::scene("lt50m_C_sampled.toml", "resume-compensation", |_| {});
     let args = strings(&[
         "compensation",
         "--scene",

@@ -177,7 +177,7 @@ fn every_stress_case_runs() {
 /// whose step is not a number is refused by the scene, and --max-steps holds.
 #[test]
 fn compensation_honours_the_caps() {
-    let (_, file) = common::scene("lt50m_C_compensated.toml", "comp-caps", |_| {});
+    let (_, file) = common::scene("lt50m_C_sampled.toml", "comp-caps", |_| {});
     let out_dir = std::env::temp_dir().join(format!("master-comp-caps-{}", std::process::id()));
     let out = master(&[
         "compensation",
@@ -193,7 +193,7 @@ fn compensation_honours_the_caps() {
     assert!(e.contains("exceed the cap of 1000 steps") && e.contains("--max-steps"), "{e}");
     assert!(!out_dir.join("compensation.csv").exists(), "nothing written");
     for (k, rate) in [5e-324, 5e10].into_iter().enumerate() {
-        let bad = common::scene_file("lt50m_C_compensated.toml", &format!("comp-rate-{k}"), |s| {
+        let bad = common::scene_file("lt50m_C_sampled.toml", &format!("comp-rate-{k}"), |s| {
             s.control.as_mut().unwrap().sample_rate_hz = Some(rate)
         });
         let out = master(&["compensation", "--scene", bad.to_str().unwrap(), "--out", out_dir.to_str().unwrap()]);
