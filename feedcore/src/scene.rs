@@ -465,10 +465,14 @@ pub struct Control {
     pub noise_rad: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
-    /// Bandwidth of the command filter (two first-order stages, critically damped), Hz; absent:
+    /// Bandwidth of the command filter (`filter_stages` first-order stages, critically damped), Hz; absent:
     /// each new command is reached along a smooth step in half a sample period.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bandwidth_hz: Option<f64>,
+    /// Stages of the command filter, each first order of `bandwidth_hz`: 2 (the default) keeps
+    /// the platform's position and velocity continuous at a new command, 3 its acceleration too.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub filter_stages: Option<u32>,
     /// A notch in the commands at this frequency, Hz (e.g. a cable–cabin mode the loop would
     /// pump), of quality `notch_q` (default 2).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -664,6 +668,7 @@ impl Control {
         (self.sample_rate_hz, self.delay_s, self.noise_m, self.noise_rad, self.bandwidth_hz, self.seed) =
             (None, 0.0, 0.0, 0.0, None, None);
         (self.imu, self.prediction_s, self.notch_hz, self.notch_q) = (None, None, None, None);
+        self.filter_stages = None;
     }
 
     /// The feed's axis as given ([`DEFAULT_FEED_AXIS`] if not), platform frame.
@@ -788,6 +793,7 @@ impl Control {
         unused("seed", !sampled && self.seed.is_some(), what)?;
         unused("bandwidth_hz", !sampled && self.bandwidth_hz.is_some(), what)?;
         unused("notch_hz", !sampled && self.notch_hz.is_some(), what)?;
+        unused("filter_stages", !sampled && self.filter_stages.is_some(), what)?;
         if sampled {
             let rate = self
                 .sample_rate_hz
@@ -804,6 +810,12 @@ impl Control {
             c.finite_nonneg("control.noise_rad", self.noise_rad)?;
             if let Some(b) = self.bandwidth_hz {
                 c.positive("control.bandwidth_hz", b)?;
+            }
+            if let Some(n) = self.filter_stages {
+                unused("filter_stages", self.bandwidth_hz.is_none(), "bandwidth_hz")?;
+                if !(2..=3).contains(&n) {
+                    return Err(c.err("control.filter_stages", &n.to_string(), "must be 2 or 3"));
+                }
             }
             if let Some(q) = self.notch_q {
                 unused("notch_q", self.notch_hz.is_none(), "notch_hz")?;

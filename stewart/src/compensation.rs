@@ -27,7 +27,7 @@
 //! ([`crate::fusion`]); at each of the unit's readings the command is made from the filter's
 //! estimate, extrapolated `prediction_s` ahead, and applied at once. A new command is reached smoothly, with
 //! continuous position and velocity (the bodies' accelerations, hence forces, stay finite):
-//! with `bandwidth_hz`, through two first-order stages of that bandwidth (critically damped);
+//! with `bandwidth_hz`, through two (or `filter_stages`) first-order stages of that bandwidth (critically damped);
 //! without, along a quintic smooth step over half a sample period. Between samples the relative
 //! motion is thus a known function of time: it depends on the cabin inputs of earlier steps only
 //! (kept in [`CommandState`], part of the FMU state), not on those of the step being taken.
@@ -101,6 +101,8 @@ pub struct Compensation {
     seed: u64,
     /// Time constant of each filter stage, s; `None`: the smooth step.
     tau: Option<f64>,
+    /// Three stages (the acceleration continuous) instead of two.
+    third_stage: bool,
     /// The inertial unit and the filter that fuses it with the fixes (`[control.imu]`).
     fused: Option<(Imu, Fusion)>,
     /// How far ahead of the estimate a fused command is made, s.
@@ -166,6 +168,7 @@ impl Compensation {
             noise_rad: control.noise_rad,
             seed: control.seed.unwrap_or(0),
             tau: control.bandwidth_hz.map(|b| 1.0 / (std::f64::consts::TAU * b)),
+            third_stage: control.filter_stages == Some(3),
             fused,
             prediction: control.prediction_s.unwrap_or(0.0),
             command_period,
@@ -204,6 +207,7 @@ impl Compensation {
             imu: None,
             notch_hz: None,
             notch_q: None,
+            filter_stages: None,
         }
     }
 
@@ -372,7 +376,7 @@ impl Compensation {
     pub fn start_state(&self) -> CommandState {
         let rest = self.rest_pose().into();
         CommandState {
-            segment: Segment { start: 0.0, from: rest, velocity: [0.0; 6], to: rest },
+            segment: Segment { start: 0.0, from: rest, velocity: [0.0; 6], acceleration: [0.0; 6], to: rest },
             pending: VecDeque::new(),
             next_sample: 0,
             rng: SplitMix64::new(self.seed),
@@ -386,12 +390,14 @@ impl Compensation {
     }
 }
 
-/// The motion from one command to the next: starts at `start` at `from` with `velocity`.
+/// The motion from one command to the next: starts at `start` at `from` with `velocity` and
+/// `acceleration` (which only a third filter stage keeps).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 struct Segment {
     start: f64,
     from: [f64; 6],
     velocity: [f64; 6],
+    acceleration: [f64; 6],
     to: [f64; 6],
 }
 
@@ -402,12 +408,20 @@ impl Segment {
         let s = (t - self.start).max(0.0);
         match c.tau {
             Some(tau) => {
-                // critically damped: c = u + (A + B s) e^{−s/τ}, A = c₀ − u, B = ċ₀ + A/τ
+                // critically damped: c = u + P(s) e^{−s/τ}, P = A + B s + C s², A = c₀ − u,
+                // B = ċ₀ + A/τ, and with three stages C = (c̈₀ + 2B/τ − A/τ²)/2 (else 0), so
+                // that c, ċ (and c̈) start where the last segment left them
                 let a = from - to;
                 let b = v0 + a / tau;
+                let cc = if c.third_stage {
+                    (Pose::from(self.acceleration) + b * (2.0 / tau) - a / (tau * tau)) * 0.5
+                } else {
+                    Pose::zeros()
+                };
                 let e = (-s / tau).exp();
-                let ab = a + b * s;
-                [to + ab * e, (b - ab / tau) * e, (ab / (tau * tau) - b * (2.0 / tau)) * e]
+                let p = a + (b + cc * s) * s;
+                let dp = b + cc * (2.0 * s);
+                [to + p * e, (dp - p / tau) * e, (cc * 2.0 - dp * (2.0 / tau) + p / (tau * tau)) * e]
             }
             None => {
                 let d = 0.5 * c.command_period;
@@ -570,8 +584,9 @@ impl CommandState {
     /// Starts a new segment at `time` for every pending command applying before `until`.
     fn apply(segment: &mut Segment, pending: impl Iterator<Item = (f64, [f64; 6])>, c: &Compensation) {
         for (time, to) in pending {
-            let [now, rate, _] = segment.pose_at(c, time);
-            *segment = Segment { start: time, from: now.into(), velocity: rate.into(), to };
+            let [now, rate, acceleration] = segment.pose_at(c, time);
+            *segment =
+                Segment { start: time, from: now.into(), velocity: rate.into(), acceleration: acceleration.into(), to };
         }
     }
 
@@ -704,7 +719,7 @@ mod tests {
 
     #[test]
     fn sampled_command_is_smooth_and_reaches_the_measured_command() {
-        for filter in ["", "bandwidth_hz = 2.0\n"] {
+        for filter in ["", "bandwidth_hz = 2.0\n", "bandwidth_hz = 2.0\nfilter_stages = 3\n"] {
             let c = compensation(&format!("{SAMPLED}delay_s = 0.03\n{filter}"));
             let mut s = c.start_state();
             let (p0, q0) = (Vec3::new(0.0, 0.0, 9.8), Quat::identity());
@@ -719,6 +734,9 @@ mod tests {
                 let (a, b) = (s.at(&c, t + 0.03 - 1e-7), s.at(&c, t + 0.03 + 1e-7));
                 assert!((a.position - b.position).norm() < 1e-6, "{filter} t {t}");
                 assert!((a.velocity - b.velocity).norm() < 1e-4, "{filter} t {t}");
+                if c.third_stage {
+                    assert!((a.acceleration - b.acceleration).norm() < 1e-4, "{filter} t {t}");
+                }
             }
             // the commands reach the pose that puts the feed on the target for the moved cabin
             let expected = c.command(&moved, &q0, 0.0);
@@ -736,6 +754,41 @@ mod tests {
             }
             // nothing moves before the delay has passed
             assert_eq!(s.at(&c, 0.03).position, c.rest().position);
+        }
+    }
+
+    /// A step in the command (a moved cabin, sampled once) is followed as n first-order stages of
+    /// time constant τ follow it: the share covered after x = s/τ is 1 − e^{−x}(1 + x) with two
+    /// stages, 1 − e^{−x}(1 + x + x²/2) with three, whose acceleration starts at zero, not at a jump.
+    #[test]
+    fn the_filter_stages_follow_a_step_as_their_transfer_function_says() {
+        let (delay, bandwidth) = (0.03, 2.0);
+        let tau = 1.0 / (std::f64::consts::TAU * bandwidth);
+        for (stages, share) in [
+            (2, (|x: f64| 1.0 - (-x).exp() * (1.0 + x)) as fn(f64) -> f64),
+            (3, |x: f64| 1.0 - (-x).exp() * (1.0 + x + 0.5 * x * x)),
+        ] {
+            let c = compensation(&format!(
+                "{SAMPLED}delay_s = {delay}\nbandwidth_hz = {bandwidth}\nfilter_stages = {stages}\n"
+            ));
+            let (p0, q0) = (Vec3::new(0.0, 0.0, 9.8), Quat::identity());
+            let moved = p0 + Vec3::new(0.004, -0.002, 0.001);
+            let mut s = c.start_state();
+            s.sample(&c, 0.0, &CabinMotion::at_rest(moved, q0));
+            let rest = c.rest().position;
+            let jump = c.command(&moved, &q0, 0.0).fixed_rows::<3>(0) - rest;
+            for x in [0.1, 0.5, 1.0, 2.0, 4.0] {
+                let at = s.at(&c, delay + x * tau).position;
+                let expected = rest + jump * share(x);
+                assert!((at - expected).norm() < 1e-14, "{stages} stages, x {x}: {at:?} vs {expected:?}");
+            }
+            // just after the command applies (1 µs = 1.3e-5 τ): jump/τ² with two stages, about 0 with three
+            let (start, scale) = (s.at(&c, delay + 1e-6).acceleration.norm(), jump.norm() / (tau * tau));
+            if stages == 3 {
+                assert!(start < 1e-4 * scale, "{stages} stages: {start} against {scale}");
+            } else {
+                assert!((start - scale).abs() < 1e-4 * scale, "{stages} stages: {start} against {scale}");
+            }
         }
     }
 

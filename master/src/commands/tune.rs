@@ -1,7 +1,7 @@
 //! `master tune`: the second level's command filter chosen on runs of minutes, in parallel.
 //!
 //! Every candidate (a filter bandwidth; with an inertial unit a prediction horizon as a share of
-//! the filter's lag 2τ; with a notch frequency the notch's quality) is run three ways: on the coupled (monolithic) model, on the
+//! the filter's lag (2τ, or 3τ with three stages); with a notch frequency the notch's quality) is run three ways: on the coupled (monolithic) model, on the
 //! decoupled one (its commands replayed on the uncompensated run's cabin poses: the platform's
 //! reactions never reach the cabin), and on the coupled model with the sensor's delay ×0.5 and
 //! ×1.5 and the platform's mass ×0.8 and ×1.2. The design model (`--design`) picks: the lowest
@@ -51,7 +51,7 @@ pub(crate) struct Args {
     #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
           default_value = "0.25,0.5,1,1.5,2,2.5,3,4,5")]
     pub(crate) bandwidths: Vec<f64>,
-    /// With [control.imu]: prediction horizons tried, as shares of the filter's lag 2τ
+    /// With [control.imu]: prediction horizons tried, as shares of the filter's lag (2τ; 3τ with `filter_stages = 3`)
     /// (comma-separated; ignored without an inertial unit).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_value = "0,0.25,0.5")]
     pub(crate) predictions: Vec<f64>,
@@ -186,7 +186,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     };
     let mut candidates = Vec::new();
     for &b in &args.bandwidths {
-        let lag = 2.0 / (std::f64::consts::TAU * b);
+        // the filter's lag: one time constant per stage
+        let lag = f64::from(control.filter_stages.unwrap_or(2)) / (std::f64::consts::TAU * b);
         for share in &shares {
             for &notch in &notches {
                 for &fusion_scale in &scales {
