@@ -221,6 +221,31 @@ fn a_rejected_step_restores_every_fmu_bit_for_bit() {
     }
 }
 
+/// The same with the second level's state in the Stewart FMU's saved states (its command
+/// filter, pending commands, noise generator, inertial unit and Kalman filter): the fused scene
+/// from 100 ms on, each of eight steps undone and taken again, across readings (every 4 steps)
+/// and a fix (every 8).
+#[test]
+fn a_rejected_step_restores_the_second_levels_state_bit_for_bit() {
+    let (scene, file) = common::scene("lt50m_C_compensated.toml", "undo-fused", |_| {});
+    for o in [options(Scheme::IqnIls), options(Scheme::Ijcsa)] {
+        let mut c = fmu_system(&scene, &file, o);
+        for _ in 0..40 {
+            c.step(0.0025).unwrap();
+        }
+        for _ in 0..8 {
+            let (before, y) = (c.units_mut().serialized_states().unwrap(), c.outputs().to_vec());
+            c.step(0.0025).unwrap();
+            let first = c.outputs().to_vec();
+            c.undo_step().unwrap();
+            assert_eq!(c.units_mut().serialized_states().unwrap(), before, "{}", o.scheme.name());
+            assert_eq!(c.outputs(), &y[..]);
+            c.step(0.0025).unwrap();
+            assert_eq!(c.outputs(), &first[..], "{}: the step again", o.scheme.name());
+        }
+    }
+}
+
 /// An adaptive run whose steps were rejected is the same, bit for bit, as a run that took the
 /// accepted steps directly: the rejected tries leave no trace (IQN-ILS's history and IJCSA's
 /// reused Jacobian included).
