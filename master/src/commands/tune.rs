@@ -51,7 +51,11 @@ pub(crate) struct Args {
     #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
           default_value = "0.25,0.5,1,1.5,2,2.5,3,4,5")]
     pub(crate) bandwidths: Vec<f64>,
-    /// With [control.imu]: prediction horizons tried, as shares of the filter's lag (2τ; 3τ with `filter_stages = 3`)
+    /// Numbers of filter stages tried, 2 or 3 (comma-separated; default: the scene's
+    /// `filter_stages`): three keep the platform's acceleration continuous, at one more τ of lag.
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) filter_stages: Vec<u32>,
+    /// With [control.imu]: prediction horizons tried, as shares of the filter's lag (2τ; 3τ with three stages)
     /// (comma-separated; ignored without an inertial unit).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true, default_value = "0,0.25,0.5")]
     pub(crate) predictions: Vec<f64>,
@@ -106,6 +110,8 @@ impl Variant {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Candidate {
     bandwidth_hz: f64,
+    /// First-order stages of the filter: 2 or 3.
+    stages: u32,
     prediction_s: Option<f64>,
     /// The notch: frequency, quality.
     notch: Option<(f64, f64)>,
@@ -117,6 +123,7 @@ impl Candidate {
     fn apply(&self, s: &mut Scene) {
         if let Some(c) = s.control.as_mut() {
             (c.bandwidth_hz, c.prediction_s) = (Some(self.bandwidth_hz), self.prediction_s);
+            c.filter_stages = (self.stages != 2).then_some(self.stages);
             (c.notch_hz, c.notch_q) = (self.notch.map(|n| n.0), self.notch.map(|n| n.1));
             if let (Some(k), Some(m)) = (self.fusion_scale.filter(|&k| k != 1.0), c.fusion_model())
                 && let Some(imu) = c.imu.as_mut()
@@ -184,15 +191,25 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         Some(f) => args.notch_qs.iter().map(|&q| Some((f, q))).collect(),
         None => vec![None],
     };
+    let stage_counts = if args.filter_stages.is_empty() {
+        vec![control.filter_stages.unwrap_or(2)]
+    } else {
+        args.filter_stages.clone()
+    };
+    if let Some(n) = stage_counts.iter().find(|n| !(2..=3).contains(*n)) {
+        bail!("--filter-stages: {n} stages; the command filter has 2 or 3");
+    }
     let mut candidates = Vec::new();
     for &b in &args.bandwidths {
-        // the filter's lag: one time constant per stage
-        let lag = f64::from(control.filter_stages.unwrap_or(2)) / (std::f64::consts::TAU * b);
-        for share in &shares {
-            for &notch in &notches {
-                for &fusion_scale in &scales {
-                    let prediction_s = share.map(|s| s * lag);
-                    candidates.push(Candidate { bandwidth_hz: b, prediction_s, notch, fusion_scale });
+        for &stages in &stage_counts {
+            // the filter's lag: one time constant per stage
+            let lag = f64::from(stages) / (std::f64::consts::TAU * b);
+            for share in &shares {
+                for &notch in &notches {
+                    for &fusion_scale in &scales {
+                        let prediction_s = share.map(|s| s * lag);
+                        candidates.push(Candidate { bandwidth_hz: b, stages, prediction_s, notch, fusion_scale });
+                    }
                 }
             }
         }
@@ -248,7 +265,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     outputs.write(csv_id, |w| {
         writeln!(
             w,
-            "bandwidth_hz,prediction_s,notch_hz,notch_q,fusion_scale,run,verdict,feed_err_rms_mm,feed_err_peak_mm,note"
+            "bandwidth_hz,filter_stages,prediction_s,notch_hz,notch_q,fusion_scale,run,verdict,feed_err_rms_mm,feed_err_peak_mm,note"
         )?;
         for (i, c) in candidates.iter().enumerate() {
             for v in VARIANTS {
@@ -259,8 +276,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
                 let state = if r.stable { "stable" } else { "unstable" };
                 writeln!(
                     w,
-                    "{},{p},{notch},{scale},{},{state},{:e},{:e},\"{}\"",
+                    "{},{},{p},{notch},{scale},{},{state},{:e},{:e},\"{}\"",
                     c.bandwidth_hz,
+                    c.stages,
                     v.label(),
                     r.rms,
                     r.peak,
@@ -275,6 +293,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let describe = |i: usize| {
         let c = &candidates[i];
         let mut text = format!("{} Hz", c.bandwidth_hz);
+        if c.stages != 2 {
+            text += &format!(" in {} stages", c.stages);
+        }
         if let Some(p) = c.prediction_s {
             text += &format!(", prediction {p:.4} s");
         }

@@ -451,8 +451,9 @@ fn tune_is_reproducible_and_its_report_is_its_runs() {
             decoupled: f64::NAN,
             robust: true,
         });
-        // bandwidth, prediction, notch frequency, notch quality, fusion scale, run, verdict, RMS, …
-        let (run, stable, rms) = (cells[5], cells[6] == "stable", cells[7].parse::<f64>().unwrap());
+        // bandwidth, stages, prediction, notch frequency, notch quality, fusion scale, run, verdict, RMS, …
+        assert_eq!(cells[1], "2", "{line}");
+        let (run, stable, rms) = (cells[6], cells[7] == "stable", cells[8].parse::<f64>().unwrap());
         match run {
             "coupled" => e.coupled = rms,
             "decoupled" => e.decoupled = rms,
@@ -472,6 +473,34 @@ fn tune_is_reproducible_and_its_report_is_its_runs() {
     assert!(report.contains("Chosen on the coupled model: **2 Hz**"), "{report}");
     let tuned = feedcore::scene::Scene::load(dirs[0].join("tuned.toml")).unwrap();
     assert_eq!(tuned.control.as_ref().unwrap().bandwidth_hz, Some(2.0));
+}
+
+/// `--filter-stages 2,3` tries each bandwidth in two and in three stages: both in the CSV (six
+/// runs each), the report naming the three-stage ones, the tuned scene carrying the chosen count;
+/// a count the filter does not have is refused before any run.
+#[test]
+fn tune_tries_the_filter_stages_asked_for() {
+    let (_, file) = common::scene("lt50m_C_sampled.toml", "tune-stages", |_| {});
+    let dir = file.with_extension("tune-stages");
+    let (f, d) = (file.to_str().unwrap(), dir.to_str().unwrap());
+    let tune = |stages: &str| {
+        master(&["tune", "--scene", f, "--out", d, "--t-end", "4", "--bandwidths", "1", "--filter-stages", stages])
+    };
+    let out = tune("2,4");
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && e.contains("--filter-stages: 4 stages"), "{e}");
+    let out = tune("2,3");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let csv = std::fs::read_to_string(dir.join("tune.csv")).unwrap();
+    for stages in ["2", "3"] {
+        let rows = csv.lines().skip(1).filter(|l| l.split(',').nth(1) == Some(stages)).count();
+        assert_eq!(rows, 6, "{stages} stages: {csv}");
+    }
+    let report = std::fs::read_to_string(dir.join("tune.md")).unwrap();
+    assert!(report.contains("| 1 Hz in 3 stages |") && report.contains("| 1 Hz |"), "{report}");
+    let chosen_three = report.contains("Chosen on the coupled model: **1 Hz in 3 stages**");
+    let tuned = feedcore::scene::Scene::load(dir.join("tuned.toml")).unwrap();
+    assert_eq!(tuned.control.as_ref().unwrap().filter_stages, chosen_three.then_some(3), "{report}");
 }
 
 /// One candidate of `master tune` as its CSV tells it: the nominal coupled and decoupled feed RMS
