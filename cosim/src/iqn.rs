@@ -224,30 +224,15 @@ impl Accelerator {
             return;
         }
         let m = self.cols.len() - 1; // the columns of the kept QR
-        // Orthogonalize v against Q (twice, as in the factorization): v = Q p + ρ q_m.
+        // v = Q p + ρ q_m
         let (q, rm, p) = (&mut self.q, &mut self.rm, &mut self.c);
-        let v = &self.cols[0].v;
-        q[m * n..(m + 1) * n].copy_from_slice(v);
-        p[..m].fill(0.0);
-        for _ in 0..2 {
-            let (done, cur) = q.split_at_mut(m * n);
-            let cur = &mut cur[..n];
-            for i in 0..m {
-                let qi = &done[i * n..(i + 1) * n];
-                let d = dot(qi, cur);
-                p[i] += d;
-                for a in 0..n {
-                    cur[a] -= d * qi[a];
-                }
-            }
-        }
-        let cur = &mut q[m * n..(m + 1) * n];
-        let rho = dot(cur, cur).sqrt();
+        q[m * n..(m + 1) * n].copy_from_slice(&self.cols[0].v);
+        let rho = orthogonalize(q, n, m, p);
         if !(rho > REBUILD_BELOW * self.cols[0].norm) {
             self.qr_current = false;
             return;
         }
-        cur.iter_mut().for_each(|x| *x /= rho);
+        q[m * n..(m + 1) * n].iter_mut().for_each(|x| *x /= rho);
         // [v V] = [Q q_m] H with H = [(p; ρ), (R; 0)]: shift R right by one column, put (p; ρ)
         // in front; then rotate rows (k, k+1), k = m−1 … 0, to clear the first column below
         // its top (each rotation fills only the diagonal of the column it reaches).
@@ -258,16 +243,7 @@ impl Accelerator {
         rm[m * n] = rho;
         rm[m * n + 1..m * n + m + 1].fill(0.0);
         for k in (0..m).rev() {
-            let (a, b) = (rm[k * n], rm[(k + 1) * n]);
-            if b == 0.0 {
-                continue;
-            }
-            let r = a.hypot(b);
-            let (c, s) = (a / r, b / r);
-            rm[k * n] = r;
-            rm[(k + 1) * n] = 0.0;
-            rotate_rows(rm, n, k, k + 1..m + 1, c, s);
-            rotate_columns(q, n, k, c, s);
+            eliminate(q, rm, n, k, 0, k + 1..m + 1);
         }
         // The QR2 filter: column j's diagonal is its norm orthogonal to the newer columns.
         let mut j = 1;
@@ -294,16 +270,7 @@ impl Accelerator {
         }
         // R is now upper Hessenberg from column j on: clear R[l+1][l]
         for l in j..m - 1 {
-            let (a, b) = (rm[l * n + l], rm[(l + 1) * n + l]);
-            if b == 0.0 {
-                continue;
-            }
-            let r = a.hypot(b);
-            let (c, s) = (a / r, b / r);
-            rm[l * n + l] = r;
-            rm[(l + 1) * n + l] = 0.0;
-            rotate_rows(rm, n, l, l + 1..m - 1, c, s);
-            rotate_columns(q, n, l, c, s);
+            eliminate(q, rm, n, l, l, l + 1..m - 1);
         }
     }
 
@@ -319,28 +286,14 @@ impl Accelerator {
                     self.drop.push(true); // the space is spanned: older columns add nothing
                     continue;
                 }
-                let v = &self.cols[j].v;
                 let norm0 = self.cols[j].norm;
-                let (q, rm) = (&mut self.q, &mut self.rm);
-                q[m * n..(m + 1) * n].copy_from_slice(v);
+                let (q, rm, p) = (&mut self.q, &mut self.rm, &mut self.c);
+                q[m * n..(m + 1) * n].copy_from_slice(&self.cols[j].v);
+                let norm = orthogonalize(q, n, m, p);
                 for i in 0..m {
-                    rm[i * n + m] = 0.0;
-                }
-                // modified Gram–Schmidt, twice (the second pass restores orthogonality)
-                for _ in 0..2 {
-                    for i in 0..m {
-                        let (done, cur) = q.split_at_mut(m * n);
-                        let qi = &done[i * n..(i + 1) * n];
-                        let cur = &mut cur[..n];
-                        let p = dot(qi, cur);
-                        rm[i * n + m] += p;
-                        for a in 0..n {
-                            cur[a] -= p * qi[a];
-                        }
-                    }
+                    rm[i * n + m] = p[i];
                 }
                 let cur = &mut q[m * n..(m + 1) * n];
-                let norm = dot(cur, cur).sqrt();
                 let keep = norm0 > 0.0 && norm > self.options.filter * norm0 && norm > 1e-13 * norm0;
                 self.drop.push(!keep);
                 if keep {
@@ -363,6 +316,41 @@ impl Accelerator {
             }
         }
     }
+}
+
+/// Orthogonalizes column m of Q (column j at `q[j*n..]`) against columns 0..m by modified
+/// Gram–Schmidt, twice (the second pass restores orthogonality); `p[..m]` gets the projections
+/// taken off, and the norm left is returned.
+fn orthogonalize(q: &mut [f64], n: usize, m: usize, p: &mut [f64]) -> f64 {
+    p[..m].fill(0.0);
+    let (done, cur) = q.split_at_mut(m * n);
+    let cur = &mut cur[..n];
+    for _ in 0..2 {
+        for i in 0..m {
+            let qi = &done[i * n..(i + 1) * n];
+            let d = dot(qi, cur);
+            p[i] += d;
+            for a in 0..n {
+                cur[a] -= d * qi[a];
+            }
+        }
+    }
+    dot(cur, cur).sqrt()
+}
+
+/// Clears `rm[k+1][col]` against `rm[k][col]` by a Givens rotation of rows (k, k+1), applied to
+/// the columns `rest` of R too and to columns (k, k+1) of Q, so that Q R is unchanged.
+fn eliminate(q: &mut [f64], rm: &mut [f64], n: usize, k: usize, col: usize, rest: std::ops::Range<usize>) {
+    let (a, b) = (rm[k * n + col], rm[(k + 1) * n + col]);
+    if b == 0.0 {
+        return;
+    }
+    let r = a.hypot(b);
+    let (c, s) = (a / r, b / r);
+    rm[k * n + col] = r;
+    rm[(k + 1) * n + col] = 0.0;
+    rotate_rows(rm, n, k, rest, c, s);
+    rotate_columns(q, n, k, c, s);
 }
 
 /// Applies the rotation `[c s; −s c]` to rows (k, k+1) of the row-major `rm` (row stride n),

@@ -591,6 +591,9 @@ const IMU_BIAS_LIMITS: (f64, f64) = (100.0, 10.0);
 /// Longest prediction horizon, s.
 const PREDICTION_LIMIT_S: f64 = 10.0;
 
+/// The numbers of first-order stages the command filter has (`filter_stages`).
+pub const FILTER_STAGES: std::ops::RangeInclusive<u32> = 2..=3;
+
 impl Imu {
     fn validate(&self, c: &Check) -> Result<(), SceneError> {
         c.positive("control.imu.rate_hz", self.rate_hz)?;
@@ -813,7 +816,7 @@ impl Control {
             }
             if let Some(n) = self.filter_stages {
                 unused("filter_stages", self.bandwidth_hz.is_none(), "bandwidth_hz")?;
-                if !(2..=3).contains(&n) {
+                if !FILTER_STAGES.contains(&n) {
                     return Err(c.err("control.filter_stages", &n.to_string(), "must be 2 or 3"));
                 }
             }

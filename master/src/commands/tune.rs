@@ -196,7 +196,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     } else {
         args.filter_stages.clone()
     };
-    if let Some(n) = stage_counts.iter().find(|n| !(2..=3).contains(*n)) {
+    if let Some(n) = stage_counts.iter().find(|n| !feedcore::scene::FILTER_STAGES.contains(*n)) {
         bail!("--filter-stages: {n} stages; the command filter has 2 or 3");
     }
     let mut candidates = Vec::new();
