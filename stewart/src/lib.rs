@@ -304,8 +304,24 @@ impl Stewart {
         point: &PathPoint,
         t: f64,
     ) -> Result<(Wrench, WrenchJacobians), StewartError> {
+        self.wrench_with_jacobians_of(&self.relative_at(point, t)?, cabin)
+    }
+
+    /// [`Stewart::wrench`] with a relative state computed before ([`Stewart::relative_at`]).
+    pub fn wrench_of(&self, rel: &RelativeState, cabin: &CabinMotion) -> Result<Wrench, StewartError> {
         Self::check_cabin(cabin)?;
-        Ok(self.relative_at(point, t)?.wrench_with_jacobians(cabin, &self.gravity))
+        Ok(rel.wrench(cabin, &self.gravity))
+    }
+
+    /// [`Stewart::wrench_with_jacobians`] with a relative state computed before
+    /// ([`Stewart::relative_at`]).
+    pub fn wrench_with_jacobians_of(
+        &self,
+        rel: &RelativeState,
+        cabin: &CabinMotion,
+    ) -> Result<(Wrench, WrenchJacobians), StewartError> {
+        Self::check_cabin(cabin)?;
+        Ok(rel.wrench_with_jacobians(cabin, &self.gravity))
     }
 
     /// Wrench on a cabin at rest at the given pose with the platform at rest at its start point.

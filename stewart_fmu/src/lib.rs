@@ -39,7 +39,9 @@ use serde::{Deserialize, Serialize};
 
 use feedcore::scene::SensorKind;
 use stewart::sensitivity::carried_pose_change;
-use stewart::{ActuatorRates, CabinMotion, CommandState, Evaluation, PathPoint, Stewart, Wrench, WrenchJacobians};
+use stewart::{
+    ActuatorRates, CabinMotion, CommandState, Evaluation, PathPoint, RelativeState, Stewart, Wrench, WrenchJacobians,
+};
 
 /// The scene used unless the `scene` parameter names another one.
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
@@ -119,7 +121,9 @@ struct Settings {
 /// Outputs at the current time and inputs, computed when first asked for.
 #[derive(Default)]
 struct Cache {
-    wrench: Option<(Wrench, WrenchJacobians)>,
+    wrench: Option<Wrench>,
+    /// Only when a derivative asks for them.
+    jacobians: Option<WrenchJacobians>,
     evaluation: Option<Evaluation>,
     actuator_rates: Option<ActuatorRates>,
 }
@@ -133,6 +137,17 @@ pub struct StewartFmu {
     /// the platform rests at its start pose).
     built_for: Option<(Settings, bool)>,
     cache: Cache,
+    /// The last relative motion computed, with the time and command point it belongs to.
+    relative: Option<KeptRelative>,
+}
+
+/// The platform's motion relative to the cabin depends on neither the cabin inputs nor the
+/// state, only on the time and the commanded point: a step retaken from a restored state (an
+/// iterating importer) finds it computed.
+struct KeptRelative {
+    time: f64,
+    point: PathPoint,
+    state: RelativeState,
 }
 
 /// Everything but the scene file: time, and with a sampled sensor its state.
@@ -303,6 +318,7 @@ impl StewartFmu {
             };
             self.built_for = Some(key);
             self.cache = Cache::default();
+            self.relative = None;
             self.model = Some(model);
         }
         self.model.as_ref().ok_or_else(|| "the platform model could not be built".into())
@@ -338,15 +354,41 @@ impl StewartFmu {
         point
     }
 
-    /// The wrench and its Jacobians now, computed once per state (borrowed: they are large, and
-    /// every output asks).
-    fn wrench(&mut self) -> Result<&(Wrench, WrenchJacobians), ModelError> {
-        if self.cache.wrench.is_none() {
-            let (t, cabin, point) = (self.data.time, self.cabin()?, self.point()?);
-            let w = self.model()?.wrench_with_jacobians_at(&cabin, &point, t).map_err(|e| e.to_string())?;
-            self.cache.wrench = Some(w);
+    /// The platform's motion relative to the cabin now, with the model.
+    fn relative(&mut self) -> Result<(&Stewart, &RelativeState), ModelError> {
+        let (t, point) = (self.data.time, self.point()?);
+        let kept = self.relative.as_ref().is_some_and(|k| k.time == t && k.point == point);
+        if !kept {
+            let state = self.model()?.relative_at(&point, t).map_err(|e| e.to_string())?;
+            self.relative = Some(KeptRelative { time: t, point, state });
         }
-        self.cache.wrench.as_ref().ok_or_else(|| "the wrench could not be computed".into())
+        match (&self.model, &self.relative) {
+            (Some(model), Some(kept)) => Ok((model, &kept.state)),
+            _ => Err("the platform's relative motion could not be computed".into()),
+        }
+    }
+
+    /// The wrench now, computed once per state.
+    fn wrench(&mut self) -> Result<Wrench, ModelError> {
+        if let Some(w) = self.cache.wrench {
+            return Ok(w);
+        }
+        let cabin = self.cabin()?;
+        let (model, rel) = self.relative()?;
+        let w = model.wrench_of(rel, &cabin).map_err(|e| e.to_string())?;
+        Ok(*self.cache.wrench.insert(w))
+    }
+
+    /// The wrench's Jacobians now, computed once per state (borrowed: they are large).
+    fn wrench_jacobians(&mut self) -> Result<&WrenchJacobians, ModelError> {
+        if self.cache.jacobians.is_none() {
+            let cabin = self.cabin()?;
+            let (model, rel) = self.relative()?;
+            let (w, j) = model.wrench_with_jacobians_of(rel, &cabin).map_err(|e| e.to_string())?;
+            self.cache.wrench = Some(w);
+            self.cache.jacobians = Some(j);
+        }
+        self.cache.jacobians.as_ref().ok_or_else(|| "the wrench's Jacobians could not be computed".into())
     }
 
     fn evaluation(&mut self) -> Result<&Evaluation, ModelError> {
@@ -556,6 +598,7 @@ impl Model for StewartFmu {
             model: None,
             built_for: None,
             cache: Cache::default(),
+            relative: None,
         })
     }
 
@@ -599,7 +642,7 @@ impl Model for StewartFmu {
                     rot[(vr - vr::FEED_ROT) as usize]
                 })
             }
-            vr::FORCE..vr::ACTUATOR => Ok(self.wrench()?.0.to_vector()[(vr - vr::FORCE) as usize]),
+            vr::FORCE..vr::ACTUATOR => Ok(self.wrench()?.to_vector()[(vr - vr::FORCE) as usize]),
             vr::ACTUATOR..vr::PLATFORM_R => Ok(self.evaluation()?.actuator_forces[(vr - vr::ACTUATOR) as usize]),
             vr::PLATFORM_R..vr::PLATFORM_Q => Ok(self.evaluation()?.platform.position[(vr - vr::PLATFORM_R) as usize]),
             vr::PLATFORM_Q..vr::LEG => {
@@ -681,8 +724,7 @@ impl Model for StewartFmu {
         // evaluate now, so that a leg leaving its stroke, or a non-finite result, is reported
         // by this step
         self.data.accepted = self.data.inputs;
-        let (w, _) = self.wrench()?;
-        let w = w.to_vector();
+        let w = self.wrench()?.to_vector();
         if let Some(k) = w.iter().position(|x| !x.is_finite()) {
             let name = if k < 3 { format!("wrench.f[{}]", k + 1) } else { format!("wrench.m[{}]", k - 2) };
             return Err(
@@ -736,7 +778,8 @@ impl Model for StewartFmu {
         } else {
             (Vec3::zeros(), Vec3::zeros())
         };
-        let dwrench = if needs(vr::FORCE..vr::ACTUATOR) { self.wrench()?.1.change(&d) } else { Vector6::zeros() };
+        let dwrench =
+            if needs(vr::FORCE..vr::ACTUATOR) { self.wrench_jacobians()?.change(&d) } else { Vector6::zeros() };
         let dact = if needs(vr::ACTUATOR..vr::PLATFORM_R) {
             let (r, c) = (self.actuator_rates()?, self.cabin()?);
             r.change(&c, &self.model()?.gravity(), &d)

@@ -227,17 +227,21 @@ impl Variable {
     }
 
     /// `None` if `x` lies in the declared range, else why not.
+    #[inline]
     pub fn outside_range(&self, x: f64) -> Option<String> {
-        let below = self.min.filter(|&m| x < m);
-        let above = self.max.filter(|&m| x > m);
-        (below.is_some() || above.is_some()).then(|| {
-            let end = |e: Option<f64>| e.map_or_else(String::new, |e| format!("{e:e}"));
-            format!(
-                "{x:e}: outside the declared range [{}, {}] (min/max in modelDescription.xml)",
-                end(self.min),
-                end(self.max)
-            )
-        })
+        let below = self.min.is_some_and(|m| x < m);
+        let above = self.max.is_some_and(|m| x > m);
+        (below || above).then(|| self.range_message(x))
+    }
+
+    #[cold]
+    fn range_message(&self, x: f64) -> String {
+        let end = |e: Option<f64>| e.map_or_else(String::new, |e| format!("{e:e}"));
+        format!(
+            "{x:e}: outside the declared range [{}, {}] (min/max in modelDescription.xml)",
+            end(self.min),
+            end(self.max)
+        )
     }
 
     pub fn initial(mut self, initial: Initial) -> Variable {

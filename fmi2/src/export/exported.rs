@@ -427,14 +427,16 @@ unsafe fn set<M: Model, T: Copy>(
                 }
             }
             for (&r, &x) in vrs.iter().zip(vals) {
-                let v = inst.find(t, r)?;
-                write(&mut inst.model, r, x).msg().map_err(|e| format!("{}: {e}", describe(v)))?;
+                if let Err(e) = write(&mut inst.model, r, x).msg() {
+                    return Err(format!("{}: {e}", describe(inst.find(t, r)?)));
+                }
             }
             Ok(fmi2OK)
         })
     }
 }
 
+#[inline]
 pub(crate) fn finite(x: f64) -> Option<String> {
     (!x.is_finite()).then(|| format!("{x}: not a finite number"))
 }
