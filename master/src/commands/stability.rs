@@ -4,6 +4,7 @@
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
+use std::sync::OnceLock;
 
 use anyhow::Context;
 use cable::net::CableNet;
@@ -106,32 +107,49 @@ fn stopped_verdict(reason: &str) -> Verdict {
     }
 }
 
+/// One cell of the map: a scheme on a variant (its index among the mass factors) at a step.
+struct Case<'a> {
+    scheme: SchemeName,
+    variant: usize,
+    ratio: f64,
+    dt: f64,
+    run: Run<'a>,
+}
+
 pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let (ratios, dts) = (&args.ratios, &args.dts);
     let limits = caps().run;
-    // every variant is form-found and every run checked before the first one starts
-    let mut scaled_scenes = Vec::new();
+    let jobs = args.jobs.map(usize::from);
+    // Every run is checked before the first one starts. A variant is form-found by the first of
+    // its cells to run (the others wait for it): the statics of an infeasible variant, slow to
+    // prove so, then overlap the runs of the others instead of holding them all back.
+    let mut variants = Vec::new();
     for &f in ratios {
         let variant = scene.edited(|s| master::sweep::scale_platform_mass(s, f));
-        let variant = variant.with_context(|| format!("the platform's mass ×{f}"))?;
-        let file = args.scene.clone();
-        let net = CableNet::from_scene(&variant);
-        let feasible = match form_find(&net, variant.target_position(), variant.target_orientation()) {
-            Ok(_) => true,
-            Err(StaticsError::Infeasible { .. }) => false,
-            Err(e) => return Err(e).with_context(|| format!("form-finding with the platform's mass ×{f}")),
-        };
-        scaled_scenes.push((f, feasible, variant, file));
+        variants.push((f, variant.with_context(|| format!("the platform's mass ×{f}"))?));
     }
-    let mut cases = Vec::new(); // (scheme, ratio, dt, feasible, run)
-    for (f, feasible, variant, file) in &scaled_scenes {
-        for &name in &args.schemes {
+    let found: Vec<OnceLock<Result<bool, StaticsError>>> = variants.iter().map(|_| OnceLock::new()).collect();
+    let feasible = |v: usize| -> anyhow::Result<bool> {
+        let (f, variant) = &variants[v];
+        let found = found[v].get_or_init(|| {
+            let net = CableNet::from_scene(variant);
+            match form_find(&net, variant.target_position(), variant.target_orientation()) {
+                Ok(_) => Ok(true),
+                Err(StaticsError::Infeasible { .. }) => Ok(false),
+                Err(e) => Err(e),
+            }
+        });
+        found.clone().with_context(|| format!("form-finding with the platform's mass ×{f}"))
+    };
+    let mut cases = Vec::new();
+    for (v, (f, variant)) in variants.iter().enumerate() {
+        for &scheme in &args.schemes {
             for &dt in dts {
-                let context = || format!("{}, mass ×{f}, h = {dt} s", name.as_str());
-                let method = args.options.method(name).with_context(context)?;
-                let run = Run::prepare(variant, file, method, dt, args.t_end, &limits).with_context(context)?;
-                cases.push((name, *f, dt, *feasible, run));
+                let context = || format!("{}, mass ×{f}, h = {dt} s", scheme.as_str());
+                let method = args.options.method(scheme).with_context(context)?;
+                let run = Run::prepare(variant, &args.scene, method, dt, args.t_end, &limits).with_context(context)?;
+                cases.push(Case { scheme, variant: v, ratio: *f, dt, run });
             }
         }
     }
@@ -142,7 +160,6 @@ pub(crate) fn run(args: &Args) -> CmdResult {
 
     // the runs are independent: every one on its own core, results in input order; progress
     // bars only when one runs at a time
-    let jobs = args.jobs.map(usize::from);
     let quiet = args.quiet || !std::io::stderr().is_terminal() || master::parallel::threads(jobs) > 1;
     let identity = format!(
         "stability {} {:?} {:?} {:?} {:?} {:?}",
@@ -154,12 +171,12 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         args.options
     );
     let journal = Journal::open(&journal::path(&args.out, "stability.csv"), &identity, args.resume)?;
-    let cell = |(name, f, dt, feasible, run): &(SchemeName, f64, f64, bool, Run)| {
-        if !feasible {
+    let cell = |case: &Case<'_>| -> anyhow::Result<(Verdict, f64, String)> {
+        if !feasible(case.variant)? {
             return Ok((Verdict::Infeasible, f64::NAN, "a cable would have to push".to_string()));
         }
-        eprintln!("{}, mass ×{f}, h = {dt} s …", name.as_str());
-        match run.execute(quiet) {
+        eprintln!("{}, mass ×{}, h = {} s …", case.scheme.as_str(), case.ratio, case.dt);
+        match case.run.execute(quiet) {
             Ok(t) => {
                 // a run that ends but keeps growing is not stable either
                 let n = t.disp_mm.len();
@@ -176,19 +193,18 @@ pub(crate) fn run(args: &Args) -> CmdResult {
                 Ok((stopped_verdict(&reason), f64::NAN, format!("stopped at t = {time:.6} s: {reason}")))
             }
             // a missing FMU or a model that cannot be set up is no verdict on the scheme
-            Err(e) => Err(e),
+            Err(e) => Err(e.into()),
         }
     };
-    // steps × the scheme's cost per step; an infeasible cell is not run
-    let cost = |(name, _, dt, feasible, _): &(SchemeName, f64, f64, bool, Run)| {
-        if *feasible { args.t_end / dt * name.relative_cost() } else { 0.0 }
-    };
+    // steps × the scheme's cost per step (an infeasible cell, not known as such yet, costs
+    // nothing but its variant's form-finding)
+    let cost = |case: &Case<'_>| args.t_end / case.dt * case.scheme.relative_cost();
     let results = journal::map_journaled(&cases, jobs, cost, &journal, to_cells, from_cells, |_, case| {
-        cell(case).with_context(|| format!("{}, mass ×{}, h = {} s", case.0.as_str(), case.1, case.2))
+        cell(case).with_context(|| format!("{}, mass ×{}, h = {} s", case.scheme.as_str(), case.ratio, case.dt))
     })?;
     let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
-    for ((name, f, dt, _, _), (verdict, iterations, note)) in cases.iter().zip(results) {
-        rows.push((*name, *f, *dt, verdict, iterations, note));
+    for (case, (verdict, iterations, note)) in cases.iter().zip(results) {
+        rows.push((case.scheme, case.ratio, case.dt, verdict, iterations, note));
     }
     let label = Verdict::label;
     let mut csv = String::from("scheme,mass_factor,dt_s,verdict,mean_iterations,note\n");

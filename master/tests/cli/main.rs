@@ -36,6 +36,7 @@ mod resume;
 mod run;
 mod slack;
 mod ssp_system;
+mod stability;
 mod step_map;
 mod stewart;
 mod sweep;
