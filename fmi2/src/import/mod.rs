@@ -216,10 +216,14 @@ impl Described {
         }
     }
 
+    /// The platform directory of the binaries for this FMI version.
+    fn platform(&self) -> &'static str {
+        if self.v3.is_some() { crate::fmi3::PLATFORM } else { crate::package::PLATFORM }
+    }
+
     /// The binary the description names: `binaries/<platform>/<identifier>.so`.
     fn binary_entry(&self) -> String {
-        let platform = if self.v3.is_some() { crate::fmi3::PLATFORM } else { crate::package::PLATFORM };
-        format!("binaries/{platform}/{}.so", self.view.model_identifier)
+        format!("binaries/{}/{}.so", self.platform(), self.view.model_identifier)
     }
 }
 
@@ -299,9 +303,8 @@ impl Fmu {
                 Described::read(&text).map_err(|m| err(&md_path, format!("modelDescription.xml: {m}")))?
             }
         };
+        let (platform, binary) = (described.platform(), root.join(described.binary_entry()));
         let Described { view: description, v3 } = described;
-        let platform = if v3.is_some() { crate::fmi3::PLATFORM } else { crate::package::PLATFORM };
-        let binary = root.join("binaries").join(platform).join(format!("{}.so", description.model_identifier));
         if !binary.is_file() {
             let platforms: Vec<String> = std::fs::read_dir(root.join("binaries"))
                 .map(|d| d.filter_map(|e| e.ok()).map(|e| e.file_name().to_string_lossy().into_owned()).collect())
