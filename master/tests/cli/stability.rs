@@ -6,7 +6,8 @@ use crate::master;
 
 #[test]
 fn an_infeasible_variant_gives_the_same_map_serial_and_parallel() {
-    let scene = crate::common::scene_path("lt50m_B.toml").display().to_string();
+    let scene = crate::common::scene_file("lt50m_B.toml", "stability-infeasible", |_| {});
+    let scene = scene.display().to_string();
     let base = std::env::temp_dir().join(format!("cli-stability-{}", std::process::id()));
     let mut csvs = Vec::new();
     for jobs in ["1", "3"] {
