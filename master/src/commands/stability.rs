@@ -116,6 +116,13 @@ struct Case<'a> {
     run: Run<'a>,
 }
 
+impl Case<'_> {
+    /// How the progress lines and the errors name the cell.
+    fn label(&self) -> String {
+        format!("{}, mass ×{}, h = {} s", self.scheme.as_str(), self.ratio, self.dt)
+    }
+}
+
 pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
     let (ratios, dts) = (&args.ratios, &args.dts);
@@ -175,7 +182,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         if !feasible(case.variant)? {
             return Ok((Verdict::Infeasible, f64::NAN, "a cable would have to push".to_string()));
         }
-        eprintln!("{}, mass ×{}, h = {} s …", case.scheme.as_str(), case.ratio, case.dt);
+        eprintln!("{} …", case.label());
         match case.run.execute(quiet) {
             Ok(t) => {
                 // a run that ends but keeps growing is not stable either
@@ -196,11 +203,11 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             Err(e) => Err(e.into()),
         }
     };
-    // steps × the scheme's cost per step (an infeasible cell, not known as such yet, costs
-    // nothing but its variant's form-finding)
+    // steps × the scheme's cost per step (an infeasible variant's cells are estimated as runs:
+    // which variants are infeasible is known only once their cells start)
     let cost = |case: &Case<'_>| args.t_end / case.dt * case.scheme.relative_cost();
     let results = journal::map_journaled(&cases, jobs, cost, &journal, to_cells, from_cells, |_, case| {
-        cell(case).with_context(|| format!("{}, mass ×{}, h = {} s", case.scheme.as_str(), case.ratio, case.dt))
+        cell(case).with_context(|| case.label())
     })?;
     let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
     for (case, (verdict, iterations, note)) in cases.iter().zip(results) {
