@@ -153,12 +153,18 @@ impl CableCabin {
         fit.max(mode_count)
     }
 
+    /// The model's unknowns (degrees of freedom): three per interior cable node, six of the
+    /// cabin.
+    pub fn unknowns(scene: &ValidScene) -> usize {
+        3 * scene.cable_count() * scene.cables.elements.saturating_sub(1) + 6
+    }
+
     /// Bytes [`CableCabin::build`] and the dynamics would allocate for `scene` with at least
     /// `mode_count` modes, as a float (it may not fit any integer for absurd sizes). Everything
     /// grows linearly in n, the number of unknowns: the modal analysis
     /// ([`crate::modes::memory_estimate`]), the chain matrices and the states.
     pub fn memory_estimate(scene: &ValidScene, mode_count: usize) -> f64 {
-        let n = 3.0 * scene.cable_count() as f64 * (scene.cables.elements as f64 - 1.0) + 6.0;
+        let n = Self::unknowns(scene) as f64;
         let modal = crate::modes::memory_estimate(n, Self::modes_built(scene, mode_count));
         // chain blocks (3×3 and 3×6 per node) in a handful of matrices and factors, vectors
         let linear = 400.0 * n;

@@ -6,11 +6,11 @@
 //! Geometry comes out through accessors ([`Scene::anchors`], ...) so that the models never
 //! re-derive it differently.
 
-use std::io::Read;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::files::{ReadError, read_limited};
 use crate::rigid::MassProperties;
 use crate::{Mat3, Quat, Vec3};
 
@@ -1020,29 +1020,23 @@ impl Scene {
         let path = path.as_ref();
         let file = path.display().to_string();
         let unreadable = |reason: String| SceneError::unreadable(&file, SceneErrorKind::Unreadable, reason);
-        let meta = std::fs::metadata(path).map_err(|e| unreadable(format!("cannot read the scene file: {e}")))?;
-        if !meta.is_file() {
-            return Err(unreadable(
-                "not a regular file (a directory, device or pipe); give the path of a scene file (TOML)".into(),
-            ));
-        }
-        let too_large = |size: String| {
+        let too_large = |size: Option<u64>| {
             SceneError::unreadable(
                 &file,
                 SceneErrorKind::TooLarge { limit: max_bytes },
-                format!("the file has {size} bytes, more than the limit of {max_bytes} bytes for a scene file"),
+                format!(
+                    "the file has {} bytes, more than the limit of {max_bytes} bytes for a scene file",
+                    ReadError::size_text(size, max_bytes)
+                ),
             )
         };
-        if meta.len() > max_bytes {
-            return Err(too_large(meta.len().to_string()));
-        }
-        let mut bytes = Vec::new();
-        std::fs::File::open(path)
-            .and_then(|f| f.take(max_bytes.saturating_add(1)).read_to_end(&mut bytes))
-            .map_err(|e| unreadable(format!("cannot read the scene file: {e}")))?;
-        if bytes.len() as u64 > max_bytes {
-            return Err(too_large(format!("more than {max_bytes}")));
-        }
+        let bytes = read_limited(path, max_bytes).map_err(|e| match e {
+            ReadError::Io(e) => unreadable(format!("cannot read the scene file: {e}")),
+            ReadError::NotRegular => unreadable(
+                "not a regular file (a directory, device or pipe); give the path of a scene file (TOML)".into(),
+            ),
+            ReadError::TooLarge { size, .. } => too_large(size),
+        })?;
         let text = String::from_utf8(bytes).map_err(|e| {
             SceneError::unreadable(
                 &file,

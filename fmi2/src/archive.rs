@@ -39,8 +39,8 @@ pub fn unpack_entry<R: Read + Seek>(
     }
     let mut out = std::fs::File::create(&target).map_err(|e| io(format!("cannot create {}: {e}", target.display())))?;
     // the sizes an entry declares may lie: count what is written
-    let written =
-        std::io::copy(&mut (&mut entry).take(*budget + 1), &mut out).map_err(|e| io(format!("cannot unpack: {e}")))?;
+    let written = std::io::copy(&mut (&mut entry).take(budget.saturating_add(1)), &mut out)
+        .map_err(|e| io(format!("cannot unpack: {e}")))?;
     if written > *budget {
         return Err(UnpackError::TooLarge { name: name.to_owned(), limit });
     }

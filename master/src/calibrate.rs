@@ -32,7 +32,22 @@ pub enum CalibrationError {
     Tension(String),
     #[error("the Jacobian at the fit cannot be evaluated: {0}")]
     Jacobian(String),
+    /// A figure of the fit that is not a finite number: nothing is written.
+    #[error("the fit cannot be reported: {0}")]
+    NotFinite(String),
 }
+
+/// Measured natural frequencies read, Hz: 0.1 ms to 2.8 h periods.
+pub const MEASURED_HZ: (f64, f64) = (1e-4, 1e4);
+/// Weights of a measured mode.
+pub const WEIGHTS: (f64, f64) = (1e-6, 1e6);
+/// Measured damping ratios (below 1: a mode, not an overdamped motion).
+pub const DAMPING_RATIOS: (f64, f64) = (1e-6, 1.0);
+/// Largest magnitude of a measured shape's component, and the least its largest one must have
+/// (a shape is relative: any unit, but no overflow or underflow in its products).
+pub const SHAPE_MAGNITUDE: (f64, f64) = (1e-12, 1e12);
+/// Largest measured file read unless raised, bytes.
+pub const MAX_MEASURED_BYTES: u64 = 64 << 20;
 
 /// One measured natural frequency.
 #[derive(Clone, Debug, PartialEq)]
@@ -58,11 +73,24 @@ const SHAPE_COLUMNS: [&str; 6] = ["dx", "dy", "dz", "rx", "ry", "rz"];
 const SHAPE_SEARCH: usize = 4;
 
 /// Reads `scene,mode,f_hz[,weight][,zeta][,dx,dy,dz,rx,ry,rz]` (a header line, then one mode per
-/// line).
-pub fn read_measured(path: &Path) -> Result<Vec<Measured>, CalibrationError> {
+/// line) from a regular file of at most `max_bytes`, in time linear in its rows. Every number
+/// must lie in the range that keeps the fit's cost finite: frequencies in [`MEASURED_HZ`],
+/// weights in [`WEIGHTS`], damping ratios in [`DAMPING_RATIOS`] (1 excluded), shapes within
+/// [`SHAPE_MAGNITUDE`].
+pub fn read_measured(path: &Path, max_bytes: u64) -> Result<Vec<Measured>, CalibrationError> {
+    use feedcore::files::{ReadError, read_limited};
     let file = path.display().to_string();
     let err = |reason: String| CalibrationError::Measured { file: file.clone(), reason };
-    let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
+    let bytes = read_limited(path, max_bytes).map_err(|e| match e {
+        ReadError::Io(e) => err(format!("cannot read: {e}")),
+        ReadError::NotRegular => err("not a regular file (a directory, device or pipe); give a CSV file".into()),
+        ReadError::TooLarge { size, limit } => err(format!(
+            "the file has {} bytes, more than the limit of {limit} (--max-measured-bytes raises it)",
+            ReadError::size_text(size, limit)
+        )),
+    })?;
+    let text = String::from_utf8(bytes)
+        .map_err(|e| err(format!("not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to())))?;
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let header: Vec<&str> = lines.next().ok_or_else(|| err("empty".into()))?.1.split(',').map(str::trim).collect();
     let expected = "`scene,mode,f_hz`, then optionally `weight`, `zeta`, `dx,dy,dz,rx,ry,rz` in this order";
@@ -75,44 +103,51 @@ pub fn read_measured(path: &Path) -> Result<Vec<Measured>, CalibrationError> {
         || header[..3] != ["scene", "mode", "f_hz"]
         || header.len() != shape_at + if has_shape { 6 } else { 0 }
     {
-        return Err(err(format!("the header is `{}`; expected {expected}", header.join(","))));
+        return Err(err(format!("the header is `{}`; expected {expected}", excerpt(&header.join(",")))));
     }
     let mut out: Vec<Measured> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    let mut fields = Vec::with_capacity(header.len());
     for (i, line) in lines {
         let at = |what: &str| err(format!("line {}: {what}", i + 1));
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        fields.clear();
+        fields.extend(line.split(',').map(str::trim));
         if fields.len() != header.len() {
             return Err(at(&format!("{} fields, the header has {}", fields.len(), header.len())));
         }
-        let mode: usize = fields[1].parse().ok().filter(|&m| m >= 1).ok_or_else(|| at("mode must be 1, 2, …"))?;
-        let positive = |text: &str, name: &str| {
-            text.parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite() && *x > 0.0)
-                .ok_or_else(|| at(&format!("{name} = `{text}` must be a positive number")))
+        let mode: usize =
+            fields[1].parse().ok().filter(|&m| m >= 1).ok_or_else(|| at("mode must be 1, 2, … (a whole number)"))?;
+        let within = |text: &str, name: &str, (lo, hi): (f64, f64), what: &str| {
+            text.parse::<f64>().ok().filter(|x| (lo..=hi).contains(x)).ok_or_else(|| {
+                at(&format!("{name} = `{}` must be a number in [{lo:e}, {hi:e}] ({what})", excerpt(text)))
+            })
         };
-        let f_hz = positive(fields[2], "f_hz")?;
-        let weight = if has_weight { positive(fields[3], "weight")? } else { 1.0 };
-        let zeta = if has_zeta { Some(positive(fields[zeta_at], "zeta")?) } else { None };
+        let f_hz = within(fields[2], "f_hz", MEASURED_HZ, "a natural frequency, Hz")?;
+        let weight = if has_weight { within(fields[3], "weight", WEIGHTS, "a relative weight")? } else { 1.0 };
+        let zeta = if has_zeta {
+            let z = within(fields[zeta_at], "zeta", DAMPING_RATIOS, "a damping ratio")?;
+            if z >= DAMPING_RATIOS.1 {
+                return Err(at(&format!("zeta = `{}` must lie below 1 (a damping ratio)", fields[zeta_at])));
+            }
+            Some(z)
+        } else {
+            None
+        };
         let shape = if has_shape {
             let mut v = [0.0; 6];
+            let (least, most) = SHAPE_MAGNITUDE;
             for (k, x) in v.iter_mut().enumerate() {
-                let text = fields[shape_at + k];
-                *x = text
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|x| x.is_finite())
-                    .ok_or_else(|| at(&format!("{} = `{text}` must be a number", SHAPE_COLUMNS[k])))?;
+                *x = within(fields[shape_at + k], SHAPE_COLUMNS[k], (-most, most), "a shape's component, any unit")?;
             }
-            if v.iter().all(|x| *x == 0.0) {
-                return Err(at("the shape is zero"));
+            if v.iter().all(|x| x.abs() < least) {
+                return Err(at(&format!("the shape is zero (every component below {least:e} in magnitude)")));
             }
             Some(v)
         } else {
             None
         };
-        if out.iter().any(|m| m.scene == fields[0] && m.mode == mode) {
-            return Err(at(&format!("mode {mode} of scene `{}` is given twice", fields[0])));
+        if !seen.insert((fields[0], mode)) {
+            return Err(at(&format!("mode {mode} of scene `{}` is given twice", excerpt(fields[0]))));
         }
         out.push(Measured { scene: fields[0].to_owned(), mode, f_hz, weight, zeta, shape });
     }
@@ -120,6 +155,15 @@ pub fn read_measured(path: &Path) -> Result<Vec<Measured>, CalibrationError> {
         return Err(err("no measured mode".into()));
     }
     Ok(out)
+}
+
+/// `text` as a message quotes it: at most 40 characters, escaped.
+fn excerpt(text: &str) -> String {
+    let mut out: String = text.chars().take(40).collect::<String>().escape_debug().collect();
+    if text.chars().nth(40).is_some() {
+        out.push('…');
+    }
+    out
 }
 
 /// A key fitted, with its bounds.
@@ -357,11 +401,63 @@ pub struct Fit {
     pub scenes: Vec<ValidScene>,
 }
 
+impl Fit {
+    /// Every figure the fit reports is a finite number, or an error says which is not and why.
+    fn check_finite(&self, keys: &[Key], measured: &[Measured]) -> Result<(), CalibrationError> {
+        let not_finite = |what: String| Err(CalibrationError::NotFinite(what));
+        if !self.condition.is_finite() {
+            let keys = if self.unidentifiable.is_empty() { "a key".to_owned() } else { self.unidentifiable.join(", ") };
+            return not_finite(format!(
+                "the measured modes do not change with {keys} at all (the scaled Jacobian is singular, its \
+                 condition infinite): fit without it, or measure what depends on it"
+            ));
+        }
+        for (name, x) in [("the cost at the start", self.start_cost), ("the cost", self.cost)] {
+            if !x.is_finite() {
+                return not_finite(format!("{name} is {x}"));
+            }
+        }
+        for (k, v) in keys.iter().zip(&self.values) {
+            if !v.is_finite() {
+                return not_finite(format!("the fitted {} is {v}", k.path));
+            }
+        }
+        let errors = self.std_error.iter().flatten().zip(keys);
+        if let Some((e, k)) = errors.filter_map(|(e, k)| Some((e.as_ref()?, k))).find(|(e, _)| !e.is_finite()) {
+            return not_finite(format!("the standard error of {} is {e}", k.path));
+        }
+        if self.correlation.iter().flatten().flatten().any(|c| !c.is_finite()) {
+            return not_finite("a correlation of the keys is not a number".into());
+        }
+        for (i, m) in measured.iter().enumerate() {
+            let zeta = if m.zeta.is_some() { self.computed_zeta[i] } else { 0.0 };
+            if !self.computed_hz[i].is_finite() || !zeta.is_finite() {
+                return not_finite(format!(
+                    "the computed mode paired with scene `{}` mode {} is not finite",
+                    m.scene, m.mode
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Problem {
     /// Checks the keys, their bounds and the measured scenes' names before anything is computed.
     pub fn check(&self) -> Result<Vec<f64>, CalibrationError> {
         for m in &self.measured {
-            if !self.scenes.iter().any(|(s, _)| s.name == m.scene) {
+            if let Some((s, file)) = self.scenes.iter().find(|(s, _)| s.name == m.scene) {
+                let unknowns = CableCabin::unknowns(s);
+                if m.mode > unknowns {
+                    return Err(CalibrationError::Measured {
+                        file: self.measured_file.clone(),
+                        reason: format!(
+                            "scene `{}` ({file}) has {unknowns} degrees of freedom, so no mode {}",
+                            m.scene, m.mode
+                        ),
+                    });
+                }
+            } else {
                 let names: Vec<String> = self.scenes.iter().map(|(s, _)| format!("`{}`", s.name)).collect();
                 return Err(CalibrationError::Measured {
                     file: self.measured_file.clone(),
@@ -648,7 +744,7 @@ impl Problem {
         let paired_mode = computed.iter().map(|c| c.mode).collect();
         let computed_zeta = computed.iter().map(|c| c.zeta).collect();
         let scenes = self.scenes_at(&values).map_err(CalibrationError::Jacobian)?;
-        Ok(Fit {
+        let fit = Fit {
             start,
             values,
             at_bound,
@@ -664,6 +760,114 @@ impl Problem {
             cost,
             iterations,
             scenes,
-        })
+        };
+        fit.check_finite(&self.keys, &self.measured)?;
+        Ok(fit)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str, text: &[u8]) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("master-measured-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    fn read(name: &str, text: &str) -> Result<Vec<Measured>, String> {
+        read_measured(&scratch(name, text.as_bytes()), MAX_MEASURED_BYTES).map_err(|e| e.to_string())
+    }
+
+    /// Every numeric column at its edges and beyond: the ends of its range are read, every value
+    /// outside (zero, subnormal, huge, infinite, NaN, not a number) is refused naming the line,
+    /// the column and the value.
+    #[test]
+    fn every_column_is_read_within_its_range_and_refused_beyond() {
+        let header = "scene,mode,f_hz,weight,zeta,dx,dy,dz,rx,ry,rz";
+        let good = ["C", "1", "0.47", "1", "0.005", "1", "0", "0", "0", "0", "0"];
+        let line = |column: usize, value: &str| {
+            let mut cells = good.map(String::from);
+            cells[column] = value.to_owned();
+            format!("{header}\n{}\n", cells.join(","))
+        };
+        assert_eq!(read("good.csv", &line(2, "0.47")).unwrap().len(), 1);
+        let beyond =
+            ["0", "-0", "5e-324", "1e-300", "1e300", "inf", "-inf", "NaN", "", "x", "1e", "99999999999999999999e999"];
+        let cases: [(usize, &str, &[&str], &[&str]); 4] = [
+            (2, "f_hz", &["1e-4", "1e4"], &["9e-5", "1.1e4", "-1"]),
+            (3, "weight", &["1e-6", "1e6"], &["9e-7", "1.1e6", "-1"]),
+            (4, "zeta", &["1e-6", "0.999"], &["9e-7", "1", "1.5", "-0.1"]),
+            (5, "dx", &["-1e12", "1e12", "1e-12"], &["1.1e12", "-1.1e12"]),
+        ];
+        for (column, name, edges, outside) in cases {
+            for v in edges {
+                let m = read("edge.csv", &line(column, v)).unwrap_or_else(|e| panic!("{name} = {v}: {e}"));
+                assert_eq!(m.len(), 1);
+            }
+            for v in outside.iter().chain(&beyond) {
+                if column == 5 && ["0", "-0", "5e-324", "1e-300"].contains(v) {
+                    // a zero component is fine in a shape; the shape below is what is refused
+                    continue;
+                }
+                let e = read("beyond.csv", &line(column, v)).expect_err(&format!("{name} = {v}"));
+                assert!(e.contains("line 2") && e.contains(name), "{name} = {v}: {e}");
+            }
+        }
+        for column in 6..11 {
+            let name = SHAPE_COLUMNS[column - 5];
+            for v in beyond.iter().filter(|v| !["0", "-0", "5e-324", "1e-300"].contains(v)) {
+                let e = read("beyond.csv", &line(column, v)).expect_err(&format!("{name} = {v}"));
+                assert!(e.contains(name), "{name} = {v}: {e}");
+            }
+        }
+        let tiny = format!("{header}\nC,1,0.47,1,0.005,1e-13,0,0,0,0,-1e-300\n");
+        assert!(read("zero.csv", &tiny).unwrap_err().contains("the shape is zero"));
+        for mode in ["0", "-1", "1.5", "x", "18446744073709551616"] {
+            let e = read("mode.csv", &line(1, mode)).expect_err(mode);
+            assert!(e.contains("line 2") && e.contains("mode"), "{e}");
+        }
+    }
+
+    /// Only regular files within the size limit are read: a directory, a FIFO (which would
+    /// block), a device that never ends or reads empty, a file over the limit, bytes that are
+    /// not text are refused by name.
+    #[test]
+    fn only_regular_text_files_within_the_limit_are_read() {
+        let dir = std::env::temp_dir().join(format!("master-measured-files-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let fifo = dir.join("fifo.csv");
+        let _ = std::fs::remove_file(&fifo);
+        assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+        for path in [dir.as_path(), fifo.as_path(), Path::new("/dev/zero"), Path::new("/dev/null")] {
+            let e = read_measured(path, MAX_MEASURED_BYTES).unwrap_err().to_string();
+            assert!(e.contains(&path.display().to_string()) && e.contains("not a regular file"), "{e}");
+        }
+        let text = "scene,mode,f_hz\nC,1,0.47\n";
+        let file = scratch("limit.csv", text.as_bytes());
+        let e = read_measured(&file, 10).unwrap_err().to_string();
+        assert!(e.contains("limit of 10") && e.contains("--max-measured-bytes"), "{e}");
+        assert_eq!(read_measured(&file, text.len() as u64).unwrap().len(), 1);
+        let e = read_measured(&scratch("binary.csv", b"scene,mode,f_hz\n\xff\xfe\x00"), 1000).unwrap_err().to_string();
+        assert!(e.contains("not UTF-8"), "{e}");
+        let e = read("missing.csv", "").unwrap_err();
+        assert!(e.contains("empty"), "{e}");
+    }
+
+    /// A million measured modes are read in one pass (duplicates found by hashing, not by
+    /// comparing every pair); the one given twice is named.
+    #[test]
+    fn a_million_rows_are_read_in_linear_time() {
+        let mut text = String::from("scene,mode,f_hz\n");
+        for k in 1..=1_000_000 {
+            text.push_str(&format!("C,{k},0.5\n"));
+        }
+        assert_eq!(read("million.csv", &text).unwrap().len(), 1_000_000);
+        text.push_str("C,999999,0.5\n");
+        let e = read("million.csv", &text).unwrap_err();
+        assert!(e.contains("line 1000002") && e.contains("mode 999999"), "{e}");
     }
 }

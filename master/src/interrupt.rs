@@ -1,6 +1,7 @@
-//! Ctrl-C: a command stops between its steps or points instead of dying mid-write. Long work
-//! keeps what it finished (see [`crate::journal`]) and the process exits with 130; a second
-//! Ctrl-C exits at once.
+//! Ctrl-C, and a kill that can be caught (SIGTERM, SIGHUP): a command stops between its steps or
+//! points instead of dying mid-write, its temporary files removed. Long work keeps what it
+//! finished (see [`crate::journal`]) and the process exits with 130; a second signal exits at
+//! once (what it leaves, the next run removes: [`crate::tempfiles`]).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -14,7 +15,7 @@ pub const EXIT_CODE: u8 = 130;
 #[error("interrupted (Ctrl-C)")]
 pub struct Interrupted;
 
-/// Takes over Ctrl-C (SIGINT) for the rest of the process.
+/// Takes over Ctrl-C (SIGINT), SIGTERM and SIGHUP for the rest of the process.
 pub fn install() {
     // A second handler cannot be set (a test harness may have one): Ctrl-C then keeps its
     // default, which ends the process.

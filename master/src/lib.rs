@@ -12,7 +12,8 @@
 //! * [`stepping`]: the step loop of every run (fixed or adaptive steps, caps, totals);
 //! * [`system`]: the scene's `[system]` as a system description, and runs of any FMU system;
 //! * [`progress`]: a progress bar for long runs on a terminal;
-//! * [`table`]: plain-text tables;
+//! * [`table`]: plain-text tables; [`tempfiles`]: where a result is written before it is moved
+//!   into place;
 //! * [`parallel`]: independent cases on every core, results in order;
 //! * [`sweep`]: grids over the workspace and the parameters, their tables and maps;
 //! * [`calibrate`]: scene keys fitted to measured natural frequencies (model updating);
@@ -36,3 +37,4 @@ pub mod stepping;
 pub mod sweep;
 pub mod system;
 pub mod table;
+pub mod tempfiles;

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use master::limits::{Limits, MAX_STEPS};
+use master::options::{MEMORY_MB, megabytes};
 
 mod commands;
 
@@ -36,7 +37,7 @@ struct CapFlags {
     max_steps: u64,
     /// Memory one run may take, MB [default: what the machine has available]. The need is
     /// estimated from the scene before anything is built.
-    #[arg(long, global = true, value_name = "MB")]
+    #[arg(long, global = true, value_name = "MB", value_parser = |t: &str| megabytes(t, MEMORY_MB))]
     max_memory_mb: Option<u64>,
     /// Largest scene file read, bytes.
     #[arg(long, global = true, default_value_t = feedcore::scene::MAX_SCENE_BYTES, value_name = "BYTES")]
@@ -95,7 +96,7 @@ fn main() -> ExitCode {
     commands::set_caps(commands::Caps {
         run: Limits {
             max_steps: cli.caps.max_steps,
-            max_memory_bytes: cli.caps.max_memory_mb.map(|mb| mb.saturating_mul(1_000_000)),
+            max_memory_bytes: cli.caps.max_memory_mb.map(|mb| mb * MEMORY_MB),
         },
         scene_bytes: cli.caps.max_scene_bytes,
     });

@@ -193,6 +193,22 @@ pub fn check_dt(adaptive: bool, dt: Option<f64>) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Bytes per megabyte of --max-memory-mb (decimal, as memory is quoted).
+pub const MEMORY_MB: u64 = 1_000_000;
+/// Bytes per megabyte of --max-unpacked-mb (binary, as archive sizes are).
+pub const UNPACKED_MB: u64 = 1 << 20;
+
+/// A number of megabytes of `bytes_per_mb` bytes each, refused if the bytes do not fit in 64
+/// bits (so that no cap wraps around to a small one).
+pub fn megabytes(text: &str, bytes_per_mb: u64) -> Result<u64, String> {
+    let mb: u64 = text.trim().parse().map_err(|e| format!("`{text}` is not a whole number of megabytes: {e}"))?;
+    let most = u64::MAX / bytes_per_mb;
+    if mb > most {
+        return Err(format!("{mb} MB is more bytes than can be counted (at most {most} MB)"));
+    }
+    Ok(mb)
+}
+
 /// Where a system's files may come from and what unpacking an archive may cost (--system only).
 #[derive(clap::Args)]
 pub struct SystemFileArgs {
@@ -206,7 +222,7 @@ pub struct SystemFileArgs {
     pub max_archive_entries: Option<usize>,
     /// Most megabytes unpacked from an `.ssp` archive: the entries its system references (the
     /// description, the FMUs, the parameter files; nothing else is unpacked) [default: 1024].
-    #[arg(long)]
+    #[arg(long, value_parser = |t: &str| megabytes(t, UNPACKED_MB))]
     pub max_unpacked_mb: Option<u64>,
 }
 
@@ -215,9 +231,7 @@ impl SystemFileArgs {
         let default = ReadLimits::default();
         ReadLimits {
             max_entries: self.max_archive_entries.unwrap_or(default.max_entries),
-            max_unpacked_bytes: self
-                .max_unpacked_mb
-                .map_or(default.max_unpacked_bytes, |mb| mb.saturating_mul(1 << 20)),
+            max_unpacked_bytes: self.max_unpacked_mb.map_or(default.max_unpacked_bytes, |mb| mb * UNPACKED_MB),
             allow_external: self.allow_external_fmus,
         }
     }

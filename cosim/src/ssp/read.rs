@@ -593,6 +593,9 @@ mod tests {
         assert!(!root.join("zeros.bin").exists(), "an entry nothing names stays packed");
         assert_eq!(loaded.spec.components[1].source, root.join("fmus/b"));
         assert_eq!(loaded.spec.parameters.len(), 1);
+        // no cap at all: the budget counted without overflow
+        let unlimited = ReadLimits { max_unpacked_bytes: u64::MAX, ..ReadLimits::default() };
+        assert_eq!(load_within(&ssp, &unlimited).unwrap().spec.parameters.len(), 1);
 
         let small = ReadLimits { max_unpacked_bytes: 100, ..ReadLimits::default() };
         let e = refused(&ssp, &small);

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use feedcore::scene::{Scene, ValidScene};
-use master::calibrate::{Key, Problem, TensionBound, get_key, read_measured};
+use master::calibrate::{Key, MAX_MEASURED_BYTES, Problem, TensionBound, get_key, read_measured};
 use master::table::Table;
 use serde_json::json;
 
@@ -26,6 +26,9 @@ pub(crate) struct Args {
     /// scene's Rayleigh damping at the paired mode).
     #[arg(long)]
     pub(crate) measured: PathBuf,
+    /// Largest measured file read, bytes (only regular files are read).
+    #[arg(long, default_value_t = MAX_MEASURED_BYTES, value_name = "BYTES")]
+    pub(crate) max_measured_bytes: u64,
     /// Real-valued scene keys to fit, shared by every scene (comma-separated dotted names, e.g.
     /// anchors.radius_m,cables.youngs_modulus_pa).
     #[arg(long, value_delimiter = ',', required = true)]
@@ -115,7 +118,13 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let measured_file = args.measured.display().to_string();
     let tensions = args.tension.clone();
-    let problem = Problem { scenes, measured: read_measured(&args.measured)?, measured_file, tensions, keys };
+    let problem = Problem {
+        scenes,
+        measured: read_measured(&args.measured, args.max_measured_bytes)?,
+        measured_file,
+        tensions,
+        keys,
+    };
     problem.check()?;
     let mut outputs = Outputs::new(inputs);
     let ids: Vec<_> = args

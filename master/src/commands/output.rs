@@ -81,22 +81,21 @@ impl Outputs {
         if path.is_dir() {
             bail!("{flag} {shown}: is a directory; give a file name");
         }
-        let name = path.file_name().with_context(|| format!("{flag} {shown}: no file name"))?;
-        let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        let mut temp_name = std::ffi::OsString::from(".");
-        temp_name.push(name);
-        temp_name.push(format!(".{}.tmp", std::process::id()));
-        self.files.push(Planned { flag: flag.to_string(), path: path.to_owned(), temp: dir.join(temp_name) });
+        path.file_name().with_context(|| format!("{flag} {shown}: no file name"))?;
+        let temp = master::tempfiles::beside(path);
+        self.files.push(Planned { flag: flag.to_string(), path: path.to_owned(), temp });
         Ok(OutputId(self.files.len() - 1))
     }
 
-    /// Creates the directories and the temporary files of every declared output.
+    /// Creates the directories and the temporary files of every declared output (and removes
+    /// those a killed run of any command left for the same outputs).
     pub(crate) fn open(&mut self) -> anyhow::Result<()> {
         for f in &self.files {
-            let dir = f.temp.parent().expect("a temporary file has a directory");
+            let dir = f.temp.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
             let shown = f.path.display();
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("{} {shown}: cannot create the directory {}", f.flag, dir.display()))?;
+            master::tempfiles::remove_stale(&f.path);
             File::create(&f.temp).with_context(|| format!("{} {shown}: cannot write in {}", f.flag, dir.display()))?;
         }
         self.opened = true;

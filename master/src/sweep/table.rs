@@ -51,7 +51,18 @@ impl Table {
 
     pub fn read(path: &Path) -> Result<Table, SweepError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| SweepError::Io { file: file.clone(), source })?;
+        // a regular file only: a pipe named like a part would block the merge
+        let bytes = feedcore::files::read_limited(path, u64::MAX).map_err(|e| {
+            let source = match e {
+                feedcore::files::ReadError::Io(e) => e,
+                _ => std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file"),
+            };
+            SweepError::Io { file: file.clone(), source }
+        })?;
+        let text = String::from_utf8(bytes).map_err(|e| SweepError::Io {
+            file: file.clone(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidData, e),
+        })?;
         let err = |line: usize, reason: String| SweepError::Table {
             file: file.clone(),
             reason: format!("line {line}: {reason}"),

@@ -128,6 +128,69 @@ fn a_failed_run_leaves_no_stale_output() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A run that is killed leaves nothing the next run trips over: SIGKILL leaves its hidden
+/// temporary files (no process can prevent that), and the next run into the same place removes
+/// them; SIGTERM stops the run like Ctrl-C (exit 130), its temporary files and the earlier
+/// run's results under the same names removed.
+#[test]
+fn a_killed_run_leaves_nothing_behind_for_long() {
+    let dir = scratch("killed");
+    let (_, scene) = common::scene("lt50m_C.toml", "misuse-killed", |_| {});
+    let csv = dir.join("r.csv");
+    let run = |t_end: &str| {
+        Command::new(crate::MASTER)
+            .args([
+                "run",
+                "--scene",
+                s(&scene),
+                "--scheme",
+                "monolithic",
+                "--quiet",
+                "--t-end",
+                t_end,
+                "--out",
+                s(&csv),
+            ])
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let hidden = || -> Vec<String> {
+        std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with('.'))
+            .collect()
+    };
+    let started = |child: &mut std::process::Child| {
+        let t0 = std::time::Instant::now();
+        while hidden().is_empty() {
+            assert!(child.try_wait().unwrap().is_none(), "the run ended before it was killed");
+            assert!(t0.elapsed().as_secs() < 60, "no temporary file");
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+    };
+    let mut child = run("5000");
+    started(&mut child);
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let left = hidden();
+    assert_eq!(left.len(), 1, "{left:?}");
+    assert!(left[0].starts_with(".r.csv.") && left[0].ends_with(".tmp"), "{left:?}");
+    assert!(run("0.05").wait_with_output().unwrap().status.success());
+    assert!(hidden().is_empty() && csv.is_file(), "the next run removes what the killed one left");
+
+    let mut child = run("5000");
+    started(&mut child);
+    assert!(Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap().success());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted") && err.contains("removed"), "{err}");
+    assert!(hidden().is_empty() && !csv.exists(), "nothing left behind: {:?}", hidden());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The step against the end time: reached exactly, or refused up front with the nearest end
 /// times that work; steps and end times are parsed as numbers even when negative.
 #[test]
@@ -183,6 +246,47 @@ fn work_and_memory_are_capped_up_front() {
         &master(&["statics", "--scene", s(&scene), "--max-scene-bytes", "100"]),
         &["limit of 100 bytes", "--max-scene-bytes"],
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Caps given in megabytes are counted in bytes: one that does not fit in 64 bits is refused by
+/// name before anything runs (2^44 MB of unpacking wrapped around to a tiny cap, and the archive's
+/// description read as empty); the largest that fits works as no cap at all.
+#[test]
+fn megabyte_caps_that_overflow_are_refused_by_name() {
+    let dir = scratch("megabytes");
+    let (_, scene) = common::scene("lt50m_C.toml", "misuse-mb", |_| {});
+    let ssp = dir.join("c.ssp");
+    assert!(master(&["export-ssp", "--scene", s(&scene), "--out", s(&ssp)]).status.success());
+    let run = |flag: &str, mb: &str| {
+        master(&[
+            "run",
+            "--system",
+            s(&ssp),
+            "--scheme",
+            "ijcsa",
+            "--dt",
+            "0.01",
+            "--t-end",
+            "0.02",
+            "--quiet",
+            flag,
+            mb,
+        ])
+    };
+    for (flag, most) in [("--max-unpacked-mb", (u64::MAX >> 20)), ("--max-memory-mb", u64::MAX / 1_000_000)] {
+        for over in [most + 1, u64::MAX] {
+            let out = run(flag, &over.to_string());
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{err}");
+            assert!(
+                err.contains(flag) && err.contains(&format!("at most {most} MB")) && !err.contains("panicked"),
+                "{err}"
+            );
+        }
+        let out = run(flag, &most.to_string());
+        assert!(out.status.success(), "{flag} {most}: {}", String::from_utf8_lossy(&out.stderr));
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
