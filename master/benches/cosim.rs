@@ -8,8 +8,8 @@ use std::path::PathBuf;
 use feedcore::benchkit::{bench, human};
 use feedcore::scene::Scene;
 use fmi2::import::Fmu;
-use master::cosim::{Coupled, FmuSystem, JacobianUpdate, Options, Scheme};
-use master::monolithic::Monolithic;
+use studies::cosim::{Coupled, FmuSystem, JacobianUpdate, Options, Scheme};
+use studies::monolithic::Monolithic;
 
 fn library(name: &str) -> PathBuf {
     let exe = std::env::current_exe().unwrap();
@@ -65,10 +65,10 @@ fn main() {
         });
     }
 
-    let spec = master::system::scene_spec(&scene, &file).unwrap();
+    let spec = studies::system::scene_spec(&scene, &file).unwrap();
     let coupled = |scheme, jacobian| {
         let options = Options { scheme, jacobian, ..Options::default() };
-        let system = FmuSystem::load(&spec, &master::system::needs(&options, false)).unwrap();
+        let system = FmuSystem::load(&spec, &studies::system::needs(&options, false)).unwrap();
         Coupled::new(system, options).unwrap()
     };
     println!("One macro step of each scheme at C, h = 0.01 s");

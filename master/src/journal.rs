@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use crate::sweep::table::{quoted, split};
+use studies::sweep::table::{quoted, split};
 
 /// What a journal's first line begins with.
 const IDENTITY: &str = "# master journal: ";
@@ -33,7 +33,7 @@ const MAX_LINE: u64 = 1 << 20;
 
 /// Why a journal cannot be used.
 #[derive(Debug, thiserror::Error)]
-pub enum JournalError {
+pub(crate) enum JournalError {
     #[error(
         "{0}: the finished points of an earlier run of this command that did not complete (interrupted, killed \
          or failed) are here; continue it with the same command and --resume, or remove the file to start afresh"
@@ -57,7 +57,7 @@ struct Point {
 }
 
 /// The journal of one command's points.
-pub struct Journal {
+pub(crate) struct Journal {
     path: PathBuf,
     file: Mutex<File>,
     done: BTreeMap<usize, Point>,
@@ -70,7 +70,7 @@ impl Journal {
     /// results, in one line). With `resume` the points an earlier run finished are read (a
     /// journal of other work is refused); without, an existing journal is refused rather than
     /// overwritten. A missing journal starts empty either way.
-    pub fn open(path: &Path, identity: &str, resume: bool) -> Result<Journal, JournalError> {
+    pub(crate) fn open(path: &Path, identity: &str, resume: bool) -> Result<Journal, JournalError> {
         let io = |source| JournalError::Io { path: path.to_owned(), source };
         let identity = identity.replace('\n', " ");
         let (done, dropped) = match path.symlink_metadata() {
@@ -96,14 +96,19 @@ impl Journal {
     }
 
     /// How many points an earlier run finished (before any is checked against its key).
-    pub fn resumed(&self) -> usize {
+    pub(crate) fn resumed(&self) -> usize {
         self.done.len()
     }
 
     /// Point `index` as an earlier run finished it, if its line names `key` and `decode`
     /// accepts its cells; otherwise the line is dropped (counted for [`Journal::say_dropped`])
     /// and the point is to be computed again.
-    pub fn take<R>(&self, index: usize, key: &str, decode: impl Fn(&[String]) -> anyhow::Result<R>) -> Option<R> {
+    pub(crate) fn take<R>(
+        &self,
+        index: usize,
+        key: &str,
+        decode: impl Fn(&[String]) -> anyhow::Result<R>,
+    ) -> Option<R> {
         let point = self.done.get(&index)?;
         let decoded = (point.key == key).then(|| decode(&point.cells).ok()).flatten();
         if decoded.is_none() {
@@ -113,7 +118,7 @@ impl Journal {
     }
 
     /// Says on stderr, once, how many lines of the journal were not used, if any.
-    pub fn say_dropped(&self) {
+    pub(crate) fn say_dropped(&self) {
         let n = self.dropped.swap(0, Ordering::Relaxed);
         if n > 0 {
             eprintln!(
@@ -127,20 +132,15 @@ impl Journal {
     }
 
     /// Writes point `index`, which `key` names, with its cells.
-    pub fn record(&self, index: usize, key: &str, cells: &[String]) -> Result<(), JournalError> {
+    pub(crate) fn record(&self, index: usize, key: &str, cells: &[String]) -> Result<(), JournalError> {
         let text = line(index, key, cells);
         let mut file = self.file.lock().unwrap_or_else(|p| p.into_inner());
         // unbuffered: the line is the kernel's once written, so a killed process keeps it
         file.write_all(text.as_bytes()).map_err(|source| JournalError::Io { path: self.path.clone(), source })
     }
 
-    /// The journal's path.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// The work is complete: the journal goes.
-    pub fn finish(self) -> Result<(), JournalError> {
+    pub(crate) fn finish(self) -> Result<(), JournalError> {
         std::fs::remove_file(&self.path).map_err(|source| JournalError::Io { path: self.path, source })
     }
 }
@@ -248,61 +248,45 @@ fn parse(bytes: &[u8]) -> Option<(usize, Point)> {
 }
 
 /// `<dir>/<name>.partial`.
-pub fn path(dir: &Path, name: &str) -> PathBuf {
+pub(crate) fn path(dir: &Path, name: &str) -> PathBuf {
     dir.join(format!("{name}.partial"))
 }
 
-/// `compute(i, &items[i])` for every item on `jobs` threads, the costliest first (`cost`: an
-/// estimate of the run time), results in order: each written to `journal` as it finishes
-/// (under the key `key` gives, as `encode` gives its cells) and taken from it where an earlier
-/// run finished it and `decode` accepts the item's cells. After Ctrl-C no item starts, a result finished meanwhile is not
-/// kept (it may have been cut short), and the whole is [`Interrupted`](crate::interrupt::Interrupted),
-/// naming the journal that keeps the rest for `--resume`.
-#[allow(clippy::too_many_arguments)]
-pub fn map_journaled<T, R>(
-    items: &[T],
-    jobs: Option<usize>,
-    cost: impl Fn(&T) -> f64,
-    journal: &Journal,
-    key: impl Fn(&T) -> String + Sync,
-    encode: impl Fn(&R) -> Vec<String> + Sync,
-    decode: impl Fn(&T, &[String]) -> anyhow::Result<R> + Sync,
-    compute: impl Fn(usize, &T) -> anyhow::Result<R> + Sync + Send,
-) -> anyhow::Result<Vec<R>>
-where
-    T: Sync,
-    R: Send,
-{
-    let mut earlier: Vec<Option<R>> =
-        items.iter().enumerate().map(|(i, t)| journal.take(i, &key(t), |cells| decode(t, cells))).collect();
-    journal.say_dropped();
-    let todo: Vec<usize> = (0..items.len()).filter(|&i| earlier[i].is_none()).collect();
-    let computed = crate::parallel::map_longest_first(
-        &todo,
-        jobs,
-        |&i| cost(&items[i]),
-        |_, &i| -> anyhow::Result<Option<R>> {
-            if crate::interrupt::interrupted() {
-                return Ok(None);
-            }
-            let result = compute(i, &items[i]);
-            if crate::interrupt::interrupted() {
-                return Ok(None);
-            }
-            let result = result?;
-            journal.record(i, &key(&items[i]), &encode(&result))?;
-            Ok(Some(result))
-        },
-    )?;
-    for (&i, result) in todo.iter().zip(computed) {
-        earlier[i] = result?;
+impl studies::points::Store for Journal {
+    fn earlier(&self, index: usize, key: &str) -> Option<Vec<String>> {
+        let point = self.done.get(&index)?;
+        if point.key != key {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+            return None;
+        }
+        Some(point.cells.clone())
     }
-    match earlier.into_iter().collect::<Option<Vec<R>>>() {
-        Some(all) => Ok(all),
-        None => Err(anyhow::Error::new(crate::interrupt::Interrupted).context(format!(
-            "the finished points are kept in {}; continue with the same command and --resume",
-            journal.path.display()
-        ))),
+
+    fn refused(&self, _: usize) {
+        self.dropped.fetch_add(1, Ordering::Relaxed);
+    }
+
+    fn looked_up(&self) {
+        self.say_dropped();
+    }
+
+    fn record(&self, index: usize, key: &str, cells: &[String]) -> anyhow::Result<()> {
+        Ok(Journal::record(self, index, key, cells)?)
+    }
+}
+
+/// A study's error, with the way on when the caller stopped it: its finished points are in
+/// `journal`, and `--resume` continues.
+pub(crate) fn resumable(journal: &Journal) -> impl Fn(anyhow::Error) -> anyhow::Error + '_ {
+    move |e| {
+        if e.is::<studies::cancel::Cancelled>() {
+            e.context(format!(
+                "the finished points are kept in {}; continue with the same command and --resume",
+                journal.path.display()
+            ))
+        } else {
+            e
+        }
     }
 }
 

@@ -6,10 +6,14 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use master::limits::{Limits, MAX_STEPS};
-use master::options::{MEMORY_MB, megabytes};
+use studies::limits::{Limits, MAX_STEPS};
+use studies::options::{MEMORY_MB, megabytes};
 
 mod commands;
+mod interrupt;
+mod journal;
+mod progress;
+mod tempfiles;
 
 #[derive(Parser)]
 #[command(
@@ -92,7 +96,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    master::interrupt::install();
+    crate::interrupt::install();
     commands::set_caps(commands::Caps {
         run: Limits {
             max_steps: cli.caps.max_steps,
@@ -128,11 +132,7 @@ fn main() -> ExitCode {
             for cause in e.chain().skip(1) {
                 eprintln!("  caused by: {cause}");
             }
-            if master::interrupt::interrupted() {
-                ExitCode::from(master::interrupt::EXIT_CODE)
-            } else {
-                ExitCode::FAILURE
-            }
+            if studies::cancel::requested() { ExitCode::from(crate::interrupt::EXIT_CODE) } else { ExitCode::FAILURE }
         }
     }
 }

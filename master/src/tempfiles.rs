@@ -5,14 +5,14 @@
 use std::path::{Path, PathBuf};
 
 /// The temporary file of this process for the result at `target`.
-pub fn beside(target: &Path) -> PathBuf {
+pub(crate) fn beside(target: &Path) -> PathBuf {
     let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     target.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
 /// Removes the temporary files for `target` that processes no longer running left (killed
 /// before they could clean up); returns how many. Another live process's are left alone.
-pub fn remove_stale(target: &Path) -> usize {
+pub(crate) fn remove_stale(target: &Path) -> usize {
     let Some(name) = target.file_name().map(|n| n.to_string_lossy().into_owned()) else { return 0 };
     let dir = target.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let Ok(entries) = std::fs::read_dir(dir) else { return 0 };

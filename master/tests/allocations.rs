@@ -8,8 +8,8 @@ mod common;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use master::cosim::{Coupled, FmuSystem, JacobianUpdate, Options, Scheme};
-use master::monolithic::Monolithic;
+use studies::cosim::{Coupled, FmuSystem, JacobianUpdate, Options, Scheme};
+use studies::monolithic::Monolithic;
 
 /// Counts the allocations of the thread that makes them.
 struct Counting;
@@ -73,7 +73,7 @@ fn the_monolithic_model_steps_without_allocating() {
 #[test]
 fn the_co_simulation_steps_without_allocating() {
     let (scene, file) = common::scene("lt50m_C.toml", "allocations-cosim", |_| {});
-    let spec = master::system::scene_spec(&scene, &file).unwrap();
+    let spec = studies::system::scene_spec(&scene, &file).unwrap();
     schemes_step_without_allocating(&spec, "FMI 2.0");
     // the FMI 3.0 twins: the importer's plans and buffers are made once
     let mut spec3 = spec.clone();
@@ -84,7 +84,7 @@ fn the_co_simulation_steps_without_allocating() {
 }
 
 /// The fixed-step schemes over `spec`, 100 macro steps each after 100 of warm-up.
-fn schemes_step_without_allocating(spec: &master::cosim::SystemSpec, version: &str) {
+fn schemes_step_without_allocating(spec: &studies::cosim::SystemSpec, version: &str) {
     for (scheme, jacobian) in [
         (Scheme::Ijcsa, JacobianUpdate::EveryStep),
         (Scheme::Ijcsa, JacobianUpdate::Reuse),
@@ -92,7 +92,7 @@ fn schemes_step_without_allocating(spec: &master::cosim::SystemSpec, version: &s
         (Scheme::Iterative, JacobianUpdate::EveryStep),
     ] {
         let options = Options { scheme, jacobian, ..Options::default() };
-        let system = FmuSystem::load(spec, &master::system::needs(&options, false)).unwrap();
+        let system = FmuSystem::load(spec, &studies::system::needs(&options, false)).unwrap();
         let mut c = Coupled::new(system, options).unwrap();
         for _ in 0..100 {
             c.step(0.01).unwrap();
@@ -109,17 +109,17 @@ fn schemes_step_without_allocating(spec: &master::cosim::SystemSpec, version: &s
 #[test]
 fn the_adaptive_macro_step_does_not_allocate() {
     let (scene, file) = common::scene("lt50m_C.toml", "allocations-adaptive", |_| {});
-    let spec = master::system::scene_spec(&scene, &file).unwrap();
+    let spec = studies::system::scene_spec(&scene, &file).unwrap();
     // the adaptive macro step: its estimate, controller and rollbacks
     let options = Options { scheme: Scheme::Ijcsa, ..Options::default() };
-    let system = FmuSystem::load(&spec, &master::system::needs(&options, true)).unwrap();
+    let system = FmuSystem::load(&spec, &studies::system::needs(&options, true)).unwrap();
     let mut c = Coupled::new(system, options).unwrap();
-    let adaptive = master::system::Adaptive {
-        tolerances: master::cosim::step_control::Tolerances { rtol: 1e-4, atol: 1e-7 },
+    let adaptive = studies::system::Adaptive {
+        tolerances: studies::cosim::step_control::Tolerances { rtol: 1e-4, atol: 1e-7 },
         h_min: 1e-5,
         h_max: 0.02,
         watch: Vec::new(),
-        estimate: master::cosim::error_estimate::Kind::Predictor,
+        estimate: studies::cosim::error_estimate::Kind::Predictor,
     };
     let mut ctl = adaptive.controller().unwrap();
     let tol = adaptive.tolerances;

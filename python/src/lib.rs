@@ -9,12 +9,13 @@ use std::time::{Duration, Instant};
 
 use clap::Parser;
 use feedcore::scene::{MAX_SCENE_BYTES, Scene, SceneError as InvalidScene, ValidScene};
-use master::limits::{Footprint, Limits, check_memory};
-use master::options::{CompensationArg, SchemeName, SchemeOptions, SystemFileArgs, check_dt, positive};
-use master::report::{Modal, Statics, run_summary, static_utilisation};
-use master::simulate::{Method, Run};
-use master::sweep;
-use master::system::SystemFile;
+use studies::limits::{Footprint, Limits, check_memory};
+use studies::options::{CompensationArg, SchemeName, SchemeOptions, SystemFileArgs, check_dt, positive};
+use studies::report::{Modal, Statics, run_summary, static_utilisation};
+use studies::simulate::{Method, Run};
+use studies::stepping::{Unwatched, Watch};
+use studies::sweep;
+use studies::system::SystemFile;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -137,6 +138,36 @@ fn run(
 /// cost nothing against the steps, often enough for Ctrl-C to feel immediate.
 const PROGRESS_PERIOD: Duration = Duration::from_millis(100);
 
+/// The interpreter's side of a run: a pending signal (Ctrl-C) or an exception raised by the
+/// progress callback stops it; both are looked at every [`PROGRESS_PERIOD`] of wall time.
+struct Interpreter {
+    progress: Option<Py<PyAny>>,
+    t_end: f64,
+    last: Instant,
+    raised: Option<PyErr>,
+}
+
+impl Watch for Interpreter {
+    fn stepped(&mut self, _: u64, t: f64) -> Result<(), String> {
+        if self.last.elapsed() < PROGRESS_PERIOD {
+            return Ok(());
+        }
+        self.last = Instant::now();
+        let looked = Python::attach(|py| {
+            py.check_signals()?;
+            if let Some(callback) = &self.progress {
+                callback.call1(py, (t, self.t_end))?;
+            }
+            Ok::<(), PyErr>(())
+        });
+        looked.map_err(|e| {
+            let text = e.to_string();
+            self.raised = Some(e);
+            text
+        })
+    }
+}
+
 fn run_scene(
     scene: &ValidScene,
     file: &Path,
@@ -146,28 +177,9 @@ fn run_scene(
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, String)> {
     let run = Run::prepare(scene, file, method, dt, t_end, &Limits::default()).map_err(|e| run_error(&e))?;
-    let mut raised: Option<PyErr> = None;
-    let mut last = Instant::now();
-    let mut watch = |t: f64| -> Result<(), String> {
-        if last.elapsed() < PROGRESS_PERIOD {
-            return Ok(());
-        }
-        last = Instant::now();
-        let looked = Python::attach(|py| {
-            py.check_signals()?;
-            if let Some(callback) = &progress {
-                callback.call1(py, (t, t_end))?;
-            }
-            Ok::<(), PyErr>(())
-        });
-        looked.map_err(|e| {
-            let text = e.to_string();
-            raised = Some(e);
-            text
-        })
-    };
-    let trace = run.execute_watched(true, &mut watch);
-    if let Some(e) = raised {
+    let mut watch = Interpreter { progress, t_end, last: Instant::now(), raised: None };
+    let trace = run.execute_watched(&mut watch);
+    if let Some(e) = watch.raised {
         return Err(e);
     }
     let trace = trace.map_err(|e| run_error(&e))?;
@@ -228,8 +240,8 @@ fn run_system(py: Python<'_>, path: String, argv: Vec<String>) -> PyResult<(Stri
         let system = SystemFile::prepare(file, method, args.dt, args.t_end, &files.limits(), &Limits::default())
             .map_err(|e| RunError::new_err(format!("{e:#}")))?;
         let mut csv = Vec::new();
-        let sinks = master::system::Sinks { csv: Some(&mut csv), real: None };
-        let outcome = system.execute(true, sinks).map_err(|e| run_error(&e))?;
+        let sinks = studies::system::Sinks { csv: Some(&mut csv), real: None };
+        let outcome = system.execute(&mut Unwatched, sinks).map_err(|e| run_error(&e))?;
         let csv = String::from_utf8(csv).map_err(|e| run_error(&e))?;
         Ok((system.summary(&outcome).to_string(), csv))
     })
@@ -293,7 +305,7 @@ fn sweep_grid(
         }
         let points: Vec<usize> = (0..grid.len()).collect();
         let jobs = args.jobs.map(usize::from);
-        let rows = master::parallel::map_longest_first(
+        let rows = studies::parallel::map_longest_first(
             &points,
             jobs,
             |&index| grid.cost(index),

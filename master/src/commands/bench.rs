@@ -9,11 +9,11 @@
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
+use crate::journal::{self, Journal};
 use anyhow::{Context, bail};
-use master::journal::{self, Journal};
-use master::plot::{Precision, work_precision};
-use master::simulate::{Run, RunError, Trace};
-use master::table::Table;
+use studies::plot::{Precision, work_precision};
+use studies::simulate::{Run, RunError, Trace};
+use studies::table::Table;
 
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions, positive, tolerance};
@@ -121,7 +121,7 @@ fn repeated(run: &Run, repeats: u32, quiet: bool) -> anyhow::Result<Result<(f64,
     let mut walls = Vec::new();
     let mut last = None;
     for _ in 0..repeats {
-        match run.execute(quiet) {
+        match run.execute_watched(&mut crate::progress::Progress::new(quiet)) {
             Ok(t) => {
                 walls.push(t.wall_time_s);
                 last = Some(t);
@@ -224,7 +224,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let journal = Journal::open(&journal::path(&args.out, "bench.csv"), &identity, args.resume)?;
     let quiet = args.quiet || !std::io::stderr().is_terminal();
     eprintln!("reference: monolithic at h = {reference_dt} s …");
-    let reference = reference.execute(quiet)?;
+    let reference = reference.execute_watched(&mut crate::progress::Progress::new(quiet))?;
     let peak = reference.peak_mm();
     let percent = |m: f64| if peak > 0.0 { 100.0 * m / peak } else { f64::NAN };
     // the measurements an earlier run took: a run's label is its key in the journal

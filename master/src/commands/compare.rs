@@ -4,9 +4,9 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use anyhow::Context;
-use master::simulate::{Run, RunError};
-use master::table::Table;
 use serde_json::json;
+use studies::simulate::{Run, RunError};
+use studies::table::Table;
 
 use super::output::{Outputs, run_inputs};
 use super::run::plot_traces;
@@ -64,13 +64,13 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
     outputs.open()?;
 
-    let reference = reference.execute(quiet)?;
+    let reference = reference.execute_watched(&mut crate::progress::Progress::new(quiet))?;
     let peak = reference.peak_mm();
     let mut rows = Vec::new();
     let mut traces = vec![reference.clone()];
     for (name, run) in &runs {
         let name = name.as_str();
-        match run.execute(quiet) {
+        match run.execute_watched(&mut crate::progress::Progress::new(quiet)) {
             Ok(t) => {
                 let (max, rms) = t.error_against(&reference);
                 rows.push(json!({"scheme": name, "max_error_mm": max, "rms_error_mm": rms, "max_error_percent_of_peak": 100.0 * max / peak,

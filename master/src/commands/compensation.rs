@@ -12,7 +12,7 @@
 //!   with neither (what is left is the filter's lag and the sampling), against the decoupled
 //!   prediction (what the coupling adds) — `budget.csv`.
 //!
-//! Every run is independent: they run in parallel ([`master::parallel`]).
+//! Every run is independent: they run in parallel ([`studies::parallel`]).
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -20,14 +20,15 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use feedcore::scene::{Scene, ValidScene};
 use feedcore::{Quat, Vec3};
-use master::interrupt;
-use master::journal::{self, Journal};
-use master::limits::{Footprint, PlanError, check_memory};
-use master::monolithic::Monolithic;
-use master::plot::{Line, PALETTE, Panel, stacked};
-use master::table::Table;
+
+use crate::journal::{self, Journal};
 use plotters::prelude::*;
 use stewart::{Compensation, Stewart};
+use studies::limits::{Footprint, PlanError, check_memory};
+use studies::monolithic::Monolithic;
+use studies::plot::{Line, PALETTE, Panel, stacked};
+use studies::points::Codec;
+use studies::table::Table;
 
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::positive;
@@ -151,13 +152,13 @@ pub(super) fn history(
     let mut out = History::default();
     let mut s = m.sample();
     let origin = s.cabin.position;
-    let feed = |c: &Compensation, s: &master::monolithic::Sample, (centre, turn): (&Vec3, &Quat)| {
+    let feed = |c: &Compensation, s: &studies::monolithic::Sample, (centre, turn): (&Vec3, &Quat)| {
         let (p, r) = (&s.cabin.position, &s.cabin.orientation);
         c.feed_error(&(p + r * centre), &(r * turn), s.time).0.norm() * 1e3
     };
     for step in 0..=steps {
         if step > 0 {
-            interrupt::check()?;
+            studies::cancel::check()?;
             if let Some((c, state)) = replayed.as_mut() {
                 state.sample(c, s.time, &s.cabin);
             }
@@ -276,9 +277,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let jobs = args.jobs.map(usize::from);
 
     // the uncompensated run (its poses also feed the decoupled replay) and the coupled one
-    let off = master::options::CompensationArg::Off.apply(&scene)?;
+    let off = studies::options::CompensationArg::Off.apply(&scene)?;
     eprintln!("{shown}: uncompensated, compensated and decoupled runs over {} s at h = {h} s …", args.t_end);
-    let mains = master::parallel::map_in_order(&[true, false], jobs, |_, &is_off| {
+    let mains = studies::parallel::map_in_order(&[true, false], jobs, |_, &is_off| {
         if is_off { history(&off, &comp, h, steps, Some(&comp)) } else { history(&scene, &comp, h, steps, None) }
     })?;
     let mut mains = mains.into_iter();
@@ -289,7 +290,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let budget_scenes = [Budget::Noiseless, Budget::Prompt, Budget::Perfect]
         .map(|b| scene.edited(|s| b.apply(s)).with_context(|| format!("the budget's run {}", b.label())));
     let budget_scenes = budget_scenes.into_iter().collect::<anyhow::Result<Vec<_>>>()?;
-    let budget_runs = master::parallel::map_in_order(&budget_scenes, jobs, |_, s| {
+    let budget_runs = studies::parallel::map_in_order(&budget_scenes, jobs, |_, s| {
         let c = Stewart::from_scene(s)?.compensation().cloned().expect("a scene with [control] has one");
         history(s, &c, h, steps, None)
     })?;
@@ -356,16 +357,13 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             }
         }
     };
-    let results = journal::map_journaled(
-        &cases,
-        jobs,
-        |c| c.3 as f64,
-        &journal,
-        |(rate, delay, ..)| format!("{rate:?} Hz, delay {delay:?} s"),
-        Verdict::to_cells,
-        |_, cells| Verdict::from_cells(cells),
-        |_, c| Ok(case(c)),
-    )?;
+    let codec = Codec {
+        key: |(rate, delay, ..): &(f64, f64, ValidScene, usize)| format!("{rate:?} Hz, delay {delay:?} s"),
+        encode: Verdict::to_cells,
+        decode: |_: &(f64, f64, ValidScene, usize), cells: &[String]| Verdict::from_cells(cells),
+    };
+    let results = studies::points::map(&cases, jobs, |c| c.3 as f64, &journal, codec, |_, c| Ok(case(c)))
+        .map_err(journal::resumable(&journal))?;
 
     // compensation.csv (at the scene's sample interval) and its figure
     let every = ((scene.outputs.sample_interval_s / h).round() as usize).max(1);
@@ -525,7 +523,7 @@ fn sweep_figure(
             chart
                 .draw_series(LineSeries::new(stable.clone(), color.stroke_width(2)))?
                 .label(format!("{rate} Hz"))
-                .legend(master::plot::line_key(color.stroke_width(2)));
+                .legend(studies::plot::line_key(color.stroke_width(2)));
             chart.draw_series(stable.iter().map(|&p| Circle::new(p, 4, color.filled())))?;
             chart.draw_series(
                 points.iter().filter(|p| !p.2).map(|p| Cross::new((p.0, top), 6, color.stroke_width(2))),

@@ -16,7 +16,7 @@ use anyhow::Context;
 use cosim::ssp::write::{SspComponent, SspConnector, SspSystem, with_resource, write_archive};
 use cosim::system::fmu::resolve;
 use cosim::system::spec::Value;
-use master::system::scene_spec;
+use studies::system::scene_spec;
 
 use super::output::{Outputs, run_inputs};
 use super::{CmdResult, load_scene};
@@ -112,7 +112,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         stop_time: scene.solver.t_end_s,
         // an adaptive run of the archive watches what one of the scene does, and a fixed-step
         // run takes its first step as the scene's does
-        watch: master::simulate::CABIN_POSE.map(String::from).to_vec(),
+        watch: studies::simulate::CABIN_POSE.map(String::from).to_vec(),
         kink_at_start: spec.kink_at_start,
     };
     let archive = write_archive(Cursor::new(Vec::new()), &system).context("packing the archive")?.into_inner();

@@ -7,7 +7,7 @@ use std::sync::OnceLock;
 
 use anyhow::Context;
 use feedcore::scene::{Scene, SceneErrorKind, ValidScene};
-use master::limits::Limits;
+use studies::limits::Limits;
 
 pub(crate) mod bench;
 pub(crate) mod calibrate;
@@ -22,7 +22,7 @@ pub(crate) mod reproduce;
 pub(crate) mod run;
 pub(crate) mod run_system;
 pub(crate) mod scaling;
-pub(crate) use master::options as scheme_args;
+pub(crate) use studies::options as scheme_args;
 pub(crate) mod stability;
 pub(crate) mod statics;
 pub(crate) mod stewart;
@@ -38,7 +38,7 @@ pub(crate) type BoxResult = Result<(), Box<dyn std::error::Error>>;
 
 /// A [`BoxResult`] as a [`CmdResult`] (the message chain kept as text).
 pub(crate) fn boxed(r: BoxResult) -> CmdResult {
-    r.map_err(|e| anyhow::Error::new(master::simulate::Detached::of(&*e)))
+    r.map_err(|e| anyhow::Error::new(studies::simulate::Detached::of(&*e)))
 }
 
 /// Caps from the global flags (`--max-steps`, `--max-memory-mb`, `--max-scene-bytes`).
@@ -69,12 +69,13 @@ pub(crate) fn fingerprint(scene: &ValidScene) -> String {
 pub(crate) fn simulate(
     scene: &ValidScene,
     scene_file: &Path,
-    method: master::simulate::Method,
+    method: studies::simulate::Method,
     dt: f64,
     t_end: f64,
     quiet: bool,
-) -> Result<master::simulate::Trace, master::simulate::RunError> {
-    master::simulate::Run::prepare(scene, scene_file, method, dt, t_end, &caps().run)?.execute(quiet)
+) -> Result<studies::simulate::Trace, studies::simulate::RunError> {
+    studies::simulate::Run::prepare(scene, scene_file, method, dt, t_end, &caps().run)?
+        .execute_watched(&mut crate::progress::Progress::new(quiet))
 }
 
 /// Reads a scene within the size cap; a file over it names the flag that raises it.

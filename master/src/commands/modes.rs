@@ -7,10 +7,10 @@ use anyhow::Context;
 use cable::model::CableCabin;
 use cable::modes::{Dropped, modes_dropping, straight_cable_frequencies};
 use feedcore::scene::{SceneError, StewartMode, ValidScene};
-use master::limits::{Footprint, check_memory};
-use master::report::Modal;
-use master::table::Table;
 use serde_json::json;
+use studies::limits::{Footprint, check_memory};
+use studies::report::Modal;
+use studies::table::Table;
 
 use super::{CmdResult, caps, load_scene};
 
@@ -113,7 +113,7 @@ pub(crate) fn case_frequencies(
     count: usize,
 ) -> anyhow::Result<Vec<f64>> {
     let s = case_scene(scene, platform, youngs_modulus)?;
-    let model = CableCabin::build(&master::calibrate::modal_scene(&s)?, 0)?;
+    let model = CableCabin::build(&studies::calibrate::modal_scene(&s)?, 0)?;
     let sys = model.system(cable::model::Payload::Locked);
     let cfg = model.equilibrium_config();
     let dropped = |cable_end_rotation, weight_rotation| Dropped { cable_end_rotation, weight_rotation };

@@ -19,10 +19,10 @@ use cable::modes::tangent;
 use feedcore::Vec3;
 use feedcore::rigid::RigidMotion;
 use feedcore::scene::{Start, ValidScene, WrenchModel};
-use master::simulate::{Method, Trace};
 use nalgebra::{DMatrix, Matrix6, Vector6};
 use plotters::prelude::*;
 use stewart::Stewart;
+use studies::simulate::{Method, Trace};
 
 use super::modes::{Hypothesis, Platform, case_frequencies};
 use super::output::Outputs;
@@ -572,9 +572,9 @@ fn figure_time(title: &str, runs: &[&Response], bands: &[(usize, Vec<(&str, f64)
             let columns = chart.plotting_area().dim_in_pixel().0 as usize;
             for (i, r) in lines.iter().enumerate() {
                 let y: Vec<f64> = r.trace.disp_mm.iter().map(|d| d[axis]).collect();
-                master::plot::palette_line(&mut chart, i, thinned(&r.trace.t, &y, (0.0, t1), columns), r.case.name)?;
+                studies::plot::palette_line(&mut chart, i, thinned(&r.trace.t, &y, (0.0, t1), columns), r.case.name)?;
             }
-            master::plot::legend(&mut chart, 11)?;
+            studies::plot::legend(&mut chart, 11)?;
         }
         root.present().map_err(draw)?;
     }
@@ -624,16 +624,16 @@ fn figure_spectrum(responses: &[Response], natural: &[(&str, Vec<f64>)]) -> anyh
                 for f in fs {
                     let drawn = chart.draw_series(LineSeries::new([(f, floor), (f, top)], style)).map_err(draw)?;
                     if first {
-                        drawn.label(name).legend(master::plot::line_key(style));
+                        drawn.label(name).legend(studies::plot::line_key(style));
                         first = false;
                     }
                 }
             }
             for (i, r) in runs.iter().enumerate() {
                 let pts: Vec<(f64, f64)> = r.spectrum.iter().map(|&(f, a)| (f, a.max(floor))).collect();
-                master::plot::palette_line(&mut chart, i, pts, r.case.name)?;
+                studies::plot::palette_line(&mut chart, i, pts, r.case.name)?;
             }
-            master::plot::legend(&mut chart, 11)?;
+            studies::plot::legend(&mut chart, 11)?;
         }
         root.present().map_err(draw)?;
     }

@@ -5,9 +5,9 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use master::limits::num;
-use master::plot::{History, time_history};
-use master::simulate::{Run, Trace};
+use studies::limits::num;
+use studies::plot::{History, time_history};
+use studies::simulate::{Run, Trace};
 
 use super::output::{OutputId, Outputs, run_inputs};
 use super::scheme_args::{CompensationArg, SchemeName, SchemeOptions};
@@ -55,7 +55,7 @@ pub(crate) struct Args {
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
     #[command(flatten)]
-    pub(crate) system_files: master::options::SystemFileArgs,
+    pub(crate) system_files: studies::options::SystemFileArgs,
 }
 
 /// The displacement histories as three stacked panels, into output `id`.
@@ -76,7 +76,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let scene = args.compensation.apply(&load_scene(scene_file)?)?;
     let method = args.options.method(args.scheme)?;
-    master::options::check_dt(args.options.adaptive, args.dt)?;
+    studies::options::check_dt(args.options.adaptive, args.dt)?;
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
     let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
@@ -96,8 +96,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
     outputs.open()?;
 
-    let trace = run.execute(quiet)?;
-    let utilisation = master::report::static_utilisation(&scene)?;
+    let trace = run.execute_watched(&mut crate::progress::Progress::new(quiet))?;
+    let utilisation = studies::report::static_utilisation(&scene)?;
     if let Some(id) = csv {
         outputs.write(id, |w| trace.write_csv(w, &scene.outputs.quantities))?;
     }
@@ -130,7 +130,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         );
     }
     if args.json {
-        let s = master::report::run_summary(&scene, &trace, utilisation.as_deref());
+        let s = studies::report::run_summary(&scene, &trace, utilisation.as_deref());
         writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?;
         return Ok(());
     }

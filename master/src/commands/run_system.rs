@@ -8,8 +8,8 @@ use std::io::{IsTerminal, Write};
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use master::plot::{Line, PALETTE, Panel, stacked};
-use master::system::{RealHistory, Sinks, SystemFile};
+use studies::plot::{Line, PALETTE, Panel, stacked};
+use studies::system::{RealHistory, Sinks, SystemFile};
 
 use super::output::Outputs;
 use super::run::Args;
@@ -31,7 +31,7 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
     let mut writer = csv.map(|id| outputs.stream(id)).transpose()?;
     let mut history = RealHistory::default();
     let sinks = Sinks { csv: writer.as_mut().map(|w| w as &mut dyn Write), real: svg.map(|_| &mut history) };
-    let outcome = system.execute(quiet, sinks)?;
+    let outcome = system.execute(&mut crate::progress::Progress::new(quiet), sinks)?;
     if let (Some(id), Some(w)) = (csv, writer) {
         outputs.finish(id, w)?;
     }

@@ -6,13 +6,14 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
+use crate::journal::{self, Journal};
 use anyhow::Context;
 use cable::net::CableNet;
 use cable::statics::{StaticsError, form_find};
-use master::journal::{self, Journal};
-use master::plot::{CATEGORY_COLORS, Cell, MapPanel, stability_map};
-use master::simulate::{Run, RunError};
-use master::table::Table;
+use studies::plot::{CATEGORY_COLORS, Cell, MapPanel, stability_map};
+use studies::points::Codec;
+use studies::simulate::{Run, RunError};
+use studies::table::Table;
 
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions, positive};
@@ -143,7 +144,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     // prove so, then overlap the runs of the others instead of holding them all back.
     let mut variants = Vec::new();
     for &f in ratios {
-        let variant = scene.edited(|s| master::sweep::scale_platform_mass(s, f));
+        let variant = scene.edited(|s| studies::sweep::scale_platform_mass(s, f));
         variants.push((f, variant.with_context(|| format!("the platform's mass ×{f}"))?));
     }
     let found: Vec<OnceLock<Result<bool, StaticsError>>> = variants.iter().map(|_| OnceLock::new()).collect();
@@ -177,7 +178,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
 
     // the runs are independent: every one on its own core, results in input order; progress
     // bars only when one runs at a time
-    let quiet = args.quiet || !std::io::stderr().is_terminal() || master::parallel::threads(jobs) > 1;
+    let quiet = args.quiet || !std::io::stderr().is_terminal() || studies::parallel::threads(jobs) > 1;
     let identity = format!(
         "stability {} {:?} {:?} {:?} {:?} {:?}",
         fingerprint(&scene),
@@ -193,7 +194,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             return Ok((Verdict::Infeasible, f64::NAN, "a cable would have to push".to_string()));
         }
         eprintln!("{} …", case.label());
-        match case.run.execute(quiet) {
+        match case.run.execute_watched(&mut crate::progress::Progress::new(quiet)) {
             Ok(t) => {
                 // a run that ends but keeps growing is not stable either
                 let n = t.disp_mm.len();
@@ -216,16 +217,10 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     // steps × the scheme's cost per step (an infeasible variant's cells are estimated as runs:
     // which variants are infeasible is known only once their cells start)
     let cost = |case: &Case<'_>| args.t_end / case.dt * case.scheme.relative_cost();
-    let results = journal::map_journaled(
-        &cases,
-        jobs,
-        cost,
-        &journal,
-        Case::label,
-        to_cells,
-        |_, c| from_cells(c),
-        |_, case| cell(case).with_context(|| case.label()),
-    )?;
+    let codec = Codec { key: Case::label, encode: to_cells, decode: |_: &Case<'_>, c: &[String]| from_cells(c) };
+    let results =
+        studies::points::map(&cases, jobs, cost, &journal, codec, |_, case| cell(case).with_context(|| case.label()))
+            .map_err(journal::resumable(&journal))?;
     let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
     for (case, (verdict, iterations, note)) in cases.iter().zip(results) {
         rows.push((case.scheme, case.ratio, case.dt, verdict, iterations, note));

@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use cable::statics::CableState;
 use feedcore::scene::ELASTIC_STRAIN_LIMIT;
-use master::limits::{Footprint, check_memory};
-use master::report::Statics;
-use master::table::Table;
+use studies::limits::{Footprint, check_memory};
+use studies::report::Statics;
+use studies::table::Table;
 
 use super::{CmdResult, caps, load_scene};
 

@@ -4,10 +4,10 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use master::table::Table;
 use nalgebra::Vector6;
 use serde_json::json;
 use stewart::{CabinMotion, Stewart};
+use studies::table::Table;
 
 use super::{CmdResult, load_scene};
 

@@ -8,9 +8,9 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use feedcore::scene::{Scene, Start};
-use master::cosim::{Options, Scheme};
-use master::simulate::{Method, Trace};
-use master::table::Table;
+use studies::cosim::{Options, Scheme};
+use studies::simulate::{Method, Trace};
+use studies::table::Table;
 
 use super::{CmdResult, load_scene, simulate};
 
@@ -71,8 +71,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let quiet = !std::io::stderr().is_terminal();
     let scale = if args.quick { 1.0 / 50.0 } else { 1.0 };
     // the durations run, as the labels say them (shortened with --quick)
-    let long = |t: f64| master::limits::num(t * scale);
-    let short = |t: f64| master::limits::num(t * scale.max(0.1));
+    let long = |t: f64| studies::limits::num(t * scale);
+    let short = |t: f64| studies::limits::num(t * scale.max(0.1));
     let c = load_scene(&args.scene_c)?;
     let b = load_scene(&args.scene_b)?;
     let mut table = Table::new(["case", "result", "figures"]);

@@ -10,15 +10,16 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::time::Instant;
 
+use crate::journal::{self, Journal};
 use anyhow::Context;
 use cable::model::CableCabin;
-use master::journal::{self, Journal};
-use master::limits::{Footprint, check_memory_of};
-use master::parallel;
-use master::simulate::Run;
-use master::sweep::table::{self, Table};
-use master::sweep::{self, Grid, Placement, Request, Shard, Surface, map};
-use master::table::Table as TextTable;
+use studies::limits::{Footprint, check_memory_of};
+use studies::parallel;
+use studies::points::Codec;
+use studies::simulate::Run;
+use studies::sweep::table::{self, Table};
+use studies::sweep::{self, Grid, Placement, Request, Shard, Surface, map};
+use studies::table::Table as TextTable;
 
 use super::output::{OutputId, Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions, positive};
@@ -163,27 +164,24 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let done = std::sync::atomic::AtomicUsize::new(0);
     let start = Instant::now();
     let cost = |&index: &usize| grid.cost(index);
-    let cells = journal::map_journaled(
-        &points,
-        jobs,
-        cost,
-        &journal,
-        |&index| sweep::point_key(index, &grid.point(index)),
-        |cells: &Vec<String>| cells.clone(),
-        |&index, cells| {
+    let codec = Codec {
+        key: |&index: &usize| sweep::point_key(index, &grid.point(index)),
+        encode: |cells: &Vec<String>| cells.clone(),
+        decode: |&index: &usize, cells: &[String]| {
             sweep::check_cells(&columns, index, &grid.point(index), cells).map_err(anyhow::Error::msg)?;
             Ok(cells.to_vec())
         },
-        |_, &index| {
-            let values = grid.point(index);
-            let outcome = sweep::evaluate(&scene, scene_file, &placement, &request, &values);
-            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            if !quiet {
-                eprintln!("[{k}/{}] point {index}: {}", points.len(), brief(&outcome));
-            }
-            Ok(sweep::cells(index, &values, &request, &outcome))
-        },
-    )?;
+    };
+    let cells = studies::points::map(&points, jobs, cost, &journal, codec, |_, &index| {
+        let values = grid.point(index);
+        let outcome = sweep::evaluate(&scene, scene_file, &placement, &request, &values);
+        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        if !quiet {
+            eprintln!("[{k}/{}] point {index}: {}", points.len(), brief(&outcome));
+        }
+        Ok(sweep::cells(index, &values, &request, &outcome))
+    })
+    .map_err(journal::resumable(&journal))?;
     let rows: Vec<(usize, Vec<String>)> = points.iter().copied().zip(cells).collect();
     let wall = start.elapsed().as_secs_f64();
     let t = Table { header, columns, rows: rows.into_iter().collect() };

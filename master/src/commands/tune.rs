@@ -16,8 +16,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use feedcore::scene::{FusionModel, Scene, SensorKind, ValidScene};
-use master::table::Table;
 use stewart::Stewart;
+use studies::table::Table;
 
 use super::compensation::{History, Verdict, case_step, checked_steps, history, rms_peak};
 use super::output::{Outputs, run_inputs};
@@ -152,7 +152,7 @@ fn run_one(base: &ValidScene, off: &ValidScene, c: &Candidate, v: Variant, t_end
                         control.delay_s *= f;
                     }
                 }
-                Variant::Mass(f) => master::sweep::scale_platform_mass(s, f),
+                Variant::Mass(f) => studies::sweep::scale_platform_mass(s, f),
                 Variant::Nominal | Variant::Decoupled => {}
             }
         })?;
@@ -222,7 +222,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let jobs = args.jobs.map(usize::from);
 
     // the uncompensated run: the stability verdict's reference and the decoupled model's poses
-    let off = master::options::CompensationArg::Off.apply(&scene)?;
+    let off = studies::options::CompensationArg::Off.apply(&scene)?;
     let off_comp = Stewart::from_scene(&scene)?.compensation().cloned().context("a scene with [control]")?;
     let h = case_step(&scene);
     let steps = checked_steps(&scene, h, args.t_end, &format!("{shown}: the runs over {} s", args.t_end))?;
@@ -231,7 +231,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
 
     let runs: Vec<(usize, Variant)> = (0..candidates.len()).flat_map(|i| VARIANTS.map(|v| (i, v))).collect();
     eprintln!("{shown}: {} candidates × {} runs over {} s …", candidates.len(), VARIANTS.len(), args.t_end);
-    let verdicts = master::parallel::map_in_order(&runs, jobs, |_, &(i, v)| {
+    let verdicts = studies::parallel::map_in_order(&runs, jobs, |_, &(i, v)| {
         run_one(&scene, &off, &candidates[i], v, args.t_end, &off_run)
     })?;
     let verdict = |i: usize, v: Variant| {

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-use master::cosim::{Coupled, FmuSystem, Needs, Options, Scheme, SetupError};
+use studies::cosim::{Coupled, FmuSystem, Needs, Options, Scheme, SetupError};
 
 /// The oscillator FMU, packaged once per test binary.
 fn oscillator() -> &'static Path {
@@ -99,7 +99,7 @@ fn test_dir(tag: &str) -> PathBuf {
 #[test]
 fn ssp_pair_runs_like_a_hand_written_loop() {
     let ssd = pair_ssd(&test_dir("pair"), "");
-    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    let loaded = studies::cosim::ssp::read::load(&ssd).unwrap();
     assert_eq!(loaded.stop_time, Some(2.0));
     let (h, steps) = (0.01, 200);
     let jacobi = Options { scheme: Scheme::Jacobi, ..Options::default() };
@@ -183,7 +183,7 @@ fn unit_mismatches_are_refused() {
     let text = std::fs::read_to_string(&ssd).unwrap();
     let broken = text.replace(r#"<ssc:LinearTransformation factor="15"/>"#, "");
     std::fs::write(&ssd, broken).unwrap();
-    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    let loaded = studies::cosim::ssp::read::load(&ssd).unwrap();
     let e = FmuSystem::load(&loaded.spec, &Needs::default()).err().expect("refused").to_string();
     assert!(e.contains("`a.x` → `b.F`") && e.contains("`m` → `N`") && e.contains("LinearTransformation"), "{e}");
 
@@ -194,7 +194,7 @@ fn unit_mismatches_are_refused() {
         text.replace(r#"kind="output"><ssc:Real unit="m"/>"#, r#"kind="output"><ssc:Real unit="mm"/>"#),
     )
     .unwrap();
-    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    let loaded = studies::cosim::ssp::read::load(&ssd).unwrap();
     let e = FmuSystem::load(&loaded.spec, &Needs::default()).err().expect("refused").to_string();
     assert!(e.contains("connector `a.x`") && e.contains("`mm`") && e.contains("`m`"), "{e}");
 }
@@ -216,7 +216,7 @@ fn a_scheme_an_fmu_cannot_support_is_refused_up_front() {
     let text = std::fs::read_to_string(&ssd).unwrap();
     std::fs::write(&ssd, text.replace(r#"name="b" source="oscillator.fmu""#, r#"name="b" source="stateless""#))
         .unwrap();
-    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    let loaded = studies::cosim::ssp::read::load(&ssd).unwrap();
     let needs = Needs { what: "scheme iqn-ils".into(), rollback: true };
     match FmuSystem::load(&loaded.spec, &needs) {
         Err(e @ SetupError::Capability { .. }) => {

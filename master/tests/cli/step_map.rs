@@ -3,8 +3,8 @@
 
 use crate::common;
 
-use master::cosim::{Options, Scheme};
-use master::simulate::{Method, simulate};
+use studies::cosim::{Options, Scheme};
+use studies::simulate::{Method, simulate};
 
 #[test]
 fn ijcsa_with_the_extension_and_with_finite_differences_agree() {
@@ -32,8 +32,8 @@ fn ijcsa_with_the_extension_and_with_finite_differences_agree() {
 
     let options = Options { scheme: Scheme::Ijcsa, ..Options::default() };
     let t_end = 5.0;
-    let with = simulate(&scene, &file, Method::Cosim(options), 0.01, t_end, true).unwrap();
-    let without = simulate(&plain_scene, &plain_file, Method::Cosim(options), 0.01, t_end, true).unwrap();
+    let with = simulate(&scene, &file, Method::Cosim(options), 0.01, t_end).unwrap();
+    let without = simulate(&plain_scene, &plain_file, Method::Cosim(options), 0.01, t_end).unwrap();
     let gap = with.error_against(&without).0;
     let peak = with.peak_mm();
     eprintln!(

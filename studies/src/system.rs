@@ -15,7 +15,7 @@ use fmi2::{Causality, VarType};
 
 use crate::limits::{Limits as StepLimits, Plan, Schedule};
 use crate::simulate::RunError;
-use crate::stepping::{Flow, Request, Step, drive};
+use crate::stepping::{Flow, Request, Step, Watch, drive};
 
 mod file;
 pub use file::SystemFile;
@@ -200,7 +200,7 @@ impl<'a> SystemRun<'a> {
     /// non-finite output it reads (the coupled ones are always checked; the others when a sink
     /// asks for them). A component that ends the run (fmi2Discard) ends it at the last
     /// communication point: not an error.
-    pub fn execute(&self, quiet: bool, mut sinks: Sinks<'_>) -> Result<SystemOutcome, RunError> {
+    pub fn execute(&self, watcher: &mut dyn Watch, mut sinks: Sinks<'_>) -> Result<SystemOutcome, RunError> {
         let method = self.options.scheme.name();
         let setup = |e: &(dyn std::error::Error + 'static)| RunError::setup(method, e);
         let output = |source: std::io::Error| RunError::Output { method, source };
@@ -329,7 +329,7 @@ impl<'a> SystemRun<'a> {
         let cell = std::cell::RefCell::new(c);
         let totals = drive(
             &self.schedule,
-            quiet,
+            watcher,
             |time, reason| RunError::Stopped { method, time, reason },
             |r| {
                 let mut c = cell.borrow_mut();
@@ -362,7 +362,7 @@ impl<'a> SystemRun<'a> {
                 }
             },
             |_, t, s| {
-                if crate::interrupt::interrupted() {
+                if crate::cancel::requested() {
                     return Err(RunError::Interrupted { method, time: t });
                 }
                 sample(&mut cell.borrow_mut(), t, s.h, &mut sinks)

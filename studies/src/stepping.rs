@@ -1,10 +1,27 @@
 //! The step loop every run goes through, whatever it steps (the LT50m methods, any system of
 //! FMUs): fixed steps whose last ends exactly at the end time, or adaptive steps whose last lands
-//! on it; the step cap; the progress bar; the totals of every step (steps, iterations, rejected
-//! tries, the step sizes, the largest interface residual, which must stay finite).
+//! on it; the step cap; what the caller watches of it; the totals of every step (steps,
+//! iterations, rejected tries, the step sizes, the largest interface residual, which must stay
+//! finite).
 
 use crate::limits::Schedule;
-use crate::progress::Progress;
+
+/// What a caller watches of a run as it steps: a progress bar, a callback that may stop it.
+pub trait Watch {
+    /// The run starts on `schedule`.
+    fn start(&mut self, _schedule: &Schedule) {}
+    /// Step `k` ended at `t`; an error stops the run with that reason.
+    fn stepped(&mut self, _k: u64, _t: f64) -> Result<(), String> {
+        Ok(())
+    }
+    /// The run reached its end.
+    fn finish(&mut self) {}
+}
+
+/// Nothing watches the run.
+pub struct Unwatched;
+
+impl Watch for Unwatched {}
 
 /// What the loop asks of one step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,24 +68,18 @@ pub struct Totals {
     pub ended: Option<(f64, String)>,
 }
 
-/// Positions of the progress bar of an adaptive run (thousandths of the end time).
-const ADAPTIVE_BAR: u64 = 1000;
-
 /// Takes the steps of `schedule` with `step`, then shows each to `after` (its number, the time
-/// at its end — the end time itself after the last — and the step). `stopped(t, reason)` makes
-/// the error of a run that must stop at `t`: a non-finite interface residual, or an adaptive run
-/// that reached the step cap.
+/// at its end — the end time itself after the last — and the step) and to `watch`.
+/// `stopped(t, reason)` makes the error of a run that must stop at `t`: a non-finite interface
+/// residual, an adaptive run that reached the step cap, or the watcher's reason.
 pub fn drive<P, E>(
     schedule: &Schedule,
-    quiet: bool,
+    watch: &mut dyn Watch,
     stopped: impl Fn(f64, String) -> E,
     mut step: impl FnMut(Request) -> Result<Flow<P>, E>,
     mut after: impl FnMut(u64, f64, &Step<P>) -> Result<(), E>,
 ) -> Result<Totals, E> {
-    let bar = match *schedule {
-        Schedule::Fixed(plan) => Progress::new(plan.steps, plan.dt, plan.t_end, quiet),
-        Schedule::Adaptive { t_end, .. } => Progress::new(ADAPTIVE_BAR, t_end / ADAPTIVE_BAR as f64, t_end, quiet),
-    };
+    watch.start(schedule);
     let mut totals = Totals { h_min: f64::INFINITY, ..Totals::default() };
     let (mut k, mut t) = (0u64, 0.0f64);
     loop {
@@ -112,12 +123,9 @@ pub fn drive<P, E>(
         totals.h_max = totals.h_max.max(s.h);
         totals.max_residual = totals.max_residual.max(s.residual);
         after(k, t, &s)?;
-        bar.update(match *schedule {
-            Schedule::Fixed(_) => k,
-            Schedule::Adaptive { t_end, .. } => ((t / t_end) * ADAPTIVE_BAR as f64) as u64,
-        });
+        watch.stepped(k, t).map_err(|reason| stopped(t, reason))?;
     }
-    bar.finish();
+    watch.finish();
     if totals.steps == 0 {
         totals.h_min = 0.0;
     }
@@ -139,7 +147,7 @@ mod tests {
         let mut times = Vec::new();
         let totals = drive(
             &Schedule::Fixed(plan),
-            true,
+            &mut Unwatched,
             |t, r| format!("{t}: {r}"),
             |r| match r {
                 Request::Fixed { h, .. } => unit(h),
@@ -165,7 +173,7 @@ mod tests {
         let mut times = Vec::new();
         let totals = drive(
             &schedule,
-            true,
+            &mut Unwatched,
             |t, r| format!("{t}: {r}"),
             |r| {
                 let Request::Adaptive { t_stop } = r else { return Err("fixed".into()) };
@@ -187,7 +195,7 @@ mod tests {
         assert!((totals.h_max - 0.37).abs() < 1e-12, "{}", totals.h_max);
         // the same run under a cap of 3 steps stops at the cap, saying so
         let capped = Schedule::Adaptive { t_end: 1.0, h_min: 1e-3, h_max: 0.5, max_steps: 3 };
-        let e = drive(&capped, true, |t, r| format!("{t}: {r}"), |_| unit(0.01), |_, _, _| Ok(())).unwrap_err();
+        let e = drive(&capped, &mut Unwatched, |t, r| format!("{t}: {r}"), |_| unit(0.01), |_, _, _| Ok(())).unwrap_err();
         assert!(e.starts_with("0.03") && e.contains("cap of 3 steps") && e.contains("--max-steps"), "{e}");
     }
 
@@ -197,7 +205,7 @@ mod tests {
         let mut k = 0;
         let e = drive(
             &plan,
-            true,
+            &mut Unwatched,
             |t, r| format!("{t}: {r}"),
             |_| {
                 k += 1;
@@ -216,7 +224,7 @@ mod tests {
         let mut k = 0;
         let totals = drive(
             &plan,
-            true,
+            &mut Unwatched,
             |t, r| format!("{t}: {r}"),
             |_| {
                 k += 1;

@@ -31,7 +31,7 @@ impl Recorder {
 
     /// The state after step `k` (0: the start) at time `t`.
     pub(super) fn observe(&mut self, k: u64, t: f64, p: &Probe) -> Result<(), RunError> {
-        if crate::interrupt::interrupted() {
+        if crate::cancel::requested() {
             return Err(RunError::Interrupted { method: self.method, time: t });
         }
         let names = ["x", "y", "z"];

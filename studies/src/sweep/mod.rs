@@ -445,7 +445,7 @@ pub fn evaluate(
     }
     if let Some((method, t_end)) = request.run.clone() {
         let run = Run::prepare(&scene, base_file, method, dt, t_end, &request.limits)
-            .and_then(|run| run.execute(true))
+            .and_then(|run| run.execute())
             .map_err(|e| error_chain(&e));
         match run {
             Ok(t) => {

@@ -12,6 +12,7 @@ use serde_json::{Value, json};
 use super::{Adaptive, Sinks, SystemOutcome, SystemRun};
 use crate::limits::{Limits, num};
 use crate::simulate::{Method, RunError};
+use crate::stepping::Watch;
 
 /// A system file, loaded and checked: its steps, its end time, what its scheme needs.
 pub struct SystemFile {
@@ -90,7 +91,7 @@ impl SystemFile {
     }
 
     /// Runs it, writing every step's outputs to `sinks`.
-    pub fn execute(&self, quiet: bool, sinks: Sinks<'_>) -> Result<SystemOutcome, RunError> {
+    pub fn execute(&self, watch: &mut dyn Watch, sinks: Sinks<'_>) -> Result<SystemOutcome, RunError> {
         let run = SystemRun::prepare(
             &self.loaded.spec,
             self.options,
@@ -99,7 +100,7 @@ impl SystemFile {
             self.t_end,
             &self.limits,
         )?;
-        run.execute(quiet, sinks)
+        run.execute(watch, sinks)
     }
 
     /// `master run --system --json`.

@@ -14,7 +14,7 @@ use super::steppers::{CableStepper, CosimStepper, Coupling, MonolithicStepper, S
 use super::trace::Trace;
 use crate::feed::FeedTrace;
 use crate::limits::{Footprint, Limits, Plan, PlanError, Schedule, check_memory};
-use crate::stepping::{Flow, Request, drive};
+use crate::stepping::{Flow, Request, Unwatched, Watch, drive};
 
 /// A run checked whole, ready to start.
 #[derive(Clone, Debug)]
@@ -136,18 +136,14 @@ impl<'a> Run<'a> {
         Ok(Run { scene, scene_file, method, schedule, every })
     }
 
-    /// Runs it; `quiet`: no progress bar.
-    pub fn execute(&self, quiet: bool) -> Result<Trace, RunError> {
-        self.execute_watched(quiet, &mut |_| Ok(()))
+    /// Runs it, unwatched.
+    pub fn execute(&self) -> Result<Trace, RunError> {
+        self.execute_watched(&mut Unwatched)
     }
 
-    /// As [`Run::execute`], showing the time after every step to `watch`, which stops the run
-    /// by returning the reason (e.g. an interrupt from the caller's side).
-    pub fn execute_watched(
-        &self,
-        quiet: bool,
-        watch: &mut dyn FnMut(f64) -> Result<(), String>,
-    ) -> Result<Trace, RunError> {
+    /// Runs it, showing every step to `watch` (a progress bar; a caller's callback, which may
+    /// stop the run by returning the reason).
+    pub fn execute_watched(&self, watch: &mut dyn Watch) -> Result<Trace, RunError> {
         let scene = self.scene;
         let name = self.method.name();
         let (dt, sample_interval_s) = match self.schedule {
@@ -186,7 +182,7 @@ impl<'a> Run<'a> {
         };
         rec.trace.feed = stepper.compensation().map(FeedTrace::new);
         let first = stepper.probe()?;
-        self.drive(&mut rec, quiet, first, watch, |r| Ok(Flow::Stepped(stepper.step(r)?)))?;
+        self.drive(&mut rec, first, watch, |r| Ok(Flow::Stepped(stepper.step(r)?)))?;
         rec.trace.wall_time_s = start.elapsed().as_secs_f64();
         Ok(rec.trace)
     }
@@ -198,9 +194,8 @@ impl Run<'_> {
     fn drive(
         &self,
         rec: &mut Recorder,
-        quiet: bool,
         first: Probe,
-        watch: &mut dyn FnMut(f64) -> Result<(), String>,
+        watch: &mut dyn Watch,
         step: impl FnMut(Request) -> Result<Flow<Observed>, RunError>,
     ) -> Result<(), RunError> {
         let adaptive = matches!(self.schedule, Schedule::Adaptive { .. });
@@ -211,7 +206,7 @@ impl Run<'_> {
         let method = rec.method;
         let totals = drive(
             &self.schedule,
-            quiet,
+            watch,
             |time, reason| RunError::Stopped { method, time, reason },
             step,
             |k, t, s| {
@@ -225,7 +220,7 @@ impl Run<'_> {
                 if adaptive {
                     rec.trace.h.push(s.h);
                 }
-                watch(t).map_err(|reason| RunError::Stopped { method, time: t, reason })
+                Ok(())
             },
         )?;
         let summary = &mut rec.trace.summary;
@@ -242,13 +237,6 @@ impl Run<'_> {
 
 /// Runs `scene` (read from `scene_file`) with `method` at step `dt` to `t_end`, within the
 /// default [`Limits`].
-pub fn simulate(
-    scene: &ValidScene,
-    scene_file: &Path,
-    method: Method,
-    dt: f64,
-    t_end: f64,
-    quiet: bool,
-) -> Result<Trace, RunError> {
-    Run::prepare(scene, scene_file, method, dt, t_end, &Limits::default())?.execute(quiet)
+pub fn simulate(scene: &ValidScene, scene_file: &Path, method: Method, dt: f64, t_end: f64) -> Result<Trace, RunError> {
+    Run::prepare(scene, scene_file, method, dt, t_end, &Limits::default())?.execute()
 }
