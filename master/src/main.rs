@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use studies::limits::{Limits, MAX_STEPS};
-use studies::options::{MEMORY_MB, megabytes};
+use studies::options::MEMORY_MB;
 
 mod commands;
 mod interrupt;
@@ -41,7 +41,7 @@ struct CapFlags {
     max_steps: u64,
     /// Memory one run may take, MB [default: what the machine has available]. The need is
     /// estimated from the scene before anything is built.
-    #[arg(long, global = true, value_name = "MB", value_parser = |t: &str| megabytes(t, MEMORY_MB))]
+    #[arg(long, global = true, value_name = "MB", value_parser = commands::scheme_args::memory_mb)]
     max_memory_mb: Option<u64>,
     /// Largest scene file read, bytes.
     #[arg(long, global = true, default_value_t = feedcore::scene::MAX_SCENE_BYTES, value_name = "BYTES")]

@@ -1,8 +1,9 @@
 """feedsim from Python: the runs, statics and modes of the ``master`` tool, in-process.
 
 A scene is a path to a scene file (TOML) or a dict of the same keys. Options are the command
-line's, by their flag names with ``_`` for ``-`` (``t_end``, ``h_min``, ``iqn_reuse``, ...):
-``True`` gives a flag, a list a comma-separated value. Every number the functions return is
+line's, by their flag names with ``_`` for ``-`` (``t_end``, ``h_min``, ``iqn_reuse``, ...),
+with the same defaults and checked by the same checks (the library's, not the command line's
+parser): ``True`` gives a flag, a list a list option. Every number the functions return is
 the one the ``master`` command prints for the same scene and options.
 
 Errors: :class:`SceneError` (a ``ValueError``) for a scene that cannot be read or is not valid,
@@ -80,22 +81,6 @@ def _nonfinite(v: float) -> str:
     return "nan" if v != v else ("inf" if v > 0 else "-inf")
 
 
-def _argv(options: Mapping[str, Any]) -> list[str]:
-    """Command-line flags of keyword options: ``t_end=5`` → ``--t-end 5``."""
-    argv: list[str] = []
-    for key, v in options.items():
-        if v is None or v is False:
-            continue
-        flag = "--" + key.replace("_", "-")
-        if v is True:
-            argv.append(flag)
-        elif isinstance(v, (list, tuple)):
-            argv += [flag, ",".join(str(x) for x in v)]
-        else:
-            argv += [flag, repr(v) if isinstance(v, float) else str(v)]
-    return argv
-
-
 def _columns(csv: str) -> dict[str, Any]:
     """The CSV's columns as numpy arrays, in order: float64 where every cell is a number (as
     printed: round-trip exact; an empty cell is NaN), else the text (a system's String outputs)."""
@@ -169,8 +154,7 @@ def run(
     Ctrl-C (``KeyboardInterrupt``).
     """
     path, toml, label = _source(scene)
-    argv = _argv({"scheme": scheme, "dt": dt, "t_end": t_end, **options})
-    summary, csv = _feedsim.run(path, toml, label, argv, progress)
+    summary, csv = _feedsim.run(path, toml, label, {"scheme": scheme, "dt": dt, "t_end": t_end, **options}, progress)
     return Result(json.loads(summary), csv)
 
 
@@ -183,8 +167,7 @@ def run_system(path, scheme: str = "ijcsa", *, dt: float | None = None, t_end: f
     :func:`run`, and ``allow_external_fmus``, ``max_archive_entries``, ``max_unpacked_mb``."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path: give the path of an .ssp or .ssd file, not {type(path).__name__}")
-    argv = _argv({"scheme": scheme, "dt": dt, "t_end": t_end, **options})
-    summary, csv = _feedsim.run_system(os.fspath(path), argv)
+    summary, csv = _feedsim.run_system(os.fspath(path), {"scheme": scheme, "dt": dt, "t_end": t_end, **options})
     return Result(json.loads(summary), csv)
 
 
@@ -231,8 +214,7 @@ def sweep(
         specs.append(f"{name}={text}")
     path, toml, label = _source(scene)
     flags = {"run": run, "t_end": t_end, "modes": modes, "jobs": jobs, "surface": surface, "tilt_share": tilt_share}
-    argv = [a for spec in specs for a in ("--grid", spec)] + _argv({**flags, **options})
-    columns, rows = _feedsim.sweep(path, toml, label, argv)
+    columns, rows = _feedsim.sweep(path, toml, label, specs, {**flags, **options})
     frame = pd.DataFrame(rows, columns=columns)
     for name in columns:
         if name == "feasible":

@@ -1,6 +1,6 @@
-//! The options that choose and tune a method, as the command line and the Python package give
-//! them (`--scheme`, `--tol`, `--adaptive`, ...): the one place for scheme names, scheme options,
-//! their ranges and defaults.
+//! The methods and the options that tune them, as every front end gives them (the command
+//! line's flags, the Python package's keyword arguments): the one place for the method names,
+//! the options' defaults and ranges, and the check of every value as the user typed it.
 
 use crate::cosim::error_estimate::Kind;
 use crate::cosim::step_control::Tolerances;
@@ -8,12 +8,30 @@ use crate::cosim::{Extrapolation, IqnOptions, JacobianUpdate, Options, Relaxatio
 use crate::simulate::Method;
 use crate::system::Adaptive;
 use anyhow::bail;
-use clap::ValueEnum;
 use cosim::ssp::read::ReadLimits;
 use feedcore::scene::{Control, ValidScene};
 
-/// The methods `--scheme` and `--schemes` know, and what each needs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+/// A choice among named values, as a user gives it (a flag's value, a keyword's string): the
+/// names, a line of help for each, and parsing.
+pub trait Named: Copy + Send + Sync + 'static {
+    /// Every value, in the order help lists them.
+    const ALL: &'static [Self];
+    /// The name a user gives.
+    fn name(self) -> &'static str;
+    /// What the value means, in a line.
+    fn help(self) -> &'static str;
+
+    /// The value named `text`, or why there is none.
+    fn parse(text: &str) -> Result<Self, String> {
+        Self::ALL.iter().copied().find(|v| v.name() == text).ok_or_else(|| {
+            let names: Vec<&str> = Self::ALL.iter().map(|v| v.name()).collect();
+            format!("`{text}` is not one of {}", names.join(", "))
+        })
+    }
+}
+
+/// The methods a run can take, and what each needs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SchemeName {
     /// The cable–cabin model alone, platform locked, under the scene's [disturbance]; in-process.
     Cable,
@@ -35,6 +53,48 @@ pub enum SchemeName {
     IqnIls,
     /// Ref. [3]: the Stewart wrench on a cabin held at its static pose, fed to the cable model.
     Decoupled,
+}
+
+impl Named for SchemeName {
+    const ALL: &'static [SchemeName] = &[
+        SchemeName::Cable,
+        SchemeName::Monolithic,
+        SchemeName::Jacobi,
+        SchemeName::GaussSeidel,
+        SchemeName::GaussSeidelReversed,
+        SchemeName::Iterative,
+        SchemeName::Ijcsa,
+        SchemeName::IqnIls,
+        SchemeName::Decoupled,
+    ];
+
+    fn name(self) -> &'static str {
+        self.as_str()
+    }
+
+    fn help(self) -> &'static str {
+        match self {
+            SchemeName::Cable => {
+                "The cable–cabin model alone, platform locked, under the scene's [disturbance]; in-process"
+            }
+            SchemeName::Monolithic => "Eq. (7): the whole system in one model, no FMUs; the accuracy reference",
+            SchemeName::Jacobi => "Every FMU steps with the inputs of the last communication point",
+            SchemeName::GaussSeidel => "The FMUs one after the other (cable first), each with the newest outputs",
+            SchemeName::GaussSeidelReversed => "Gauss–Seidel with the Stewart FMU first",
+            SchemeName::Iterative => "Fixed point with rollback (needs get/set FMU state); --relaxation",
+            SchemeName::Ijcsa => {
+                "Newton on the interface with its Jacobian (needs get/set FMU state; directional derivatives, else \
+                 finite differences)"
+            }
+            SchemeName::IqnIls => {
+                "Interface quasi-Newton: least squares on the residual history of this and the last steps, no \
+                 derivatives (needs get/set FMU state); --iqn-*"
+            }
+            SchemeName::Decoupled => {
+                "Ref. [3]: the Stewart wrench on a cabin held at its static pose, fed to the cable model"
+            }
+        }
+    }
 }
 
 impl SchemeName {
@@ -90,25 +150,72 @@ impl SchemeName {
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ExtrapolationArg {
-    /// The last outputs.
-    Constant,
-    /// Extrapolated from the last two (non-iterating schemes pass the slope to the FMUs
-    /// through fmi2SetRealInputDerivatives).
-    Linear,
+impl Named for Extrapolation {
+    const ALL: &'static [Extrapolation] = &[Extrapolation::Constant, Extrapolation::Linear];
+
+    fn name(self) -> &'static str {
+        match self {
+            Extrapolation::Constant => "constant",
+            Extrapolation::Linear => "linear",
+        }
+    }
+
+    fn help(self) -> &'static str {
+        match self {
+            Extrapolation::Constant => "The last outputs",
+            Extrapolation::Linear => {
+                "Extrapolated from the last two (non-iterating schemes pass the slope to the FMUs through \
+                 fmi2SetRealInputDerivatives)"
+            }
+        }
+    }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum JacobianArg {
-    /// Recomputed every step.
-    EveryStep,
-    /// Kept across steps and secant-updated (Broyden) from each step's iterates; a unit whose
-    /// block goes stale is recomputed at each of the next 100 steps, every unit's when Newton
-    /// contracts slowly.
-    /// With `--extrapolation linear` as many iterations as `every-step` on LT50m at a fraction
-    /// of the cost (the cable FMU's derivative once per run).
-    Reuse,
+impl Named for JacobianUpdate {
+    const ALL: &'static [JacobianUpdate] = &[JacobianUpdate::EveryStep, JacobianUpdate::Reuse];
+
+    fn name(self) -> &'static str {
+        match self {
+            JacobianUpdate::EveryStep => "every-step",
+            JacobianUpdate::Reuse => "reuse",
+        }
+    }
+
+    fn help(self) -> &'static str {
+        match self {
+            JacobianUpdate::EveryStep => "Recomputed every step",
+            JacobianUpdate::Reuse => {
+                "Kept across steps and secant-updated (Broyden) from each step's iterates; a unit whose block goes \
+                 stale is recomputed at each of the next 100 steps, every unit's when Newton contracts slowly. With \
+                 --extrapolation linear as many iterations as every-step on LT50m at a fraction of the cost (the \
+                 cable FMU's derivative once per run)"
+            }
+        }
+    }
+}
+
+impl Named for Kind {
+    const ALL: &'static [Kind] = &[Kind::Predictor, Kind::Doubling];
+
+    fn name(self) -> &'static str {
+        match self {
+            Kind::Predictor => "predictor",
+            Kind::Doubling => "doubling",
+        }
+    }
+
+    fn help(self) -> &'static str {
+        match self {
+            Kind::Predictor => {
+                "The step against the parabola of the last three steps: no extra step; assumes a second-order \
+                 coupled step (the FMUs of this workspace, the monolithic model)"
+            }
+            Kind::Doubling => {
+                "The step taken again as two half steps: three steps per accepted one; assumes nothing of the FMUs \
+                 (e.g. FMUs holding their inputs over the step, a first-order coupling)"
+            }
+        }
+    }
 }
 
 /// `--relaxation`: `aitken` or a factor in (0, 1].
@@ -128,6 +235,27 @@ pub fn positive(text: &str) -> Result<f64, String> {
         Ok(x) if x > 0.0 && x.is_finite() => Ok(x),
         Ok(x) => Err(format!("{x} is not a positive finite number")),
         Err(e) => Err(format!("`{text}`: {e}")),
+    }
+}
+
+/// A finite number.
+pub fn finite(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(format!("`{text}`: give a finite number")),
+    }
+}
+
+/// A whole number (a count).
+pub fn whole(text: &str) -> Result<usize, String> {
+    text.trim().parse().map_err(|e| format!("`{text}`: {e}"))
+}
+
+/// Worker threads: 1 to 65535.
+pub fn jobs(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<u16>() {
+        Ok(n) if n >= 1 => Ok(usize::from(n)),
+        _ => Err(format!("`{text}`: give a number of threads from 1 to 65535")),
     }
 }
 
@@ -155,27 +283,45 @@ pub fn tolerance(text: &str) -> Result<f64, String> {
     }
 }
 
-/// `--compensation`: the second level as the scene has it, or switched off.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
-pub enum CompensationArg {
-    /// As the scene's `[control]` says.
+/// The second level as the scene has it, or switched off.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Compensation {
     #[default]
     On,
-    /// Switched off: the uncompensated reference of the same scene (the platform holds its start
-    /// pose relative to the cabin; the feed error is still reported).
     Off,
 }
 
-impl CompensationArg {
+impl Named for Compensation {
+    const ALL: &'static [Compensation] = &[Compensation::On, Compensation::Off];
+
+    fn name(self) -> &'static str {
+        match self {
+            Compensation::On => "on",
+            Compensation::Off => "off",
+        }
+    }
+
+    fn help(self) -> &'static str {
+        match self {
+            Compensation::On => "As the scene's `[control]` says",
+            Compensation::Off => {
+                "Switched off: the uncompensated reference of the same scene (the platform holds its start pose \
+                 relative to the cabin; the feed error is still reported)"
+            }
+        }
+    }
+}
+
+impl Compensation {
     /// The scene to run; `off` needs a scene with `[control]`.
     pub fn apply(self, scene: &ValidScene) -> anyhow::Result<ValidScene> {
         match (self, &scene.control) {
-            (CompensationArg::On, _) => Ok(scene.clone()),
-            (CompensationArg::Off, None) => bail!(
+            (Compensation::On, _) => Ok(scene.clone()),
+            (Compensation::Off, None) => bail!(
                 "--compensation off: {} has no [control] section, so there is no compensation to switch off",
                 scene.file()
             ),
-            (CompensationArg::Off, Some(_)) => {
+            (Compensation::Off, Some(_)) => {
                 Ok(scene.edited(|s| s.control.as_mut().into_iter().for_each(Control::switch_off))?)
             }
         }
@@ -209,123 +355,111 @@ pub fn megabytes(text: &str, bytes_per_mb: u64) -> Result<u64, String> {
     Ok(mb)
 }
 
-/// Where a system's files may come from and what unpacking an archive may cost (--system only).
-#[derive(clap::Args)]
-pub struct SystemFileArgs {
-    /// Let a --system load FMUs and parameter files from outside its archive (or, for an `.ssd`,
-    /// outside its folder): absolute paths, `..`, symbolic links out. Off: a system file cannot
-    /// make the master load a library from anywhere on the machine.
-    #[arg(long)]
+/// Where a system's files may come from and what unpacking an archive may cost.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SystemFiles {
+    /// Load FMUs and parameter files from outside the archive (or, for an `.ssd`, its folder).
     pub allow_external_fmus: bool,
     /// Most entries an `.ssp` archive may hold [default: 10000].
-    #[arg(long)]
     pub max_archive_entries: Option<usize>,
-    /// Most megabytes unpacked from an `.ssp` archive: the entries its system references (the
-    /// description, the FMUs, the parameter files; nothing else is unpacked) [default: 1024].
-    #[arg(long, value_parser = |t: &str| megabytes(t, UNPACKED_MB))]
+    /// Most megabytes ([`UNPACKED_MB`]) unpacked from an `.ssp` archive [default: 1024];
+    /// checked by [`megabytes`].
     pub max_unpacked_mb: Option<u64>,
 }
 
-impl SystemFileArgs {
+impl SystemFiles {
     pub fn limits(&self) -> ReadLimits {
         let default = ReadLimits::default();
         ReadLimits {
             max_entries: self.max_archive_entries.unwrap_or(default.max_entries),
-            max_unpacked_bytes: self.max_unpacked_mb.map_or(default.max_unpacked_bytes, |mb| mb * UNPACKED_MB),
+            max_unpacked_bytes: self
+                .max_unpacked_mb
+                .map_or(default.max_unpacked_bytes, |mb| mb.saturating_mul(UNPACKED_MB)),
             allow_external: self.allow_external_fmus,
         }
     }
 
-    /// The options given, for a run that has no system to apply them to.
+    /// The first option given (its name), for a run that has no system to apply it to.
     pub fn given(&self) -> Option<&'static str> {
         [
-            (self.allow_external_fmus, "--allow-external-fmus"),
-            (self.max_archive_entries.is_some(), "--max-archive-entries"),
-            (self.max_unpacked_mb.is_some(), "--max-unpacked-mb"),
+            (self.allow_external_fmus, "allow-external-fmus"),
+            (self.max_archive_entries.is_some(), "max-archive-entries"),
+            (self.max_unpacked_mb.is_some(), "max-unpacked-mb"),
         ]
         .into_iter()
         .find_map(|(given, name)| given.then_some(name))
     }
 }
 
-/// Options of the coupling schemes.
-#[derive(clap::Args, Clone, Debug)]
+/// Options of the methods (the coupling schemes, the adaptive step); each value within the
+/// range its check below gives ([`positive`], [`tolerance`], ...).
+#[derive(Clone, Debug, PartialEq)]
 pub struct SchemeOptions {
-    /// First guess of the end-of-step inputs [default: linear for the iterating schemes (nearer
+    /// First guess of the end-of-step inputs; `None`: linear for the iterating schemes (nearer
     /// the answer: at LT50m C fewer iterations per step — iqn-ils 2.33 against 3.12, iterative
     /// 24 against 41 — and ijcsa's reused Jacobian needs no more than a fresh one), constant for
-    /// the others (linear would pass slopes to the FMUs: another method)].
-    #[arg(long, value_enum)]
-    pub extrapolation: Option<ExtrapolationArg>,
-    /// Interface tolerance of iterating schemes: every |U − C·Y| ≤ tol · s, with s the largest
-    /// start value (at least 1) among the inputs of the same FMU and unit (e.g. the weight for
-    /// forces).
-    #[arg(long, default_value = "1e-8", value_parser = positive)]
+    /// the others (linear would pass slopes to the FMUs: another method).
+    pub extrapolation: Option<Extrapolation>,
+    /// Interface tolerance of iterating schemes.
     pub tol: f64,
-    /// Iteration limit per macro step of iterating schemes (exceeding it stops the run).
-    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    /// Iteration limit per macro step of iterating schemes ([`MAX_ITER`]).
     pub max_iter: u32,
-    /// Relaxation of `iterative`: a fixed factor in (0, 1], or `aitken` (dynamic; it stalls on
-    /// the LT50m scenes, whose interface couples several modes of both signs).
-    #[arg(long, default_value = "0.5", value_parser = relaxation)]
+    /// Relaxation of `iterative`.
     pub relaxation: Relaxation,
     /// Interface Jacobian of `ijcsa`.
-    #[arg(long, value_enum, default_value_t = JacobianArg::Reuse)]
-    pub jacobian: JacobianArg,
-    /// Past steps (time windows) whose residual history `iqn-ils` reuses (0: this step's only).
-    #[arg(long, default_value_t = IqnOptions::default().reuse)]
+    pub jacobian: JacobianUpdate,
+    /// Past steps whose residual history `iqn-ils` reuses.
     pub iqn_reuse: usize,
-    /// QR filter limit of `iqn-ils` in [0, 1): a history column keeping less than this
-    /// fraction of its norm after orthogonalization against newer ones is deleted.
-    #[arg(long, default_value_t = IqnOptions::default().filter, value_parser = below_one,
-          allow_negative_numbers = true)]
+    /// QR filter limit of `iqn-ils`, in [0, 1).
     pub iqn_filter: f64,
-    /// Relaxation of the first update of `iqn-ils`, while there is no history, in (0, 1].
-    #[arg(long, default_value_t = IqnOptions::default().initial_relaxation, value_parser = factor,
-          allow_negative_numbers = true)]
+    /// Relaxation of the first update of `iqn-ils`, in (0, 1].
     pub iqn_relaxation: f64,
-    /// Adaptive step (monolithic; iterative, ijcsa, iqn-ils): a local error estimate (predictor
-    /// against corrector) of the cabin pose (a co-simulation's: of the coupled inputs --watch
-    /// names), rejected steps rolled back. The steps are
-    /// chosen within [--h-min, --h-max] (the first ones at 10 × --h-min) and the last lands on
-    /// the end time; --dt does not apply.
-    #[arg(long)]
+    /// The adaptive step (monolithic; iterative, ijcsa, iqn-ils).
     pub adaptive: bool,
-    /// Relative tolerance of the adaptive step, in (0, 1): error per step ≤ rtol × how far each
-    /// watched quantity has moved from its initial value.
-    #[arg(long, default_value = "1e-3", value_parser = tolerance, allow_negative_numbers = true)]
+    /// Relative and absolute tolerances of the adaptive step.
     pub rtol: f64,
-    /// Absolute tolerance of the adaptive step, as a fraction of each coupled quantity's scale.
-    #[arg(long, default_value = "1e-6", value_parser = positive, allow_negative_numbers = true)]
     pub atol: f64,
-    /// Smallest step of the adaptive step (s).
-    #[arg(long, default_value = "1e-5", value_parser = positive, allow_negative_numbers = true)]
+    /// Smallest and largest step of the adaptive step, s.
     pub h_min: f64,
-    /// Largest step of the adaptive step (s).
-    #[arg(long, default_value = "0.1", value_parser = positive, allow_negative_numbers = true)]
     pub h_max: f64,
-    /// The coupled inputs a co-simulation's adaptive step judges its error by (comma-separated;
-    /// `component.variable`, or a prefix ending before a `.` or `[`: `stewart.cabin.r` for
-    /// `stewart.cabin.r[1]` … `[3]`). Default: a scene's cabin pose (`stewart.cabin.r`,
-    /// `stewart.cabin.q`, what the monolithic model watches), a --system's every coupled input.
-    /// Name smooth quantities (positions, velocities): an FMU's accelerations and forces may
-    /// carry its integrator's step-to-step ripple, which the estimate reads as error.
-    #[arg(long, value_delimiter = ',', value_name = "INPUTS")]
+    /// What a co-simulation's adaptive step judges its error by (names or prefixes).
     pub watch: Vec<String>,
-    /// How the adaptive step estimates its local error [default: predictor].
-    #[arg(long, value_enum)]
-    pub estimate: Option<EstimateArg>,
+    /// How the adaptive step estimates its local error; `None`: the predictor.
+    pub estimate: Option<Kind>,
 }
 
-/// `--estimate`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum EstimateArg {
-    /// The step against the parabola of the last three steps: no extra step; assumes a
-    /// second-order coupled step (the FMUs of this workspace, the monolithic model)
-    Predictor,
-    /// The step taken again as two half steps: three steps per accepted one; assumes nothing of the
-    /// FMUs (e.g. FMUs holding their inputs over the step, a first-order coupling)
-    Doubling,
+impl Default for SchemeOptions {
+    fn default() -> Self {
+        let iqn = IqnOptions::default();
+        SchemeOptions {
+            extrapolation: None,
+            tol: 1e-8,
+            max_iter: 100,
+            relaxation: Relaxation::Fixed(0.5),
+            jacobian: JacobianUpdate::Reuse,
+            iqn_reuse: iqn.reuse,
+            iqn_filter: iqn.filter,
+            iqn_relaxation: iqn.initial_relaxation,
+            adaptive: false,
+            rtol: 1e-3,
+            atol: 1e-6,
+            h_min: 1e-5,
+            h_max: 0.1,
+            watch: Vec::new(),
+            estimate: None,
+        }
+    }
+}
+
+/// The range of `max_iter`.
+pub const MAX_ITER: std::ops::RangeInclusive<u32> = 1..=100_000;
+
+/// `max_iter` as typed: a whole number in [`MAX_ITER`].
+pub fn max_iter(text: &str) -> Result<u32, String> {
+    match text.trim().parse::<u32>() {
+        Ok(n) if MAX_ITER.contains(&n) => Ok(n),
+        _ => Err(format!("`{text}`: give a whole number in {}..={}", MAX_ITER.start(), MAX_ITER.end())),
+    }
 }
 
 impl SchemeOptions {
@@ -348,18 +482,12 @@ impl SchemeOptions {
         let mut options = Options {
             scheme: Scheme::Jacobi,
             extrapolation: match self.extrapolation {
-                Some(ExtrapolationArg::Constant) => Extrapolation::Constant,
-                Some(ExtrapolationArg::Linear) => Extrapolation::Linear,
-                None if matches!(scheme, SchemeName::Ijcsa | SchemeName::IqnIls | SchemeName::Iterative) => {
-                    Extrapolation::Linear
-                }
+                Some(e) => e,
+                None if scheme.iterates() => Extrapolation::Linear,
                 None => Extrapolation::Constant,
             },
             relaxation: self.relaxation,
-            jacobian: match self.jacobian {
-                JacobianArg::EveryStep => JacobianUpdate::EveryStep,
-                JacobianArg::Reuse => JacobianUpdate::Reuse,
-            },
+            jacobian: self.jacobian,
             tol: self.tol,
             max_iter: self.max_iter as usize,
             iqn: IqnOptions { reuse: self.iqn_reuse, filter: self.iqn_filter, initial_relaxation: self.iqn_relaxation },
@@ -398,38 +526,32 @@ impl SchemeOptions {
             h_min: self.h_min,
             h_max: self.h_max,
             watch: self.watch.clone(),
-            estimate: match self.estimate {
-                None | Some(EstimateArg::Predictor) => Kind::Predictor,
-                Some(EstimateArg::Doubling) => Kind::Doubling,
-            },
+            estimate: self.estimate.unwrap_or(Kind::Predictor),
         })
-    }
-}
-
-impl Default for SchemeOptions {
-    /// Every option at its default, as an empty command line gives them (the defaults live in
-    /// one place: the attributes above).
-    fn default() -> Self {
-        #[derive(clap::Parser)]
-        struct Empty {
-            #[command(flatten)]
-            options: SchemeOptions,
-        }
-        <Empty as clap::Parser>::parse_from(["master"]).options
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::SchemeName;
-    use clap::ValueEnum;
+    use super::*;
 
-    /// The names the tool prints are the ones its command line takes, coupling schemes' included.
+    /// Every name parses back to its value, and an unknown one is refused listing the names.
     #[test]
-    fn every_method_prints_the_name_it_is_given_by() {
-        for name in SchemeName::value_variants() {
-            let given = name.to_possible_value().expect("no method is hidden");
-            assert_eq!(name.as_str(), given.get_name());
+    fn every_named_value_parses_from_its_name() {
+        fn round_trip<T: Named + PartialEq + std::fmt::Debug>() {
+            for v in T::ALL {
+                assert_eq!(T::parse(v.name()), Ok(*v));
+                assert!(!v.help().is_empty());
+            }
+            let e = T::parse("nonsense").unwrap_err();
+            assert!(e.contains("nonsense") && e.contains(T::ALL[0].name()), "{e}");
+        }
+        round_trip::<SchemeName>();
+        round_trip::<Extrapolation>();
+        round_trip::<JacobianUpdate>();
+        round_trip::<Kind>();
+        round_trip::<Compensation>();
+        for name in SchemeName::ALL {
             assert_eq!(name.iterates(), matches!(name, SchemeName::Iterative | SchemeName::Ijcsa | SchemeName::IqnIls));
         }
     }

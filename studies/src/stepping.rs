@@ -195,7 +195,8 @@ mod tests {
         assert!((totals.h_max - 0.37).abs() < 1e-12, "{}", totals.h_max);
         // the same run under a cap of 3 steps stops at the cap, saying so
         let capped = Schedule::Adaptive { t_end: 1.0, h_min: 1e-3, h_max: 0.5, max_steps: 3 };
-        let e = drive(&capped, &mut Unwatched, |t, r| format!("{t}: {r}"), |_| unit(0.01), |_, _, _| Ok(())).unwrap_err();
+        let e =
+            drive(&capped, &mut Unwatched, |t, r| format!("{t}: {r}"), |_| unit(0.01), |_, _, _| Ok(())).unwrap_err();
         assert!(e.starts_with("0.03") && e.contains("cap of 3 steps") && e.contains("--max-steps"), "{e}");
     }
 

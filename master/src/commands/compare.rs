@@ -10,7 +10,7 @@ use studies::table::Table;
 
 use super::output::{Outputs, run_inputs};
 use super::run::plot_traces;
-use super::scheme_args::{SchemeName, SchemeOptions};
+use super::scheme_args::{SchemeName, SchemeOptions, named};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
@@ -21,7 +21,7 @@ pub(crate) struct Args {
     /// Methods to compare with the monolithic reference (comma-separated).
     #[arg(
         long,
-        value_enum,
+        value_parser = named::<SchemeName>(),
         value_delimiter = ',',
         default_value = "ijcsa,iqn-ils,iterative,gauss-seidel,jacobi,decoupled"
     )]

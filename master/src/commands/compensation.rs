@@ -277,7 +277,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let jobs = args.jobs.map(usize::from);
 
     // the uncompensated run (its poses also feed the decoupled replay) and the coupled one
-    let off = studies::options::CompensationArg::Off.apply(&scene)?;
+    let off = studies::options::Compensation::Off.apply(&scene)?;
     eprintln!("{shown}: uncompensated, compensated and decoupled runs over {} s at h = {h} s …", args.t_end);
     let mains = studies::parallel::map_in_order(&[true, false], jobs, |_, &is_off| {
         if is_off { history(&off, &comp, h, steps, Some(&comp)) } else { history(&scene, &comp, h, steps, None) }

@@ -22,7 +22,7 @@ pub(crate) mod reproduce;
 pub(crate) mod run;
 pub(crate) mod run_system;
 pub(crate) mod scaling;
-pub(crate) use studies::options as scheme_args;
+pub(crate) mod scheme_args;
 pub(crate) mod stability;
 pub(crate) mod statics;
 pub(crate) mod stewart;

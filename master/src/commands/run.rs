@@ -10,7 +10,7 @@ use studies::plot::{History, time_history};
 use studies::simulate::{Run, Trace};
 
 use super::output::{OutputId, Outputs, run_inputs};
-use super::scheme_args::{CompensationArg, SchemeName, SchemeOptions};
+use super::scheme_args::{Compensation, SchemeName, SchemeOptions, named};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
@@ -23,7 +23,7 @@ pub(crate) struct Args {
     #[arg(long)]
     pub(crate) system: Option<PathBuf>,
     /// Method.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = named::<SchemeName>())]
     pub(crate) scheme: SchemeName,
     /// Macro step (s); default: the scene's solver.dt_s. The end time must be a whole number of
     /// steps. Not with --adaptive.
@@ -50,12 +50,12 @@ pub(crate) struct Args {
     pub(crate) quiet: bool,
     /// The second level (scenes with [control]): `off` runs the same scene with its compensation
     /// switched off, the uncompensated reference of its feed error.
-    #[arg(long, value_enum, default_value_t = CompensationArg::On)]
-    pub(crate) compensation: CompensationArg,
+    #[arg(long, default_value = "on", value_parser = named::<Compensation>())]
+    pub(crate) compensation: Compensation,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
     #[command(flatten)]
-    pub(crate) system_files: studies::options::SystemFileArgs,
+    pub(crate) system_files: super::scheme_args::SystemFileArgs,
 }
 
 /// The displacement histories as three stacked panels, into output `id`.
@@ -71,8 +71,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         (None, Some(system)) => return super::run_system::run(args, system),
         (None, None) => bail!("give --scene or --system"),
     };
-    if let Some(option) = args.system_files.given() {
-        bail!("{option} applies to --system (an SSP archive or .ssd); a --scene names its FMUs in [system]");
+    if let Some(option) = args.system_files.files().given() {
+        bail!("--{option} applies to --system (an SSP archive or .ssd); a --scene names its FMUs in [system]");
     }
     let scene = args.compensation.apply(&load_scene(scene_file)?)?;
     let method = args.options.method(args.scheme)?;

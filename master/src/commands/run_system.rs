@@ -16,11 +16,12 @@ use super::run::Args;
 use super::{CmdResult, caps};
 
 pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
-    if args.compensation != super::scheme_args::CompensationArg::On {
+    if args.compensation != super::scheme_args::Compensation::On {
         bail!("--compensation applies to a --scene with [control]; a --system runs its FMUs as they are");
     }
     let method = args.options.method(args.scheme)?;
-    let system = SystemFile::prepare(file, method, args.dt, args.t_end, &args.system_files.limits(), &caps().run)?;
+    let system =
+        SystemFile::prepare(file, method, args.dt, args.t_end, &args.system_files.files().limits(), &caps().run)?;
     let (dt, t_end, adaptive) = (system.dt, system.t_end, system.adaptive());
     let mut outputs = Outputs::new(system.inputs());
     let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;

@@ -17,7 +17,7 @@ use studies::plot::{PALETTE, PlotError};
 use studies::simulate::Run;
 
 use super::output::{Outputs, run_inputs};
-use super::scheme_args::{SchemeName, SchemeOptions, positive};
+use super::scheme_args::{SchemeName, named, positive};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
@@ -33,7 +33,7 @@ pub(crate) struct Args {
           value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     pub(crate) elements: Vec<u32>,
     /// Methods (as `master run --scheme`, default options).
-    #[arg(long, value_enum, value_delimiter = ',', default_value = "cable,monolithic,ijcsa")]
+    #[arg(long, value_parser = named::<SchemeName>(), value_delimiter = ',', default_value = "cable,monolithic,ijcsa")]
     pub(crate) schemes: Vec<SchemeName>,
     /// Simulated time of the full runs (s).
     #[arg(long, default_value_t = 100.0, value_parser = positive, allow_negative_numbers = true)]
@@ -126,7 +126,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let exe = std::env::current_exe().context("locating the master executable")?;
     let limits = caps().run;
-    let options = SchemeOptions::default();
+    let options = studies::options::SchemeOptions::default();
     // every run is checked before the first one starts; each is a process of its own, which
     // reads its scene from a file of this command's, removed when it ends
     let case_scenes = RemovedOnDrop(std::env::temp_dir().join(format!("master-scaling-{}", std::process::id())));

@@ -16,7 +16,7 @@ use studies::simulate::{Run, RunError};
 use studies::table::Table;
 
 use super::output::{Outputs, run_inputs};
-use super::scheme_args::{SchemeName, SchemeOptions, positive};
+use super::scheme_args::{SchemeName, SchemeOptions, named, positive};
 use super::{CmdResult, caps, fingerprint, load_scene};
 
 #[derive(clap::Args)]
@@ -27,7 +27,7 @@ pub(crate) struct Args {
     /// Coupling schemes (comma-separated).
     #[arg(
         long,
-        value_enum,
+        value_parser = named::<SchemeName>(),
         value_delimiter = ',',
         default_value = "jacobi,gauss-seidel,gauss-seidel-reversed,iterative,ijcsa,iqn-ils"
     )]

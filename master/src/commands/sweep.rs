@@ -22,7 +22,7 @@ use studies::sweep::{self, Grid, Placement, Request, Shard, Surface, map};
 use studies::table::Table as TextTable;
 
 use super::output::{OutputId, Outputs, run_inputs};
-use super::scheme_args::{SchemeName, SchemeOptions, positive};
+use super::scheme_args::{SchemeName, SchemeOptions, named, positive};
 use super::{CmdResult, caps, fingerprint, load_scene};
 
 #[derive(clap::Args)]
@@ -42,17 +42,17 @@ pub(crate) struct Args {
     pub(crate) surface: Option<String>,
     /// With --surface: tilt the cabin towards the sphere's axis by this share of the point's
     /// angle from the axis (FAST's cables take 14° of 40°: 0.35). Default: the scene's orientation.
-    #[arg(long, requires = "surface", value_parser = finite, allow_negative_numbers = true)]
+    #[arg(long, requires = "surface", value_parser = studies::options::finite, allow_negative_numbers = true)]
     pub(crate) tilt_share: Option<f64>,
     /// Natural frequencies per point (0: none).
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=10_000))]
-    pub(crate) modes: u32,
+    #[arg(long, default_value_t = sweep::DEFAULT_MODES, value_parser = sweep::mode_count)]
+    pub(crate) modes: usize,
     /// A short coupled run at every point with this method; it reports the peak cabin
     /// displacement, iterations per step and run time.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = named::<SchemeName>())]
     pub(crate) run: Option<SchemeName>,
     /// Simulated time of each coupled run (s); a whole number of every step swept.
-    #[arg(long, default_value_t = 2.0, value_parser = positive, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = sweep::DEFAULT_RUN_S, value_parser = positive, allow_negative_numbers = true)]
     pub(crate) t_end: f64,
     /// Run part i of n only (0 ≤ i < n; points i, i + n, ...) and write sweep.part-i-of-n.csv.
     #[arg(long, value_name = "i/n")]
@@ -61,8 +61,8 @@ pub(crate) struct Args {
     #[arg(long, num_args = 1.., value_name = "PART", conflicts_with_all = ["scene", "grid", "shard", "run"])]
     pub(crate) merge: Vec<PathBuf>,
     /// Worker threads (default: one per core).
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
-    pub(crate) jobs: Option<u16>,
+    #[arg(long, value_parser = studies::options::jobs)]
+    pub(crate) jobs: Option<usize>,
     /// Output directory.
     #[arg(long, default_value = "out/sweep")]
     pub(crate) out: PathBuf,
@@ -79,13 +79,6 @@ pub(crate) struct Args {
 }
 
 /// A finite number.
-fn finite(text: &str) -> Result<f64, String> {
-    match text.parse::<f64>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(format!("`{text}`: give a finite number")),
-    }
-}
-
 pub(crate) fn run(args: &Args) -> CmdResult {
     if !args.merge.is_empty() {
         return merge(args);
@@ -99,12 +92,12 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let method = args.run.map(|s| args.options.method(s)).transpose()?;
     let limits = caps().run;
     let request = Request {
-        modes: args.modes as usize,
+        modes: args.modes,
         run: method.clone().map(|m| (m, args.t_end)),
         limits,
         utilisation: scene.cables.breaking_load_n.is_some(),
     };
-    let jobs = args.jobs.map(usize::from);
+    let jobs = args.jobs;
     let points: Vec<usize> = (0..grid.len()).filter(|i| shard.contains(*i)).collect();
     // every run's steps and what its method needs, at every step swept (the points differ
     // from the scene only in pose and masses)

@@ -222,7 +222,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let jobs = args.jobs.map(usize::from);
 
     // the uncompensated run: the stability verdict's reference and the decoupled model's poses
-    let off = studies::options::CompensationArg::Off.apply(&scene)?;
+    let off = studies::options::Compensation::Off.apply(&scene)?;
     let off_comp = Stewart::from_scene(&scene)?.compensation().cloned().context("a scene with [control]")?;
     let h = case_step(&scene);
     let steps = checked_steps(&scene, h, args.t_end, &format!("{shown}: the runs over {} s", args.t_end))?;

@@ -256,6 +256,20 @@ pub struct Placement {
     pub tilt_share: Option<f64>,
 }
 
+/// Natural frequencies per point unless asked otherwise, and the most that can be asked.
+pub const DEFAULT_MODES: usize = 3;
+pub const MAX_MODES: usize = 10_000;
+/// Simulated time of a point's run unless asked otherwise, s.
+pub const DEFAULT_RUN_S: f64 = 2.0;
+
+/// Natural frequencies per point, as typed: 0 (none) to [`MAX_MODES`].
+pub fn mode_count(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n) if n <= MAX_MODES => Ok(n),
+        _ => Err(format!("`{text}`: give 0 to {MAX_MODES} modes")),
+    }
+}
+
 /// The scene of one point and its macro step.
 pub fn point_scene(
     base: &ValidScene,
