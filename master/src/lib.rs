@@ -17,6 +17,9 @@
 //! * [`parallel`]: independent cases on every core, results in order;
 //! * [`sweep`]: grids over the workspace and the parameters, their tables and maps;
 //! * [`calibrate`]: scene keys fitted to measured natural frequencies (model updating);
+//! * [`net`]: the system in space at one instant (cable points and tensions, cabin, platform,
+//!   feed), what runs hand to a [`net::NetSink`]; [`view3d`]: the net drawn in 3-D (statics,
+//!   mode shapes); [`vtk`]: the net as VTK files and series for ParaView;
 //! * [`interrupt`]: Ctrl-C between steps and points; [`journal`]: the points a long command
 //!   finished, kept through an interrupt or a kill for `--resume`.
 
@@ -27,6 +30,7 @@ pub mod feed;
 pub mod interrupt;
 pub mod journal;
 pub mod limits;
+pub mod net;
 pub mod options;
 pub mod parallel;
 pub mod plot;
@@ -38,3 +42,5 @@ pub mod sweep;
 pub mod system;
 pub mod table;
 pub mod tempfiles;
+pub mod view3d;
+pub mod vtk;

@@ -14,6 +14,7 @@ use super::steppers::{CableStepper, CosimStepper, Coupling, MonolithicStepper, S
 use super::trace::Trace;
 use crate::feed::FeedTrace;
 use crate::limits::{Footprint, Limits, Plan, PlanError, Schedule, check_memory};
+use crate::net::{Frame, Layout, NetSink};
 use crate::stepping::{Flow, Request, drive};
 
 /// A run checked whole, ready to start.
@@ -148,6 +149,17 @@ impl<'a> Run<'a> {
         quiet: bool,
         watch: &mut dyn FnMut(f64) -> Result<(), String>,
     ) -> Result<Trace, RunError> {
+        self.execute_with_net(quiet, watch, None)
+    }
+
+    /// As [`Run::execute_watched`], handing the net to `net` at the start and at every
+    /// `every`-th sample after it (methods that have the net: [`Method::net_refusal`]).
+    pub fn execute_with_net(
+        &self,
+        quiet: bool,
+        watch: &mut dyn FnMut(f64) -> Result<(), String>,
+        mut net: Option<(&mut dyn NetSink, u64)>,
+    ) -> Result<Trace, RunError> {
         let scene = self.scene;
         let name = self.method.name();
         let (dt, sample_interval_s) = match self.schedule {
@@ -186,7 +198,27 @@ impl<'a> Run<'a> {
         };
         rec.trace.feed = stepper.compensation().map(FeedTrace::new);
         let first = stepper.probe()?;
-        self.drive(&mut rec, quiet, first, watch, |r| Ok(Flow::Stepped(stepper.step(r)?)))?;
+        let layout = net.as_ref().map(|_| Layout::of(scene));
+        let mut frame = Frame::default();
+        let written = |e| RunError::Output { method: name, source: e };
+        if let (Some((sink, _)), Some(layout)) = (net.as_mut(), &layout)
+            && stepper.net(&mut frame)
+        {
+            sink.frame(layout, &frame).map_err(written)?;
+        }
+        let (every, mut k) = (self.every, 0u64);
+        self.drive(&mut rec, quiet, first, watch, |r| {
+            let step = stepper.step(r)?;
+            k += 1;
+            if let (Some((sink, thin)), Some(layout)) = (net.as_mut(), &layout)
+                && k.is_multiple_of(every)
+                && (k / every).is_multiple_of(*thin)
+                && stepper.net(&mut frame)
+            {
+                sink.frame(layout, &frame).map_err(written)?;
+            }
+            Ok(Flow::Stepped(step))
+        })?;
         rec.trace.wall_time_s = start.elapsed().as_secs_f64();
         Ok(rec.trace)
     }
