@@ -179,18 +179,16 @@ pub fn largest_motion(system: &System, cfg: &Config, du: &[f64]) -> f64 {
     motion.iter().map(|m| m.norm()).fold(0.0, f64::max)
 }
 
-/// `rest` moved along `du` times `s` (a mode shape drawn over its equilibrium): the cable
-/// points by [`System::point_motion`], the cabin by its translation and the rotation
-/// `exp(s δθ)`; the platform stays locked on the cabin, the tensions those at rest.
-pub fn displaced(rest: &Frame, system: &System, cfg: &Config, du: &[f64], s: f64) -> Frame {
+/// The cable points of `rest` moved along `du` times `s` (a mode shape drawn over its
+/// equilibrium), by [`System::point_motion`]: linear, as a mode shape is.
+pub fn moved_points(rest: &Frame, system: &System, cfg: &Config, du: &[f64], s: f64) -> Vec<Vec3> {
     let mut motion = Vec::new();
     system.point_motion(cfg, du, &mut motion);
+    rest.points.iter().zip(&motion).map(|(p, m)| p + m * s).collect()
+}
+
+/// The cabin's part (δr, δθ) of a velocity-level vector of `system`.
+pub fn cabin_motion(system: &System, du: &[f64]) -> (Vec3, Vec3) {
     let c0 = system.cabin_offset();
-    let dr = Vec3::new(du[c0], du[c0 + 1], du[c0 + 2]) * s;
-    let dth = Vec3::new(du[c0 + 3], du[c0 + 4], du[c0 + 5]) * s;
-    Frame {
-        points: rest.points.iter().zip(&motion).map(|(p, m)| p + m * s).collect(),
-        cabin: (rest.cabin.0 + dr, feedcore::rigid::exp_so3(&dth) * rest.cabin.1),
-        ..rest.clone()
-    }
+    (Vec3::new(du[c0], du[c0 + 1], du[c0 + 2]), Vec3::new(du[c0 + 3], du[c0 + 4], du[c0 + 5]))
 }

@@ -203,25 +203,32 @@ fn polygon(chart: &mut Chart<'_, '_>, view: &View, pts: &[Vec3], style: ShapeSty
     Ok(())
 }
 
-/// The bodies of a frame: the cabin's outline, the legs, the platform and the feed point.
+/// The bodies of a frame: the cabin's outlines (through the attachment points and through the
+/// legs' joints on it), the legs, the platform and the feed point; each world point through
+/// `moved` (a mode shape's linear motion; the identity for the frame itself).
 fn draw_bodies(
     chart: &mut Chart<'_, '_>,
     view: &View,
     s: &Scene3d<'_>,
+    moved: &dyn Fn(Vec3) -> Vec3,
     colour: RGBColor,
     width: u32,
 ) -> Result<(), PlotError> {
     let cabin: Vec<Vec3> =
-        s.layout.cabin_outline().iter().map(|&i| s.frame.on_cabin(&s.layout.attachments[i])).collect();
+        s.layout.cabin_outline().iter().map(|&i| moved(s.frame.on_cabin(&s.layout.attachments[i]))).collect();
     polygon(chart, view, &cabin, BLACK.stroke_width(width))?;
     if let Some(p) = &s.layout.platform {
         let placed = s.frame.place(p);
+        let base: Vec<Vec3> = by_azimuth(&p.base_joints).iter().map(|&k| moved(placed.base_joints[k])).collect();
+        polygon(chart, view, &base, BLACK.stroke_width(width))?;
         for k in 0..placed.base_joints.len() {
-            segment(chart, view, &placed.base_joints[k], &placed.platform_joints[k], colour.stroke_width(width))?;
+            let (a, b) = (moved(placed.base_joints[k]), moved(placed.platform_joints[k]));
+            segment(chart, view, &a, &b, colour.stroke_width(width))?;
         }
-        let ring: Vec<Vec3> = by_azimuth(&p.platform_joints).iter().map(|&k| placed.platform_joints[k]).collect();
+        let ring: Vec<Vec3> =
+            by_azimuth(&p.platform_joints).iter().map(|&k| moved(placed.platform_joints[k])).collect();
         polygon(chart, view, &ring, colour.stroke_width(width))?;
-        let f = view.project(&placed.feed);
+        let f = view.project(&moved(placed.feed));
         chart.draw_series(std::iter::once(Circle::new(f, 3, colour.filled()))).map_err(draw_error)?;
     }
     Ok(())
@@ -270,7 +277,7 @@ fn net_panel(
             chart.draw_series(std::iter::once(Text::new(text, view.project(low), style))).map_err(draw_error)?;
         }
     }
-    draw_bodies(&mut chart, view, s, PALETTE[0], if close_up { 2 } else { 1 })?;
+    draw_bodies(&mut chart, view, s, &|p| p, PALETTE[0], if close_up { 2 } else { 1 })?;
     Ok(())
 }
 
@@ -365,7 +372,7 @@ fn legend(area: &DrawingArea<SVGBackend<'_>, Shift>, notes: &[String]) -> Result
         },
         "slack element",
     )?;
-    line(area, &stroke(BLACK, 2), "cabin (through the attachments)")?;
+    line(area, &stroke(BLACK, 2), "cabin (attachment and joint rings)")?;
     line(area, &stroke(PALETTE[0], 2), "platform and legs")?;
     line(area, &|y| area.draw(&Circle::new((27, y), 3, PALETTE[0].filled())).map_err(draw_error), "feed point")?;
     y += 8;
@@ -391,18 +398,22 @@ fn check_frame(layout: &Layout, frame: &Frame) -> Result<(), PlotError> {
     Ok(())
 }
 
-/// One mode shape: its caption and the frame displaced along it (already scaled).
+/// One mode shape: its caption, the cable points displaced along it and the cabin's motion
+/// (δr, δθ), both already scaled.
 pub struct ModeShape {
     pub caption: String,
-    pub displaced: Frame,
+    pub points: Vec<Vec3>,
+    pub cabin: (Vec3, Vec3),
 }
 
 /// The mode shapes over the equilibrium `rest`, in the oblique view, three to a row: the
-/// equilibrium in light grey, each shape displaced over it.
+/// equilibrium in light grey, each shape displaced over it (linearly, the bodies by the
+/// cabin's motion `δr + δθ × (p − r)`, the platform locked on the cabin).
 pub fn modes_figure(title: &str, layout: &Layout, rest: &Frame, modes: &[ModeShape]) -> Result<String, PlotError> {
     check_frame(layout, rest)?;
     for m in modes {
-        check_frame(layout, &m.displaced)?;
+        let moved = Frame { points: m.points.clone(), ..rest.clone() };
+        check_frame(layout, &moved)?;
     }
     let view = oblique();
     let columns = modes.len().clamp(1, 3);
@@ -416,27 +427,107 @@ pub fn modes_figure(title: &str, layout: &Layout, rest: &Frame, modes: &[ModeSha
         let areas = root.split_evenly((rows, columns));
         let still = Scene3d { layout, frame: rest };
         for (m, area) in modes.iter().zip(areas.iter()) {
-            let moved = Scene3d { layout, frame: &m.displaced };
+            let (dr, dth) = m.cabin;
+            let centre = rest.cabin.0;
+            let moved = move |p: Vec3| p + dr + dth.cross(&(p - centre));
             let mut extent = still.extent_points();
-            extent.extend(moved.extent_points());
+            extent.extend(m.points.iter().copied());
+            extent.extend(still.body_points().into_iter().map(moved));
             let mut chart = equal_chart(area, &view, &m.caption, &extent)?;
             for a in &layout.anchors {
                 segment(&mut chart, &view, &Vec3::new(a.x, a.y, 0.0), a, LIGHT.stroke_width(2))?;
             }
+            let n = layout.points_per_cable();
             for i in 0..layout.cables {
                 let p: Vec<(f64, f64)> = still.cable(i).iter().map(|x| view.project(x)).collect();
                 chart.draw_series(std::iter::once(PathElement::new(p, LIGHT.stroke_width(1)))).map_err(draw_error)?;
             }
-            draw_bodies(&mut chart, &view, &still, LIGHT, 1)?;
+            draw_bodies(&mut chart, &view, &still, &|p| p, LIGHT, 1)?;
             for i in 0..layout.cables {
-                let p: Vec<(f64, f64)> = moved.cable(i).iter().map(|x| view.project(x)).collect();
+                let p: Vec<(f64, f64)> = m.points[i * n..(i + 1) * n].iter().map(|x| view.project(x)).collect();
                 chart
                     .draw_series(std::iter::once(PathElement::new(p, PALETTE[1].stroke_width(2))))
                     .map_err(draw_error)?;
             }
-            draw_bodies(&mut chart, &view, &moved, PALETTE[0], 2)?;
+            draw_bodies(&mut chart, &view, &still, &moved, PALETTE[0], 2)?;
         }
         root.present().map_err(draw_error)?;
     }
     Ok(svg)
+}
+
+/// `master statics --plot`: the net at the static equilibrium of the scene's target pose (the
+/// platform locked at its start).
+pub fn statics_figure(statics: &crate::report::Statics) -> Result<String, PlotError> {
+    use cable::statics::CableState;
+    let layout = Layout::of(&statics.scene);
+    let eq = &statics.equilibrium;
+    let (_, frame) = crate::net::equilibrium_frame(&statics.scene, &layout, eq);
+    let marks: Vec<Mark> = eq
+        .cables
+        .iter()
+        .map(|c| match c.state {
+            CableState::Taut => Mark::Taut,
+            CableState::NearlySlack => Mark::NearlySlack,
+            CableState::Slack => Mark::Slack,
+        })
+        .collect();
+    let scale = TensionScale::of(&frame.tensions);
+    let mut notes = vec![format!("element tensions {:.2} to {:.2} kN", scale.min / 1e3, scale.max / 1e3)];
+    for (i, m) in marks.iter().enumerate() {
+        match m {
+            Mark::Taut => {}
+            Mark::NearlySlack => notes.push(format!("cable {i}: nearly slack (sags below its cabin end)")),
+            Mark::Slack => notes.push(format!("cable {i}: SLACK")),
+        }
+    }
+    if notes.len() == 1 {
+        notes.push("every cable taut".into());
+    }
+    let title =
+        format!("{}: the net at the static equilibrium ({} elements per cable)", statics.scene.name, layout.elements);
+    net_figure(&title, &layout, &frame, &marks, &notes)
+}
+
+/// `master modes --plot`: each mode's shape over the equilibrium, scaled so that its largest
+/// motion is drawn as a twentieth of the net's size.
+pub fn modes_figure_of(modal: &crate::report::Modal) -> Result<String, PlotError> {
+    let model = &modal.model;
+    let found = model.modes.as_ref().ok_or_else(|| PlotError::Data("no modes were computed".into()))?;
+    let layout = Layout::of(&modal.scene);
+    let system = model.system(cable::model::Payload::Locked);
+    let cfg = model.equilibrium_config();
+    let rest = Frame::of_equilibrium(&layout, &system, &model.equilibrium);
+    let extent = Scene3d { layout: &layout, frame: &rest }.extent_points();
+    let (lo, hi) = extent.iter().fold((extent[0], extent[0]), |(a, b), p| (a.inf(p), b.sup(p)));
+    let drawn = 0.05 * (hi - lo).norm();
+    let shapes: Vec<ModeShape> = modal
+        .modes
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let shape = &found.shapes[k];
+            let largest = crate::net::largest_motion(&system, &cfg, shape);
+            let s = if largest > 0.0 { drawn / largest } else { 0.0 };
+            ModeShape {
+                caption: format!(
+                    "mode {}: {:.4} Hz, period {:.3} s, cabin share {:.2}",
+                    k + 1,
+                    m.frequency_hz,
+                    1.0 / m.frequency_hz,
+                    m.cabin_share
+                ),
+                points: crate::net::moved_points(&rest, &system, &cfg, shape, s),
+                cabin: {
+                    let (dr, dth) = crate::net::cabin_motion(&system, shape);
+                    (dr * s, dth * s)
+                },
+            }
+        })
+        .collect();
+    let title = format!(
+        "{}: mode shapes over the static equilibrium (grey; largest motion of each drawn {:.2} m)",
+        modal.scene.name, drawn
+    );
+    modes_figure(&title, &layout, &rest, &shapes)
 }

@@ -254,6 +254,8 @@ pub struct Series {
     prefix: String,
     temp: PathBuf,
     entries: Vec<(f64, String)>,
+    /// The number of the first file.
+    first: usize,
     buffer: Vec<u8>,
     committed: bool,
 }
@@ -306,9 +308,16 @@ impl Series {
             prefix: prefix.to_string(),
             temp,
             entries: Vec::new(),
+            first: 0,
             buffer: Vec::new(),
             committed: false,
         })
+    }
+
+    /// Numbers the files from `first` (0 by default).
+    pub fn numbered_from(mut self, first: usize) -> Series {
+        self.first = first;
+        self
     }
 
     /// The index file's final path.
@@ -327,7 +336,7 @@ impl Series {
 
     /// The next file, at `time` (ParaView's time of the series), its content from `encode`.
     pub fn add(&mut self, time: f64, encode: impl FnOnce(&mut Vec<u8>)) -> std::io::Result<()> {
-        let name = format!("{}{:06}.vtu", self.prefix, self.entries.len());
+        let name = format!("{}{:06}.vtu", self.prefix, self.first + self.entries.len());
         encode(&mut self.buffer);
         File::create(self.temp.join(&name))?.write_all(&self.buffer)?;
         self.entries.push((time, name));
@@ -464,6 +473,24 @@ pub fn write_modes(
             .with_context(|| format!("{}: writing mode {}", series.dir.display(), k + 1))?;
     }
     series.commit()
+}
+
+/// `master modes --vtk`: the modes of `modal` into `series` (see [`write_modes`]).
+pub fn modes_series(modal: &crate::report::Modal, series: Series) -> anyhow::Result<PathBuf> {
+    let model = &modal.model;
+    let found = model.modes.as_ref().context("no modes were computed")?;
+    let layout = Layout::of(&modal.scene);
+    let system = model.system(cable::model::Payload::Locked);
+    let cfg = model.equilibrium_config();
+    let rest = Frame::of_equilibrium(&layout, &system, &model.equilibrium);
+    let modes: Vec<(f64, &[f64])> =
+        modal.modes.iter().enumerate().map(|(k, m)| (m.frequency_hz, found.shapes[k].as_slice())).collect();
+    write_modes(series, &layout, &system, &cfg, &rest, &modes)
+}
+
+/// The series of a scene's modes: `<name>_modes.pvd` of `<name>_mode_<number>.vtu` in `dir`.
+pub fn modes_series_in(dir: &Path, name: &str) -> anyhow::Result<Series> {
+    Ok(Series::create(dir, &format!("{name}_modes"), &format!("{name}_mode_"))?.numbered_from(1))
 }
 
 /// The rigid motion `δr + δθ × (p − r)` of cabin-fixed points `p` for a cabin motion (δr, δθ)

@@ -137,6 +137,11 @@ impl<'a> Run<'a> {
         Ok(Run { scene, scene_file, method, schedule, every })
     }
 
+    /// The method it runs.
+    pub fn method(&self) -> &Method {
+        &self.method
+    }
+
     /// Runs it; `quiet`: no progress bar.
     pub fn execute(&self, quiet: bool) -> Result<Trace, RunError> {
         self.execute_watched(quiet, &mut |_| Ok(()))
