@@ -503,8 +503,129 @@ pub fn rigid_motion(points: &[f64], centre: &Vec3, dr: &Vec3, dth: &Vec3, out: &
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// A file of this module read back: every DataArray by name, as f64, from its appended
+    /// block (checking each block's size against its type and count).
+    pub(crate) fn read_back(bytes: &[u8]) -> std::collections::HashMap<String, Vec<f64>> {
+        let start = bytes.windows(2).position(|w| w == b"\n_").expect("appended data") + 2;
+        let end = bytes.len() - b"\n</AppendedData>\n</VTKFile>\n".len();
+        let xml = format!("{}</AppendedData></VTKFile>", std::str::from_utf8(&bytes[..start - 1]).unwrap());
+        let doc = roxmltree::Document::parse(&xml).unwrap();
+        let data = &bytes[start..end];
+        let mut arrays = std::collections::HashMap::new();
+        for a in doc.descendants().filter(|n| n.has_tag_name("DataArray")) {
+            let o: usize = a.attribute("offset").unwrap().parse().unwrap();
+            let n = u64::from_le_bytes(data[o..o + 8].try_into().unwrap()) as usize;
+            let body = &data[o + 8..o + 8 + n];
+            let values: Vec<f64> = match a.attribute("type").unwrap() {
+                "Float64" => body.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect(),
+                "Int64" => body.chunks_exact(8).map(|c| i64::from_le_bytes(c.try_into().unwrap()) as f64).collect(),
+                "Int32" => body.chunks_exact(4).map(|c| i32::from_le_bytes(c.try_into().unwrap()) as f64).collect(),
+                "UInt8" => body.iter().map(|&b| f64::from(b)).collect(),
+                t => panic!("type {t}"),
+            };
+            arrays.insert(a.attribute("Name").unwrap().to_string(), values);
+        }
+        // the blocks fill the appended data exactly
+        let total: usize = doc
+            .descendants()
+            .filter(|n| n.has_tag_name("DataArray"))
+            .map(|a| {
+                let o: usize = a.attribute("offset").unwrap().parse().unwrap();
+                8 + u64::from_le_bytes(data[o..o + 8].try_into().unwrap()) as usize
+            })
+            .sum();
+        assert_eq!(total, data.len(), "the appended blocks are contiguous");
+        arrays
+    }
+
+    fn lt50m(name: &str) -> feedcore::scene::ValidScene {
+        feedcore::scene::Scene::load(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
+    }
+
+    #[test]
+    fn a_file_reads_back_bit_for_bit() {
+        let scene = lt50m("lt50m_B.toml");
+        let layout = Layout::of(&scene);
+        let statics = crate::report::Statics::of(&scene).unwrap();
+        let (_, mut frame) = crate::net::equilibrium_frame(&scene, &layout, &statics.equilibrium);
+        frame.time = 1.25;
+        frame.leg_forces = Some([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        let mut mesh = Mesh::new(&layout, "displacement", &["TimeValue", "other"]);
+        // cables × (elements + 1), the feet, the cabin centre, 6 + 6 joints, platform centre, feed
+        assert_eq!(mesh.points(), 6 * 21 + 6 + 1 + 14);
+        assert_eq!(mesh.cells(), 6 * 20 + 6 + 2 + 6 + 3);
+        let vector: Vec<f64> = (0..3 * mesh.points()).map(|k| (k as f64).sqrt() - 3.0).collect();
+        let mut bytes = Vec::new();
+        mesh.encode(&mut bytes, &[1.25, -7.5], &frame, &vector);
+        let a = read_back(&bytes);
+        assert_eq!(a["TimeValue"], [1.25]);
+        assert_eq!(a["other"], [-7.5]);
+        assert_eq!(a["displacement"], vector);
+        let mut points = Vec::new();
+        Mesh::points_of(&layout, &frame, &mut points);
+        assert_eq!(a["Points"], points);
+        for (k, p) in frame.points.iter().enumerate() {
+            assert_eq!(&a["Points"][3 * k..3 * k + 3], p.as_slice());
+        }
+        let t = &a["tension_n"];
+        assert_eq!(&t[..120], frame.tensions.as_slice());
+        assert!(t[120..128].iter().all(|x| x.is_nan()), "towers and cabin carry no tension");
+        assert_eq!(&t[128..134], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        let part = &a["part"];
+        assert_eq!(part.iter().filter(|&&p| p == 0.0).count(), 120);
+        assert_eq!(
+            a["cable"][..120].iter().map(|&c| c as usize).collect::<Vec<_>>(),
+            (0..120).map(|e| e / 20).collect::<Vec<_>>()
+        );
+        // element e of cable i joins its points e and e + 1; the offsets end at the connectivity's end
+        let (conn, offsets) = (&a["connectivity"], &a["offsets"]);
+        assert_eq!(&conn[2 * 47..2 * 47 + 2], &[(2 * 21 + 7) as f64, (2 * 21 + 8) as f64]);
+        assert_eq!(*offsets.last().unwrap() as usize, conn.len());
+        assert_eq!(a["types"].len(), mesh.cells());
+    }
+
+    #[test]
+    fn an_uncommitted_series_leaves_nothing_and_removes_the_earlier_one() {
+        let dir = std::env::temp_dir().join(format!("vtk-series-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let write = |files: usize, commit: bool| {
+            let mut s = Series::create(&dir, "x", "x_").unwrap();
+            for k in 0..files {
+                s.add(k as f64, |out| {
+                    out.clear();
+                    out.extend_from_slice(b"data")
+                })
+                .unwrap();
+            }
+            if commit {
+                s.commit().unwrap();
+            }
+        };
+        let names = || {
+            let mut v: Vec<String> =
+                std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+            v.sort();
+            v
+        };
+        std::fs::write(dir.join("notes.txt"), "mine").unwrap_or_else(|_| {
+            std::fs::create_dir_all(&dir).unwrap();
+            std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+        });
+        write(3, true);
+        assert_eq!(names(), ["notes.txt", "x.pvd", "x_000000.vtu", "x_000001.vtu", "x_000002.vtu"]);
+        let index = std::fs::read_to_string(dir.join("x.pvd")).unwrap();
+        assert!(index.contains("timestep=\"2e0\" part=\"0\" file=\"x_000002.vtu\""), "{index}");
+        // a shorter series replaces the longer one whole
+        write(2, true);
+        assert_eq!(names(), ["notes.txt", "x.pvd", "x_000000.vtu", "x_000001.vtu"]);
+        // a failed one leaves nothing of either, and the others' files alone
+        write(1, false);
+        assert_eq!(names(), ["notes.txt"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn series_files_are_told_from_others() {
