@@ -1,6 +1,7 @@
 //! A run checked whole before its first step, then driven through the step loop by the
 //! method's stepper.
 
+use std::cell::RefCell;
 use std::path::Path;
 use std::time::Instant;
 
@@ -204,26 +205,30 @@ impl<'a> Run<'a> {
         rec.trace.feed = stepper.compensation().map(FeedTrace::new);
         let first = stepper.probe()?;
         let layout = net.as_ref().map(|_| Layout::of(scene));
+        let stepper = RefCell::new(stepper);
         let mut frame = Frame::default();
-        let written = |e| RunError::Output { method: name, source: e };
-        if let (Some((sink, _)), Some(layout)) = (net.as_mut(), &layout)
-            && stepper.net(&mut frame)
-        {
-            sink.frame(layout, &frame).map_err(written)?;
-        }
-        let (every, mut k) = (self.every, 0u64);
-        self.drive(&mut rec, quiet, first, watch, |r| {
-            let step = stepper.step(r)?;
-            k += 1;
+        let every = self.every;
+        // the net at sample k (its time as the trace has it), every `thin`-th sample
+        let mut sample_net = |k: u64, t: f64| -> Result<(), RunError> {
             if let (Some((sink, thin)), Some(layout)) = (net.as_mut(), &layout)
                 && k.is_multiple_of(every)
                 && (k / every).is_multiple_of(*thin)
-                && stepper.net(&mut frame)
+                && stepper.borrow_mut().net(&mut frame)
             {
-                sink.frame(layout, &frame).map_err(written)?;
+                frame.time = t;
+                sink.frame(layout, &frame).map_err(|e| RunError::Output { method: name, source: e })?;
             }
-            Ok(Flow::Stepped(step))
-        })?;
+            Ok(())
+        };
+        sample_net(0, 0.0)?;
+        self.drive(
+            &mut rec,
+            quiet,
+            first,
+            watch,
+            |r| Ok(Flow::Stepped(stepper.borrow_mut().step(r)?)),
+            &mut sample_net,
+        )?;
         rec.trace.wall_time_s = start.elapsed().as_secs_f64();
         Ok(rec.trace)
     }
@@ -239,6 +244,7 @@ impl Run<'_> {
         first: Probe,
         watch: &mut dyn FnMut(f64) -> Result<(), String>,
         step: impl FnMut(Request) -> Result<Flow<Observed>, RunError>,
+        net: &mut dyn FnMut(u64, f64) -> Result<(), RunError>,
     ) -> Result<(), RunError> {
         let adaptive = matches!(self.schedule, Schedule::Adaptive { .. });
         rec.observe(0, 0.0, &first)?;
@@ -259,6 +265,7 @@ impl Run<'_> {
                 let m = &mut rec.trace.summary.max_constraint_residual_m;
                 *m = m.max(c);
                 rec.observe(k, t, &s.payload.probe)?;
+                net(k, t)?;
                 if adaptive {
                     rec.trace.h.push(s.h);
                 }
