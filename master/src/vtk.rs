@@ -16,8 +16,8 @@
 //! force, a leg's actuator force where the method has it, NaN elsewhere). Point data: one
 //! vector (a run's `displacement` from the start, a mode's `mode_shape`).
 //!
-//! A [`Series`] writes into a hidden folder inside the target folder and moves the files into
-//! place when committed: a series that failed leaves no file that looks complete.
+//! A [`Series`] writes into a hidden folder inside the target folder and moves it into place
+//! when committed: a series that failed leaves no file that looks complete.
 
 use std::fs::File;
 use std::io::Write;
@@ -243,13 +243,14 @@ fn put<T>(out: &mut Vec<u8>, values: &[T], each: impl Fn(&T, &mut Vec<u8>)) {
     }
 }
 
-/// A series of VTK files in a folder, with its `.pvd` index: written to a hidden folder inside
-/// it, moved into place by [`Series::commit`]. Dropped uncommitted, it removes what it wrote
-/// and the earlier series of the same name (which would otherwise pass for this one's).
+/// A series of VTK files with its `.pvd` index in a folder: `DIR/<name>.pvd` and the files in
+/// `DIR/<name>/`. The files are written to a hidden folder beside them, which
+/// [`Series::commit`] renames into place (one rename, whatever the number of files) before the
+/// index. Dropped uncommitted, it removes what it wrote and the earlier series of the same name
+/// (which would otherwise pass for this one's).
 pub struct Series {
     dir: PathBuf,
-    /// `<name>.pvd`.
-    index: String,
+    name: String,
     /// Every file's name starts with it and ends with a number and `.vtu`.
     prefix: String,
     temp: PathBuf,
@@ -291,11 +292,28 @@ pub fn check_folder(dir: &Path) -> anyhow::Result<()> {
 }
 
 impl Series {
-    /// A series `<name>.pvd` of files `<prefix><number>.vtu` in `dir` (created if missing),
-    /// started at once so that a folder that cannot be written fails before any work.
+    /// A series `<name>.pvd` of files `<name>/<prefix><number>.vtu` in `dir` (created if
+    /// missing), started at once so that a folder that cannot be written, or an earlier
+    /// `<name>` that is not a series of ours, fails before any work.
     pub fn create(dir: &Path, name: &str, prefix: &str) -> anyhow::Result<Series> {
         check_folder(dir)?;
         let shown = dir.display();
+        let folder = dir.join(name);
+        if folder.exists() {
+            let theirs = |what: &str| {
+                format!("{} {what}, which this series would replace; move it or give another folder", folder.display())
+            };
+            if !folder.is_dir() {
+                bail!(theirs("is a file"));
+            }
+            for entry in std::fs::read_dir(&folder).with_context(|| format!("{}: cannot read it", folder.display()))? {
+                let entry = entry?;
+                let file = entry.file_name();
+                if !(file.to_str().is_some_and(|f| in_series(f, prefix)) && entry.file_type()?.is_file()) {
+                    bail!(theirs(&format!("holds {}, not a file of a series", file.to_string_lossy())));
+                }
+            }
+        }
         std::fs::create_dir_all(dir).with_context(|| format!("{shown}: cannot create the folder"))?;
         let temp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
         if temp.exists() {
@@ -304,7 +322,7 @@ impl Series {
         std::fs::create_dir(&temp).with_context(|| format!("{shown}: cannot write in this folder"))?;
         Ok(Series {
             dir: dir.to_owned(),
-            index: format!("{name}.pvd"),
+            name: name.to_string(),
             prefix: prefix.to_string(),
             temp,
             entries: Vec::new(),
@@ -322,7 +340,16 @@ impl Series {
 
     /// The index file's final path.
     pub fn index_path(&self) -> PathBuf {
-        self.dir.join(&self.index)
+        self.dir.join(format!("{}.pvd", self.name))
+    }
+
+    /// The final folder of the files.
+    pub fn folder(&self) -> PathBuf {
+        self.dir.join(&self.name)
+    }
+
+    fn temp_index(&self) -> PathBuf {
+        self.dir.join(format!(".{}.pvd.{}.tmp", self.name, std::process::id()))
     }
 
     /// Files written so far.
@@ -343,52 +370,45 @@ impl Series {
         Ok(())
     }
 
-    /// Moves every file into place (the earlier series' other files removed), then the index.
+    /// Moves the files into place (replacing an earlier series of this name), then the index.
     pub fn commit(mut self) -> anyhow::Result<PathBuf> {
         let shown = self.dir.display().to_string();
         let fail = |what: &str| format!("{shown}: cannot {what}");
         let mut index = String::from(
             "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\" byte_order=\"LittleEndian\">\n<Collection>\n",
         );
-        for (t, name) in &self.entries {
-            index.push_str(&format!("<DataSet timestep=\"{t:e}\" part=\"0\" file=\"{name}\"/>\n"));
+        for (t, file) in &self.entries {
+            index.push_str(&format!("<DataSet timestep=\"{t:e}\" part=\"0\" file=\"{}/{file}\"/>\n", self.name));
         }
         index.push_str("</Collection>\n</VTKFile>\n");
-        let temp_index = self.temp.join(&self.index);
-        std::fs::write(&temp_index, index).with_context(|| fail("write the index"))?;
-        // no fsync per file: a crash before the index is renamed leaves no index, and a
-        // series without its index is not a result
-        self.remove_earlier(false).with_context(|| fail("remove the earlier series"))?;
-        for (_, name) in &self.entries {
-            std::fs::rename(self.temp.join(name), self.dir.join(name))
-                .with_context(|| fail("move a file into place"))?;
-        }
+        let temp_index = self.temp_index();
+        let mut f = File::create(&temp_index).with_context(|| fail("write the index"))?;
+        // the index alone is synced: the files become a result only through it
+        f.write_all(index.as_bytes()).and_then(|_| f.sync_all()).with_context(|| fail("write the index"))?;
+        self.remove_earlier().with_context(|| fail("remove the earlier series"))?;
+        std::fs::rename(&self.temp, self.folder()).with_context(|| fail("move the files into place"))?;
         let path = self.index_path();
-        File::open(&temp_index).and_then(|f| f.sync_all()).with_context(|| fail("write the index"))?;
         std::fs::rename(&temp_index, &path).with_context(|| fail("move the index into place"))?;
-        std::fs::remove_dir(&self.temp).with_context(|| fail("remove its temporary folder"))?;
         self.committed = true;
         Ok(path)
     }
 
-    /// Removes the files of an earlier series of this name that this one does not replace
-    /// (with `all`: every one, and its index).
-    fn remove_earlier(&self, all: bool) -> std::io::Result<()> {
-        let keep: std::collections::HashSet<&str> =
-            if all { Default::default() } else { self.entries.iter().map(|(_, n)| n.as_str()).collect() };
-        for entry in std::fs::read_dir(&self.dir)? {
-            let entry = entry?;
-            let name = entry.file_name();
-            let Some(name) = name.to_str() else { continue };
-            if in_series(name, &self.prefix) && !keep.contains(name) && entry.file_type()?.is_file() {
-                std::fs::remove_file(entry.path())?;
-            }
+    /// Removes an earlier series of this name: its index, and its folder with its files (only
+    /// those: [`Series::create`] refused a folder holding anything else).
+    fn remove_earlier(&self) -> std::io::Result<()> {
+        let index = self.index_path();
+        if index.is_file() {
+            std::fs::remove_file(index)?;
         }
-        if all {
-            let index = self.index_path();
-            if index.is_file() {
-                std::fs::remove_file(index)?;
+        let folder = self.folder();
+        if folder.is_dir() {
+            for entry in std::fs::read_dir(&folder)? {
+                let entry = entry?;
+                if entry.file_name().to_str().is_some_and(|f| in_series(f, &self.prefix)) {
+                    std::fs::remove_file(entry.path())?;
+                }
             }
+            std::fs::remove_dir(folder)?;
         }
         Ok(())
     }
@@ -398,7 +418,8 @@ impl Drop for Series {
     fn drop(&mut self) {
         if !self.committed {
             let _ = std::fs::remove_dir_all(&self.temp);
-            let _ = self.remove_earlier(true);
+            let _ = std::fs::remove_file(self.temp_index());
+            let _ = self.remove_earlier();
         }
     }
 }
@@ -414,7 +435,7 @@ pub struct RunSeries {
 }
 
 impl RunSeries {
-    /// `<name>.pvd` and `<name>_<number>.vtu` in `dir`.
+    /// `<name>.pvd` and `<name>/<name>_<number>.vtu` in `dir`.
     pub fn create(dir: &Path, name: &str, layout: &Layout) -> anyhow::Result<RunSeries> {
         let series = Series::create(dir, name, &format!("{name}_"))?;
         let mesh = Mesh::new(layout, "displacement", &["TimeValue"]);
@@ -436,7 +457,7 @@ impl crate::net::NetSink for RunSeries {
     }
 }
 
-/// Writes mode shapes as a series `<name>_modes.pvd` of `<name>_mode_<number>.vtu` in `dir`
+/// Writes mode shapes as a series (`<name>_modes.pvd` of `<name>_modes/<name>_mode_<number>.vtu`)
 /// (the series' time is the mode's number): the equilibrium `rest` of `system` at `cfg`, its
 /// tensions, and the point vector `mode_shape` — each mass-normalized shape as the solver gives
 /// it at the cable points, zero at the towers' feet, the cabin's rigid motion at the bodies (the
@@ -488,7 +509,8 @@ pub fn modes_series(modal: &crate::report::Modal, series: Series) -> anyhow::Res
     write_modes(series, &layout, &system, &cfg, &rest, &modes)
 }
 
-/// The series of a scene's modes: `<name>_modes.pvd` of `<name>_mode_<number>.vtu` in `dir`.
+/// The series of a scene's modes: `<name>_modes.pvd` of `<name>_modes/<name>_mode_<number>.vtu`
+/// in `dir`.
 pub fn modes_series_in(dir: &Path, name: &str) -> anyhow::Result<Series> {
     Ok(Series::create(dir, &format!("{name}_modes"), &format!("{name}_mode_"))?.numbered_from(1))
 }
@@ -610,20 +632,33 @@ pub(crate) mod tests {
             v.sort();
             v
         };
-        std::fs::write(dir.join("notes.txt"), "mine").unwrap_or_else(|_| {
-            std::fs::create_dir_all(&dir).unwrap();
-            std::fs::write(dir.join("notes.txt"), "mine").unwrap();
-        });
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+        let files = || {
+            let mut v: Vec<String> = std::fs::read_dir(dir.join("x"))
+                .unwrap()
+                .map(|e| e.unwrap().file_name().into_string().unwrap())
+                .collect();
+            v.sort();
+            v
+        };
         write(3, true);
-        assert_eq!(names(), ["notes.txt", "x.pvd", "x_000000.vtu", "x_000001.vtu", "x_000002.vtu"]);
+        assert_eq!(names(), ["notes.txt", "x", "x.pvd"]);
+        assert_eq!(files(), ["x_000000.vtu", "x_000001.vtu", "x_000002.vtu"]);
         let index = std::fs::read_to_string(dir.join("x.pvd")).unwrap();
-        assert!(index.contains("timestep=\"2e0\" part=\"0\" file=\"x_000002.vtu\""), "{index}");
+        assert!(index.contains("timestep=\"2e0\" part=\"0\" file=\"x/x_000002.vtu\""), "{index}");
         // a shorter series replaces the longer one whole
         write(2, true);
-        assert_eq!(names(), ["notes.txt", "x.pvd", "x_000000.vtu", "x_000001.vtu"]);
+        assert_eq!(files(), ["x_000000.vtu", "x_000001.vtu"]);
         // a failed one leaves nothing of either, and the others' files alone
         write(1, false);
         assert_eq!(names(), ["notes.txt"]);
+        // a folder of the series' name holding something else is refused before anything is written
+        std::fs::create_dir(dir.join("x")).unwrap();
+        std::fs::write(dir.join("x").join("mine.txt"), "mine").unwrap();
+        let refused = Series::create(&dir, "x", "x_").err().unwrap().to_string();
+        assert!(refused.contains("holds mine.txt"), "{refused}");
+        assert_eq!(names(), ["notes.txt", "x"]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -44,7 +44,7 @@ pub(crate) struct Args {
     #[arg(long)]
     pub(crate) plot: Option<PathBuf>,
     /// Write each mode's shape for ParaView into this folder: `<scene>_modes.pvd` and one
-    /// `<scene>_mode_<k>.vtu` per mode, the net at the equilibrium with the mass-normalized
+    /// `<scene>_modes/<scene>_mode_<k>.vtu` per mode, the net at the equilibrium with the mass-normalized
     /// shape as the point vector `mode_shape` (for "Warp By Vector"); docs/scenes.md.
     #[arg(long, value_name = "DIR")]
     pub(crate) vtk: Option<PathBuf>,

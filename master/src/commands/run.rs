@@ -47,7 +47,7 @@ pub(crate) struct Args {
     #[arg(long)]
     pub(crate) plot: Option<PathBuf>,
     /// Write the net for ParaView into this folder (created if missing; --scheme monolithic or
-    /// cable): `<scene>.pvd` and one `<scene>_<k>.vtu` per written sample — the cables as lines
+    /// cable): `<scene>.pvd` and one `<scene>/<scene>_<k>.vtu` per written sample — the cables as lines
     /// with their element tensions, the displacement from the start at every point, the cabin,
     /// the platform with its legs, the feed point; docs/scenes.md.
     #[arg(long, value_name = "DIR")]

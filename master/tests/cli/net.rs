@@ -127,7 +127,7 @@ fn a_run_writes_its_net_as_a_paraview_series_and_nothing_else() {
         printed.contains(&format!("net for ParaView: {} (11 files)", vtk.join("lt50m_C.pvd").display())),
         "{printed}"
     );
-    let mut expected: Vec<String> = (0..11).map(|k| format!("vtk/lt50m_C_{k:06}.vtu")).collect();
+    let mut expected: Vec<String> = (0..11).map(|k| format!("vtk/lt50m_C/lt50m_C_{k:06}.vtu")).collect();
     expected.push("run.csv".into());
     expected.push("vtk/lt50m_C.pvd".into());
     expected.sort();
@@ -225,7 +225,7 @@ fn a_written_mode_is_the_modal_solvers_vector() {
     let found = modal.model.modes.as_ref().unwrap();
     let (m, n) = (scene.cables.elements - 1, scene.cables.elements + 1);
     for k in 0..4 {
-        let a = read_vtu(&vtk.join(format!("lt50m_C_mode_{:06}.vtu", k + 1)));
+        let a = read_vtu(&vtk.join(format!("lt50m_C_modes/lt50m_C_mode_{:06}.vtu", k + 1)));
         assert_eq!(a["TimeValue"], [(k + 1) as f64]);
         assert_eq!(a["frequency_hz"], [modal.modes[k].frequency_hz]);
         let shape = &found.shapes[k];
