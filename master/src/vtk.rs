@@ -315,7 +315,10 @@ impl Series {
             }
         }
         std::fs::create_dir_all(dir).with_context(|| format!("{shown}: cannot create the folder"))?;
-        let temp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+        // what a killed run of this series left, and this process's own temporaries
+        crate::tempfiles::remove_stale(&folder);
+        crate::tempfiles::remove_stale(&dir.join(format!("{name}.pvd")));
+        let temp = crate::tempfiles::beside(&folder);
         if temp.exists() {
             std::fs::remove_dir_all(&temp).with_context(|| format!("{}: cannot clear it", temp.display()))?;
         }
@@ -349,7 +352,7 @@ impl Series {
     }
 
     fn temp_index(&self) -> PathBuf {
-        self.dir.join(format!(".{}.pvd.{}.tmp", self.name, std::process::id()))
+        crate::tempfiles::beside(&self.index_path())
     }
 
     /// Files written so far.
