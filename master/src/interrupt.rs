@@ -1,7 +1,7 @@
 //! Ctrl-C, and a kill that can be caught (SIGTERM, SIGHUP): a command stops between its steps or
 //! points instead of dying mid-write, its temporary files removed. Long work keeps what it
 //! finished (see [`crate::journal`]) and the process exits with 130; a second signal exits at
-//! once (what it leaves, the next run removes: [`crate::tempfiles`]). The request to stop is the
+//! once (what it leaves, the next run removes: [`studies::tempfiles`]). The request to stop is the
 //! library's ([`studies::cancel`]), which every run and study checks.
 
 /// The process's exit status after an interrupt (128 + SIGINT), as shells report it.

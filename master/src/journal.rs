@@ -87,8 +87,8 @@ impl Journal {
         for (index, point) in &done {
             text.push_str(&line(*index, &point.key, &point.cells));
         }
-        crate::tempfiles::remove_stale(path);
-        let fresh = crate::tempfiles::beside(path);
+        studies::tempfiles::remove_stale(path);
+        let fresh = studies::tempfiles::beside(path);
         std::fs::write(&fresh, text).map_err(io)?;
         std::fs::rename(&fresh, path).map_err(io)?;
         let file = std::fs::OpenOptions::new().append(true).open(path).map_err(io)?;

@@ -13,7 +13,6 @@ mod commands;
 mod interrupt;
 mod journal;
 mod progress;
-mod tempfiles;
 
 #[derive(Parser)]
 #[command(

@@ -104,10 +104,22 @@ class Result:
     """A finished run: ``summary`` (the keys of ``master run --json``), ``csv`` (the text of
     ``--out``), ``frame`` (a pandas DataFrame of the CSV's columns) and ``arrays()``."""
 
-    def __init__(self, summary: dict[str, Any], csv: str):
+    def __init__(self, summary: dict[str, Any], csv: str, net=None):
         self.summary = summary
         self.csv = csv
         self._frame = None
+        self._net = net
+
+    def net(self):
+        """The cable net at every sample of a run made with ``net=True``: a numpy array of shape
+        ``(samples, cables, elements + 1, 3)``, each cable's points (m, world frame) from its
+        anchor to its attachment point on the cabin, at the times of ``frame["t"]``."""
+        import numpy as np
+
+        if self._net is None:
+            raise ValueError("this run kept no net: run it with net=True (--scheme monolithic or cable)")
+        times, data, cables, points = self._net
+        return np.frombuffer(data, dtype="<f8").reshape(len(times), cables, points, 3)
 
     def arrays(self) -> dict[str, Any]:
         """The time histories as numpy arrays by column name (``t`` first), without pandas."""
@@ -135,6 +147,7 @@ def run(
     dt: float | None = None,
     t_end: float | None = None,
     progress: Callable[[float, float], Any] | None = None,
+    net: bool = False,
     **options,
 ) -> Result:
     """One run of a scene, as ``master run --scene F --scheme S``.
@@ -152,10 +165,14 @@ def run(
     ``progress(t, t_end)``, if given, is called about ten times a second of wall time with the
     simulated time reached; an exception it raises stops the run and propagates, and so does
     Ctrl-C (``KeyboardInterrupt``).
+
+    ``net=True`` (``monolithic`` and ``cable``) keeps the cable net at every sample:
+    :meth:`Result.net`.
     """
     path, toml, label = _source(scene)
-    summary, csv = _feedsim.run(path, toml, label, {"scheme": scheme, "dt": dt, "t_end": t_end, **options}, progress)
-    return Result(json.loads(summary), csv)
+    options = {"scheme": scheme, "dt": dt, "t_end": t_end, **options}
+    summary, csv, kept = _feedsim.run(path, toml, label, options, progress, bool(net))
+    return Result(json.loads(summary), csv, kept)
 
 
 def run_system(path, scheme: str = "ijcsa", *, dt: float | None = None, t_end: float | None = None, **options) -> Result:

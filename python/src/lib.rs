@@ -186,11 +186,15 @@ fn option_value_error(e: &anyhow::Error) -> PyErr {
     PyValueError::new_err(format!("{e:#}"))
 }
 
-/// One run: (the `--json` summary, the `--out` CSV). `progress(t, t_end)` is called at most every
-/// [`PROGRESS_PERIOD`] of wall time; an exception it raises, or a pending signal (Ctrl-C), stops
-/// the run and is raised.
+/// The net of a run at every sample: (times, every cable point's x, y, z as little-endian
+/// float64 bytes, cables, points per cable).
+type Net = (Vec<f64>, Vec<u8>, usize, usize);
+
+/// One run: (the `--json` summary, the `--out` CSV, with `net` the net at every sample).
+/// `progress(t, t_end)` is called at most every [`PROGRESS_PERIOD`] of wall time; an exception
+/// it raises, or a pending signal (Ctrl-C), stops the run and is raised.
 #[pyfunction]
-#[pyo3(signature = (path, toml, label, options, progress=None))]
+#[pyo3(signature = (path, toml, label, options, progress=None, net=false))]
 fn run(
     py: Python<'_>,
     path: Option<String>,
@@ -198,7 +202,8 @@ fn run(
     label: String,
     options: Bound<'_, PyDict>,
     progress: Option<Py<PyAny>>,
-) -> PyResult<(String, String)> {
+    net: bool,
+) -> PyResult<(String, String, Option<Net>)> {
     let source = Source::new(path, toml, label)?;
     let kwargs = Kwargs::new(options);
     let (scheme, dt, t_end, options) = kwargs.method()?;
@@ -210,8 +215,11 @@ fn run(
     check_dt(options.adaptive, dt).map_err(|e| option_value_error(&e))?;
     let dt = dt.unwrap_or(scene.solver.dt_s);
     let t_end = t_end.unwrap_or(scene.solver.t_end_s);
+    if let Some(reason) = method.net_refusal().filter(|_| net) {
+        return Err(PyValueError::new_err(format!("net=True: {reason}")));
+    }
     let file = source.file();
-    py.detach(|| run_scene(&scene, &file, method, dt, t_end, progress))
+    py.detach(|| run_scene(&scene, &file, method, dt, t_end, progress, net))
 }
 
 /// How often a run looks at the interpreter (signals, the progress callback): rarely enough to
@@ -255,10 +263,13 @@ fn run_scene(
     dt: f64,
     t_end: f64,
     progress: Option<Py<PyAny>>,
-) -> PyResult<(String, String)> {
+    net: bool,
+) -> PyResult<(String, String, Option<Net>)> {
     let run = Run::prepare(scene, file, method, dt, t_end, &Limits::default()).map_err(|e| run_error(&e))?;
     let mut watch = Interpreter { progress, t_end, last: Instant::now(), raised: None };
-    let trace = run.execute_watched(&mut watch);
+    let mut record = net.then(studies::net::NetRecord::default);
+    let sink = record.as_mut().map(|r| (r as &mut dyn studies::net::NetSink, 1));
+    let trace = run.execute_with_net(&mut watch, sink);
     if let Some(e) = watch.raised {
         return Err(e);
     }
@@ -268,7 +279,11 @@ fn run_scene(
     let mut csv = Vec::new();
     trace.write_csv(&mut csv, &scene.outputs.quantities).map_err(|e| run_error(&e))?;
     let csv = String::from_utf8(csv).map_err(|e| run_error(&e))?;
-    Ok((summary.to_string(), csv))
+    let net = record.map(|r| {
+        let bytes = r.positions.iter().flat_map(|x| x.to_le_bytes()).collect();
+        (r.times, bytes, r.cables, r.points_per_cable)
+    });
+    Ok((summary.to_string(), csv, net))
 }
 
 /// `master statics --json`.

@@ -1,6 +1,7 @@
 //! What can be asked of a scene or of a system of FMUs, as a library: typed settings in, typed
-//! results out, nothing printed and no file written but where a caller hands a writer. The
-//! `master` command line and the Python package `feedsim` are two front ends over it.
+//! results out, nothing printed, and no file written but where a caller hands a writer or names a
+//! place (a VTK series' folder). The `master` command line and the Python package `feedsim` are
+//! two front ends over it.
 //!
 //! * [`cosim`]: the co-simulation crate, re-exported (systems, schemes, IQN, step control, SSP);
 //! * [`monolithic`]: the paper's eq. (7) for the whole system, the accuracy reference;
@@ -14,6 +15,10 @@
 //! * [`report`]: what statics, modes and a run report (the command line's `--json`);
 //! * [`sweep`]: grids over the workspace and the parameters, their tables and maps;
 //! * [`calibrate`]: scene keys fitted to measured natural frequencies (model updating);
+//! * [`net`]: the system in space at one instant (cable points and tensions, cabin, platform,
+//!   feed), what runs hand to a [`net::NetSink`]; [`view3d`]: the net drawn in 3-D (statics,
+//!   mode shapes); [`vtk`]: the net as VTK files and series for ParaView; [`tempfiles`]: where a
+//!   result is written before it is moved into place;
 //! * [`plot`]: SVG figures (time histories, work–precision, stability maps); [`table`]: plain-text
 //!   tables;
 //! * [`parallel`]: independent cases on every core, results in order; [`points`]: the points of
@@ -27,6 +32,7 @@ pub mod calibrate;
 pub mod cancel;
 pub mod feed;
 pub mod limits;
+pub mod net;
 pub mod options;
 pub mod parallel;
 pub mod plot;
@@ -37,3 +43,6 @@ pub mod stepping;
 pub mod sweep;
 pub mod system;
 pub mod table;
+pub mod tempfiles;
+pub mod view3d;
+pub mod vtk;

@@ -12,6 +12,7 @@ use studies::limits::{Footprint, check_memory};
 use studies::report::Modal;
 use studies::table::Table;
 
+use super::output::{Outputs, run_inputs};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
@@ -38,6 +39,15 @@ pub(crate) struct Args {
     /// Young's modulus of the cables, Pa, instead of the scene's (the statics form-found again).
     #[arg(long, value_parser = super::scheme_args::positive)]
     pub(crate) youngs_modulus: Option<f64>,
+    /// Draw each mode's shape over the equilibrium as SVG (small multiples, oblique view; each
+    /// scaled, with its frequency, period and cabin share).
+    #[arg(long)]
+    pub(crate) plot: Option<PathBuf>,
+    /// Write each mode's shape for ParaView into this folder: `<scene>_modes.pvd` and one
+    /// `<scene>_modes/<scene>_mode_<k>.vtu` per mode, the net at the equilibrium with the mass-normalized
+    /// shape as the point vector `mode_shape` (for "Warp By Vector"); docs/scenes.md.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) vtk: Option<PathBuf>,
 }
 
 /// Linearisations the paper's Table 2 may have used; every one leaves out physics.
@@ -168,12 +178,38 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         anyhow::bail!("{}: the scene asks for no modes (analyses.modes = 0); give --count N", args.scene.display());
     }
     if args.hypothesis != Hypothesis::Full || args.platform != Platform::Locked || args.youngs_modulus.is_some() {
+        if args.plot.is_some() || args.vtk.is_some() {
+            anyhow::bail!(
+                "--plot and --vtk show the full model's mode shapes; leave out --hypothesis, --platform and \
+                 --youngs-modulus (which give frequencies only)"
+            );
+        }
         return run_case(args, &scene, count);
     }
+    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+    outputs.open()?;
+    let series = match &args.vtk {
+        Some(dir) => {
+            Some(studies::vtk::modes_series_in(dir, &scene.name).with_context(|| format!("--vtk {}", dir.display()))?)
+        }
+        None => None,
+    };
     let built = CableCabin::modes_built(&scene, count);
     check_memory(&scene, Footprint::CableModel, built, &caps().run)
         .with_context(|| format!("{}: the modal analysis cannot start", args.scene.display()))?;
     let modal = Modal::of(&scene, count)?;
+    if let Some(id) = svg {
+        let figure = studies::view3d::modes_figure_of(&modal).context("drawing the mode shapes")?;
+        outputs.write(id, |w| w.write_all(figure.as_bytes()))?;
+    }
+    let index = match (series, &args.vtk) {
+        (Some(series), Some(dir)) => {
+            Some(studies::vtk::modes_series(&modal, series).with_context(|| format!("--vtk {}", dir.display()))?)
+        }
+        _ => None,
+    };
+    outputs.commit()?;
     let (model, modes) = (&modal.model, modal.model.modes.as_ref().expect("modes were asked for"));
     if args.json {
         writeln!(out, "{}", serde_json::to_string_pretty(&modal.json())?)?;
@@ -229,5 +265,11 @@ pub(crate) fn run(args: &Args) -> CmdResult {
          the start: {:.1} MB).",
         estimate as f64 / 1e6
     )?;
+    if let Some(p) = &args.plot {
+        writeln!(out, "plot: {}", p.display())?;
+    }
+    if let Some(p) = &index {
+        writeln!(out, "mode shapes for ParaView: {}", p.display())?;
+    }
     Ok(())
 }

@@ -9,6 +9,8 @@ use studies::limits::num;
 use studies::plot::{History, time_history};
 use studies::simulate::{Run, Trace};
 
+use studies::vtk::RunSeries;
+
 use super::output::{OutputId, Outputs, run_inputs};
 use super::scheme_args::{Compensation, SchemeName, SchemeOptions, named};
 use super::{CmdResult, caps, load_scene};
@@ -45,6 +47,15 @@ pub(crate) struct Args {
     /// Draw the cabin-centre displacement (X, Y, Z panels, like the paper's Figs. 4–5) as SVG.
     #[arg(long)]
     pub(crate) plot: Option<PathBuf>,
+    /// Write the net for ParaView into this folder (created if missing; --scheme monolithic or
+    /// cable): `<scene>.pvd` and one `<scene>/<scene>_<k>.vtu` per written sample — the cables as lines
+    /// with their element tensions, the displacement from the start at every point, the cabin,
+    /// the platform with its legs, the feed point; docs/scenes.md.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) vtk: Option<PathBuf>,
+    /// With --vtk: write every K-th output sample (from the first).
+    #[arg(long, value_name = "K", requires = "vtk", default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+    pub(crate) vtk_every: u64,
     /// No progress bar (it is also off when stderr is not a terminal).
     #[arg(long)]
     pub(crate) quiet: bool,
@@ -68,7 +79,15 @@ pub(crate) fn plot_traces(outputs: &Outputs, id: OutputId, traces: &[&Trace], ti
 pub(crate) fn run(args: &Args) -> CmdResult {
     let scene_file = match (&args.scene, &args.system) {
         (Some(f), _) => f,
-        (None, Some(system)) => return super::run_system::run(args, system),
+        (None, Some(system)) => {
+            if args.vtk.is_some() {
+                bail!(
+                    "--vtk writes the cable net of a scene's run (--scene with --scheme monolithic or cable); a system \
+                     of FMUs has no net the master can see"
+                );
+            }
+            return super::run_system::run(args, system);
+        }
         (None, None) => bail!("give --scene or --system"),
     };
     if let Some(option) = args.system_files.files().given() {
@@ -94,9 +113,26 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut outputs = Outputs::new(run_inputs(scene_file, &scene));
     let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+    let mut series = match &args.vtk {
+        Some(dir) => {
+            if let Some(reason) = run.method().net_refusal() {
+                bail!("--vtk {}: {reason}", dir.display());
+            }
+            if let Some((flag, _)) = [("--out", &args.out), ("--plot", &args.plot)]
+                .into_iter()
+                .find(|(_, p)| p.as_deref() == Some(dir.as_path()))
+            {
+                bail!("--vtk {}: the same path as {flag}; give the VTK files a folder of their own", dir.display());
+            }
+            let layout = studies::net::Layout::of(&scene);
+            Some(RunSeries::create(dir, &scene.name, &layout).with_context(|| format!("--vtk {}", dir.display()))?)
+        }
+        None => None,
+    };
     outputs.open()?;
 
-    let trace = run.execute_watched(&mut crate::progress::Progress::new(quiet))?;
+    let net = series.as_mut().map(|s| (s as &mut dyn studies::net::NetSink, args.vtk_every));
+    let trace = run.execute_with_net(&mut crate::progress::Progress::new(quiet), net)?;
     let utilisation = studies::report::static_utilisation(&scene)?;
     if let Some(id) = csv {
         outputs.write(id, |w| trace.write_csv(w, &scene.outputs.quantities))?;
@@ -110,6 +146,13 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         let title = format!("{}: cabin-centre response, {} at {steps}", scene.name, trace.method);
         plot_traces(&outputs, id, &[&trace], &title)?;
     }
+    let vtk = match (series, &args.vtk) {
+        (Some(series), Some(dir)) => {
+            let files = series.series.len();
+            Some((series.series.commit().with_context(|| format!("--vtk {}", dir.display()))?, files))
+        }
+        _ => None,
+    };
     outputs.commit()?;
 
     let mut out = std::io::stdout().lock();
@@ -196,6 +239,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     if let Some(p) = &args.plot {
         writeln!(out, "plot: {}", p.display())?;
+    }
+    if let Some((index, files)) = &vtk {
+        writeln!(out, "net for ParaView: {} ({files} files)", index.display())?;
     }
     Ok(())
 }

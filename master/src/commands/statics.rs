@@ -10,6 +10,7 @@ use studies::limits::{Footprint, check_memory};
 use studies::report::Statics;
 use studies::table::Table;
 
+use super::output::{Outputs, run_inputs};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
@@ -24,14 +25,27 @@ pub(crate) struct Args {
     /// overloaded, and strain (of the larger end tension; the text warns beyond 1 %).
     #[arg(long)]
     pub(crate) json: bool,
+    /// Draw the net at the equilibrium as SVG: an oblique view, plan, front and side and a
+    /// close-up of the cabin and the platform, each element coloured by its tension (colour
+    /// bar), slack elements dashed, slack and nearly slack cables labelled.
+    #[arg(long)]
+    pub(crate) plot: Option<PathBuf>,
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.scene)?;
+    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+    outputs.open()?;
     let mut out = std::io::stdout().lock();
     check_memory(&scene, Footprint::CableModel, 0, &caps().run)
         .with_context(|| format!("{}: the form-finding cannot start", args.scene.display()))?;
     let statics = Statics::of(&scene)?;
+    if let Some(id) = svg {
+        let figure = studies::view3d::statics_figure(&statics).context("drawing the net")?;
+        outputs.write(id, |w| w.write_all(figure.as_bytes()))?;
+    }
+    outputs.commit()?;
     let (net, eq) = (&statics.net, &statics.equilibrium);
     let q = eq.orientation;
     let utilisation = |c: &cable::statics::CableReport| statics.utilisation(c);
@@ -104,6 +118,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             out,
             "warning: cables {overloaded:?} carry more than their breaking load {b} N (cables.breaking_load_n)"
         )?;
+    }
+    if let Some(p) = &args.plot {
+        writeln!(out, "plot: {}", p.display())?;
     }
     Ok(())
 }

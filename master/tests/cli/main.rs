@@ -16,7 +16,8 @@
 //! * `fmi3`: the LT50m system of FMI 3.0 FMUs, and of both versions, against FMI 2.0;
 //! * `sweep`: sweeps and their shards against the library, point by point;
 //! * `calibrate`: model updating against modes of scenes with known keys;
-//! * `resume`: long commands killed halfway and continued with --resume.
+//! * `resume`: long commands killed halfway and continued with --resume;
+//! * `net`: the net in space: its figure, its VTK series and mode shapes, bad `--vtk` targets.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -30,6 +31,7 @@ mod feed;
 mod fmi3;
 mod misuse;
 mod mutants;
+mod net;
 mod package;
 mod plots;
 mod reproduce;

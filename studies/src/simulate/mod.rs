@@ -55,4 +55,19 @@ impl Method {
             Method::Decoupled(_) => "decoupled",
         }
     }
+
+    /// Why a run of this method cannot hand out the net (every cable node in time), if it cannot.
+    pub fn net_refusal(&self) -> Option<String> {
+        match self {
+            Method::CableOnly | Method::Monolithic | Method::MonolithicAdaptive(_) => None,
+            _ => Some(format!(
+                "a {} run has the net only as the cable FMU's outputs, which are the cabin's motion and the \
+                 end tensions: the node positions are not among them (their number follows the FMU's \
+                 elements_per_cable parameter, and an FMI 2.0 description lists a fixed set of variables); \
+                 run the same system with --scheme monolithic (IJCSA agrees with it to 1e-4 mm at LT50m C), \
+                 or --scheme cable for the cable–cabin model alone",
+                self.name()
+            )),
+        }
+    }
 }

@@ -1,6 +1,7 @@
 //! A run checked whole before its first step, then driven through the step loop by the
 //! method's stepper.
 
+use std::cell::RefCell;
 use std::path::Path;
 use std::time::Instant;
 
@@ -14,6 +15,7 @@ use super::steppers::{CableStepper, CosimStepper, Coupling, MonolithicStepper, S
 use super::trace::Trace;
 use crate::feed::FeedTrace;
 use crate::limits::{Footprint, Limits, Plan, PlanError, Schedule, check_memory};
+use crate::net::{Frame, Layout, NetSink};
 use crate::stepping::{Flow, Request, Unwatched, Watch, drive};
 
 /// A run checked whole, ready to start.
@@ -136,6 +138,11 @@ impl<'a> Run<'a> {
         Ok(Run { scene, scene_file, method, schedule, every })
     }
 
+    /// The method it runs.
+    pub fn method(&self) -> &Method {
+        &self.method
+    }
+
     /// Runs it, unwatched.
     pub fn execute(&self) -> Result<Trace, RunError> {
         self.execute_watched(&mut Unwatched)
@@ -144,6 +151,16 @@ impl<'a> Run<'a> {
     /// Runs it, showing every step to `watch` (a progress bar; a caller's callback, which may
     /// stop the run by returning the reason).
     pub fn execute_watched(&self, watch: &mut dyn Watch) -> Result<Trace, RunError> {
+        self.execute_with_net(watch, None)
+    }
+
+    /// As [`Run::execute_watched`], handing the net to `net` at the start and at every
+    /// `every`-th sample after it (methods that have the net: [`Method::net_refusal`]).
+    pub fn execute_with_net(
+        &self,
+        watch: &mut dyn Watch,
+        mut net: Option<(&mut dyn NetSink, u64)>,
+    ) -> Result<Trace, RunError> {
         let scene = self.scene;
         let name = self.method.name();
         let (dt, sample_interval_s) = match self.schedule {
@@ -182,7 +199,24 @@ impl<'a> Run<'a> {
         };
         rec.trace.feed = stepper.compensation().map(FeedTrace::new);
         let first = stepper.probe()?;
-        self.drive(&mut rec, first, watch, |r| Ok(Flow::Stepped(stepper.step(r)?)))?;
+        let layout = net.as_ref().map(|_| Layout::of(scene));
+        let stepper = RefCell::new(stepper);
+        let mut frame = Frame::default();
+        let every = self.every;
+        // the net at sample k (its time as the trace has it), every `thin`-th sample
+        let mut sample_net = |k: u64, t: f64| -> Result<(), RunError> {
+            if let (Some((sink, thin)), Some(layout)) = (net.as_mut(), &layout)
+                && k.is_multiple_of(every)
+                && (k / every).is_multiple_of(*thin)
+                && stepper.borrow_mut().net(&mut frame)
+            {
+                frame.time = t;
+                sink.frame(layout, &frame).map_err(|e| RunError::Output { method: name, source: e })?;
+            }
+            Ok(())
+        };
+        sample_net(0, 0.0)?;
+        self.drive(&mut rec, first, watch, |r| Ok(Flow::Stepped(stepper.borrow_mut().step(r)?)), &mut sample_net)?;
         rec.trace.wall_time_s = start.elapsed().as_secs_f64();
         Ok(rec.trace)
     }
@@ -197,6 +231,7 @@ impl Run<'_> {
         first: Probe,
         watch: &mut dyn Watch,
         step: impl FnMut(Request) -> Result<Flow<Observed>, RunError>,
+        net: &mut dyn FnMut(u64, f64) -> Result<(), RunError>,
     ) -> Result<(), RunError> {
         let adaptive = matches!(self.schedule, Schedule::Adaptive { .. });
         rec.observe(0, 0.0, &first)?;
@@ -217,6 +252,7 @@ impl Run<'_> {
                 let m = &mut rec.trace.summary.max_constraint_residual_m;
                 *m = m.max(c);
                 rec.observe(k, t, &s.payload.probe)?;
+                net(k, t)?;
                 if adaptive {
                     rec.trace.h.push(s.h);
                 }

@@ -2,10 +2,12 @@
 
 use cable::dynamics::{Dynamics, DynamicsError};
 use cable::model::{CableCabin, Payload};
+use feedcore::Vec3;
 use feedcore::scene::ValidScene;
 use nalgebra::Vector6;
 
 use super::{Stepper, fixed, stopped, vec6};
+use crate::net::Frame;
 use crate::simulate::RunError;
 use crate::simulate::record::{Observed, Probe, stepped};
 use crate::stepping::{Request, Step};
@@ -15,6 +17,8 @@ pub(in crate::simulate) struct CableStepper {
     disturbance: Option<feedcore::scene::Disturbance>,
     /// The time reached.
     time: f64,
+    /// The platform's centre, locked at its start (cabin frame).
+    platform: Vec3,
     method: &'static str,
 }
 
@@ -25,7 +29,8 @@ impl CableStepper {
         let disturbance = scene.disturbance.clone();
         let wrench = wrench_of(&disturbance, 0.0);
         let dynamics = model.dynamics_with(Payload::Locked, 0.0, &wrench).map_err(|e| setup(&e))?;
-        Ok(CableStepper { dynamics, disturbance, time: 0.0, method })
+        let platform = scene.stewart_geometry().start_center;
+        Ok(CableStepper { dynamics, disturbance, time: 0.0, platform, method })
     }
 }
 
@@ -49,5 +54,13 @@ impl Stepper for CableStepper {
         })?;
         self.time = t;
         Ok(stepped(h, s.iterations, 0.0, self.probe()?))
+    }
+
+    fn net(&mut self, frame: &mut Frame) -> bool {
+        frame.fill_cables(self.dynamics.system(), self.dynamics.config());
+        frame.time = self.time;
+        frame.platform = (self.platform, feedcore::Quat::identity());
+        frame.leg_forces = None;
+        true
     }
 }

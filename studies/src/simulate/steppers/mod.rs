@@ -11,6 +11,8 @@ pub(super) use monolithic::MonolithicStepper;
 
 use stewart::Compensation;
 
+use crate::net::Frame;
+
 use super::RunError;
 use super::record::{Observed, Probe};
 use crate::stepping::{Request, Step};
@@ -24,6 +26,10 @@ pub(super) trait Stepper {
     /// The compensation that places the feed (scenes with `[control]`).
     fn compensation(&self) -> Option<&Compensation> {
         None
+    }
+    /// The net now, into `frame`, for the methods that have it (false: this one has not).
+    fn net(&mut self, _frame: &mut Frame) -> bool {
+        false
     }
 }
 

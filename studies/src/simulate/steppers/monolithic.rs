@@ -9,6 +9,7 @@ use stewart::Compensation;
 use super::{Stepper, fixed, stopped, vec6};
 use crate::feed::FeedSample;
 use crate::monolithic::{Monolithic, MonolithicError, Sample};
+use crate::net::Frame;
 use crate::simulate::RunError;
 use crate::simulate::record::{Observed, Probe, stepped};
 use crate::stepping::{Request, Step};
@@ -103,6 +104,16 @@ impl Stepper for MonolithicStepper {
         step.payload.constraint_residual = s.constraint_residual;
         step.rejected = rejected;
         Ok(step)
+    }
+
+    fn net(&mut self, frame: &mut Frame) -> bool {
+        let m = &mut self.model.model;
+        frame.fill_cables(m.cable_system(), m.cable_config());
+        let s = m.sample();
+        frame.time = s.time;
+        frame.platform = (s.platform, s.platform_rotation);
+        frame.leg_forces = Some(s.actuator_forces);
+        true
     }
 }
 

@@ -5,14 +5,15 @@
 use std::path::{Path, PathBuf};
 
 /// The temporary file of this process for the result at `target`.
-pub(crate) fn beside(target: &Path) -> PathBuf {
+pub fn beside(target: &Path) -> PathBuf {
     let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     target.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
 /// Removes the temporary files for `target` that processes no longer running left (killed
-/// before they could clean up); returns how many. Another live process's are left alone.
-pub(crate) fn remove_stale(target: &Path) -> usize {
+/// before they could clean up), and their temporary folders (a VTK series'); returns how many.
+/// Another live process's are left alone.
+pub fn remove_stale(target: &Path) -> usize {
     let Some(name) = target.file_name().map(|n| n.to_string_lossy().into_owned()) else { return 0 };
     let dir = target.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let Ok(entries) = std::fs::read_dir(dir) else { return 0 };
@@ -23,7 +24,15 @@ pub(crate) fn remove_stale(target: &Path) -> usize {
         let Some(pid) = file.strip_prefix(&prefix).and_then(|rest| rest.strip_suffix(".tmp")) else { continue };
         let Ok(pid) = pid.parse::<u32>() else { continue };
         let alive = pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists();
-        if !alive && entry.file_type().is_ok_and(|t| t.is_file()) && std::fs::remove_file(entry.path()).is_ok() {
+        if alive {
+            continue;
+        }
+        let gone = match entry.file_type() {
+            Ok(t) if t.is_file() => std::fs::remove_file(entry.path()).is_ok(),
+            Ok(t) if t.is_dir() => std::fs::remove_dir_all(entry.path()).is_ok(),
+            _ => false,
+        };
+        if gone {
             removed += 1;
         }
     }
@@ -54,6 +63,11 @@ mod tests {
         assert_eq!(remove_stale(&target), 1);
         assert!(!stale.exists() && mine.exists() && live.exists());
         assert!(others.iter().all(|f| f.exists()));
+        // a dead process's temporary folder goes too
+        std::fs::create_dir(&stale).unwrap();
+        std::fs::write(stale.join("x_000000.vtu"), b"").unwrap();
+        assert_eq!(remove_stale(&target), 1);
+        assert!(!stale.exists() && mine.exists() && live.exists());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
