@@ -3,9 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
+use roxmltree::Document;
 use studies::net::{Layout, equilibrium_frame};
 use studies::report::{Modal, Statics};
-use roxmltree::Document;
 
 use crate::{common, master};
 
