@@ -37,7 +37,7 @@ pub(crate) struct SchemeOptions {
     #[arg(long, default_value = "1e-8", value_parser = positive)]
     pub(crate) tol: f64,
     /// Iteration limit per macro step of iterating schemes (exceeding it stops the run).
-    #[arg(long, default_value = "100", value_parser = max_iter)]
+    #[arg(long, default_value = "100", value_parser = max_iter, allow_negative_numbers = true)]
     pub(crate) max_iter: u32,
     /// Relaxation of `iterative`: a fixed factor in (0, 1], or `aitken` (dynamic; it stalls on
     /// the LT50m scenes, whose interface couples several modes of both signs).
@@ -47,7 +47,8 @@ pub(crate) struct SchemeOptions {
     #[arg(long, default_value = "reuse", value_parser = named::<JacobianUpdate>())]
     pub(crate) jacobian: JacobianUpdate,
     /// Past steps (time windows) whose residual history `iqn-ils` reuses (0: this step's only).
-    #[arg(long, default_value_t = lib::SchemeOptions::default().iqn_reuse, value_parser = whole)]
+    #[arg(long, default_value_t = lib::SchemeOptions::default().iqn_reuse, value_parser = whole,
+          allow_negative_numbers = true)]
     pub(crate) iqn_reuse: usize,
     /// QR filter limit of `iqn-ils` in [0, 1): a history column keeping less than this
     /// fraction of its norm after orthogonalization against newer ones is deleted.
