@@ -100,23 +100,6 @@ impl Journal {
         self.done.len()
     }
 
-    /// Point `index` as an earlier run finished it, if its line names `key` and `decode`
-    /// accepts its cells; otherwise the line is dropped (counted for [`Journal::say_dropped`])
-    /// and the point is to be computed again.
-    pub(crate) fn take<R>(
-        &self,
-        index: usize,
-        key: &str,
-        decode: impl Fn(&[String]) -> anyhow::Result<R>,
-    ) -> Option<R> {
-        let point = self.done.get(&index)?;
-        let decoded = (point.key == key).then(|| decode(&point.cells).ok()).flatten();
-        if decoded.is_none() {
-            self.dropped.fetch_add(1, Ordering::Relaxed);
-        }
-        decoded
-    }
-
     /// Says on stderr, once, how many lines of the journal were not used, if any.
     pub(crate) fn say_dropped(&self) {
         let n = self.dropped.swap(0, Ordering::Relaxed);
@@ -293,6 +276,7 @@ pub(crate) fn resumable(journal: &Journal) -> impl Fn(anyhow::Error) -> anyhow::
 #[cfg(test)]
 mod tests {
     use super::*;
+    use studies::points::Store;
 
     fn scratch(name: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("master-journal-{name}-{}", std::process::id()));
@@ -306,9 +290,15 @@ mod tests {
         vec![x.to_owned(), "with, comma".to_owned(), "NaN".to_owned()]
     }
 
-    fn decode(c: &[String]) -> anyhow::Result<Vec<String>> {
-        anyhow::ensure!(c.len() == 3, "{} cells", c.len());
-        Ok(c.to_vec())
+    /// The cells of point `index` under `key`, as the study's map looks them up (cells it
+    /// would refuse refused).
+    fn take(j: &Journal, index: usize, key: &str, accept: bool) -> Option<Vec<String>> {
+        let cells = j.earlier(index, key)?;
+        if !accept || cells.len() != 3 {
+            j.refused(index);
+            return None;
+        }
+        Some(cells)
     }
 
     /// Points come back as written; a line cut short by a kill is dropped (and does not swallow
@@ -330,14 +320,14 @@ mod tests {
         let j = Journal::open(&path, "work A", true).unwrap();
         assert_eq!(j.dropped.load(Ordering::Relaxed), 1);
         assert_eq!(j.resumed(), 2);
-        assert_eq!(j.take(0, "x=1", decode), Some(cells("a")));
-        assert_eq!(j.take(1, "x=2", decode), None);
-        assert_eq!(j.take(2, "x=3", decode), Some(cells("c")));
+        assert_eq!(take(&j, 0, "x=1", true), Some(cells("a")));
+        assert_eq!(take(&j, 1, "x=2", true), None);
+        assert_eq!(take(&j, 2, "x=3", true), Some(cells("c")));
         j.record(1, "x=2", &cells("b")).unwrap();
         drop(j);
         let j = Journal::open(&path, "work A", true).unwrap();
         assert_eq!((j.resumed(), j.dropped.load(Ordering::Relaxed)), (3, 0));
-        assert_eq!(j.take(1, "x=2", decode), Some(cells("b")));
+        assert_eq!(take(&j, 1, "x=2", true), Some(cells("b")));
         j.finish().unwrap();
         assert!(!path.exists());
     }
@@ -365,12 +355,12 @@ mod tests {
         let j = Journal::open(&path, "work", true).unwrap();
         // point 1 edited, point 3 twice with other values, the binary and the overlong lines
         assert_eq!(j.dropped.load(Ordering::Relaxed), 1 + 2 + 2, "{:?}", j.done.keys());
-        assert_eq!(j.take(0, "x=0", decode), Some(cells("a")));
-        assert_eq!(j.take(1, "x=1", decode), None);
-        assert_eq!(j.take(2, "x=9", decode), None, "a key of another grid");
-        assert_eq!(j.take(3, "x=3", decode), None);
-        assert_eq!(j.take(4, "x=4", |_| anyhow::bail!("refused")), None::<()>);
-        assert_eq!(j.take(5, "x=5", decode), Some(cells("f")));
+        assert_eq!(take(&j, 0, "x=0", true), Some(cells("a")));
+        assert_eq!(take(&j, 1, "x=1", true), None);
+        assert_eq!(take(&j, 2, "x=9", true), None, "a key of another grid");
+        assert_eq!(take(&j, 3, "x=3", true), None);
+        assert_eq!(take(&j, 4, "x=4", false), None);
+        assert_eq!(take(&j, 5, "x=5", true), Some(cells("f")));
         drop(j);
         // what the resumed run kept is written back alone
         let j = Journal::open(&path, "work", true).unwrap();

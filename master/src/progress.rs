@@ -9,6 +9,7 @@
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 use studies::limits::Schedule;
+use studies::observe::Observer;
 use studies::stepping::Watch;
 
 /// Positions of the bar: thousandths of the end time.
@@ -57,5 +58,30 @@ impl Watch for Progress {
 impl Drop for Progress {
     fn drop(&mut self) {
         self.finish();
+    }
+}
+
+/// The command line's view of a study: a line on stderr for each piece of work begun and each
+/// point finished (`lines`), a bar for each run (`bars`, on a terminal).
+pub(crate) struct Shown {
+    pub(crate) lines: bool,
+    pub(crate) bars: bool,
+}
+
+impl Observer for Shown {
+    fn begin(&self, label: &str) {
+        if self.lines {
+            eprintln!("{label} …");
+        }
+    }
+
+    fn watch(&self) -> Box<dyn Watch + '_> {
+        Box::new(Progress::new(!self.bars))
+    }
+
+    fn point(&self, _done: usize, _of: usize, line: &str) {
+        if self.lines {
+            eprintln!("{line}");
+        }
     }
 }

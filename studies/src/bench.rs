@@ -182,8 +182,7 @@ impl<'a> Bench<'a> {
             }
         }
         let scene = scene.edited(|s| s.outputs.sample_interval_s = coarse).context("--dts")?;
-        let reference_dt =
-            settings.reference_dt.unwrap_or(dts.iter().cloned().fold(f64::INFINITY, f64::min) / 4.0);
+        let reference_dt = settings.reference_dt.unwrap_or(dts.iter().cloned().fold(f64::INFINITY, f64::min) / 4.0);
         // adaptive runs sample every accepted step: they are compared with a reference sampled
         // at its own step (interpolated between its samples)
         let reference_scene = if settings.adaptive_rtols.is_empty() {
@@ -249,7 +248,9 @@ impl<'a> Bench<'a> {
         let labels: Vec<(String, usize)> = runs
             .iter()
             .map(|(name, dt, _)| (format!("{} at h = {dt} s", name.as_str()), 4))
-            .chain(adaptive_runs.iter().map(|(name, rtol, _)| (format!("{} adaptive at rtol {rtol:e}", name.as_str()), 6)))
+            .chain(
+                adaptive_runs.iter().map(|(name, rtol, _)| (format!("{} adaptive at rtol {rtol:e}", name.as_str()), 6)),
+            )
             .collect();
         let mut earlier: Vec<_> = labels
             .iter()

@@ -14,8 +14,6 @@
 //!
 //! Every run is independent: they run in parallel ([`crate::parallel`]).
 
-use std::path::Path;
-
 use anyhow::{Context, bail};
 use feedcore::scene::{Scene, ValidScene};
 use feedcore::{Quat, Vec3};
@@ -291,7 +289,8 @@ impl Study {
         let comp = Stewart::from_scene(&scene)?.compensation().cloned().expect("a scene with [control] has one");
         let h = step_for(period);
         let limits = &settings.limits;
-        let steps = checked_steps(&scene, h, settings.t_end, &format!("{shown}: the runs over {} s", settings.t_end), limits)?;
+        let steps =
+            checked_steps(&scene, h, settings.t_end, &format!("{shown}: the runs over {} s", settings.t_end), limits)?;
         // the sweep: delay × rate, the rest of the scene as it is
         let mut cases = Vec::new();
         for &rate in &settings.rates {
@@ -338,7 +337,8 @@ impl Study {
 
         // the error budget: the scene with a perfect instrument in turn
         let kinds = [Budget::Noiseless, Budget::Prompt, Budget::Perfect];
-        let budget_scenes = kinds.map(|b| scene.edited(|s| b.apply(s)).with_context(|| format!("the budget's run {}", b.label())));
+        let budget_scenes =
+            kinds.map(|b| scene.edited(|s| b.apply(s)).with_context(|| format!("the budget's run {}", b.label())));
         let budget_scenes = budget_scenes.into_iter().collect::<anyhow::Result<Vec<_>>>()?;
         let budget_runs = crate::parallel::map_in_order(&budget_scenes, jobs, |_, s| {
             let c = Stewart::from_scene(s)?.compensation().cloned().expect("a scene with [control] has one");
@@ -383,8 +383,9 @@ impl Study {
         let total = rms_peak(&on_run.feed_mm).0;
         let decoupled = rms_peak(&off_run.replayed_mm).0;
         // NaN when the run without the term stopped
-        let share =
-            |without: f64| if without.is_nan() { f64::NAN } else { (total * total - without * without).max(0.0).sqrt() };
+        let share = |without: f64| {
+            if without.is_nan() { f64::NAN } else { (total * total - without * without).max(0.0).sqrt() }
+        };
         let line = |run, rms, term, value| BudgetLine { run, rms, term, value };
         let budget = vec![
             line("as the scene", total, "total", total),
@@ -459,7 +460,12 @@ impl Results {
         let mut csv = String::from("sample_rate_hz,delay_s,verdict,feed_err_rms_mm,feed_err_peak_mm,note\n");
         for ((rate, delay), v) in self.cases.iter().zip(&self.verdicts) {
             let verdict = if v.stable { "stable" } else { "unstable" };
-            csv.push_str(&format!("{rate},{delay},{verdict},{:e},{:e},\"{}\"\n", v.rms, v.peak, v.note.replace('"', "'")));
+            csv.push_str(&format!(
+                "{rate},{delay},{verdict},{:e},{:e},\"{}\"\n",
+                v.rms,
+                v.peak,
+                v.note.replace('"', "'")
+            ));
         }
         csv
     }

@@ -95,7 +95,9 @@ impl Named for Platform {
     fn help(self) -> &'static str {
         match self {
             Platform::Locked => "Rigidly attached at its start pose (its mass, centre of mass and inertia)",
-            Platform::AddedMass => "Its mass added to the cabin's at the cabin centre point (no offset, no added inertia)",
+            Platform::AddedMass => {
+                "Its mass added to the cabin's at the cabin centre point (no offset, no added inertia)"
+            }
             Platform::Absent => "Left out (neither its weight nor its inertia)",
         }
     }

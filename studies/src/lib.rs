@@ -14,7 +14,13 @@
 //! * [`feed`]: the feed's error in the world frame and the platform's limits (`[control]`);
 //! * [`report`]: what statics, modes and a run report (the command line's `--json`);
 //! * [`sweep`]: grids over the workspace and the parameters, their tables and maps;
-//! * [`calibrate`]: scene keys fitted to measured natural frequencies (model updating);
+//! * the studies, each with its settings, its results and their tables, CSV and figures:
+//!   [`compare`] (each method against the monolithic model), [`bench`] (run time against
+//!   error), [`stability`] (where each scheme is stable), [`compensation`] (the second level:
+//!   feed error, sensor sweep, error budget), [`tune`] (the second level's filter chosen),
+//!   [`stress`] (the long and hard runs), [`reproduce`] (the paper side by side, with the
+//!   modal [`hypotheses`]), [`calibrate`] (scene keys fitted to measured natural frequencies);
+//! * [`observe`]: what a caller sees of a study as it goes;
 //! * [`net`]: the system in space at one instant (cable points and tensions, cabin, platform,
 //!   feed), what runs hand to a [`net::NetSink`]; [`view3d`]: the net drawn in 3-D (statics,
 //!   mode shapes); [`vtk`]: the net as VTK files and series for ParaView; [`tempfiles`]: where a
@@ -28,21 +34,30 @@
 pub use cosim;
 pub use monolithic;
 
+pub mod bench;
 pub mod calibrate;
 pub mod cancel;
+pub mod compare;
+pub mod compensation;
 pub mod feed;
+pub mod hypotheses;
 pub mod limits;
 pub mod net;
+pub mod observe;
 pub mod options;
 pub mod parallel;
 pub mod plot;
 pub mod points;
 pub mod report;
+pub mod reproduce;
 pub mod simulate;
+pub mod stability;
 pub mod stepping;
+pub mod stress;
 pub mod sweep;
 pub mod system;
 pub mod table;
 pub mod tempfiles;
+pub mod tune;
 pub mod view3d;
 pub mod vtk;

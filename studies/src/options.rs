@@ -259,6 +259,15 @@ pub fn jobs(text: &str) -> Result<usize, String> {
     }
 }
 
+/// A non-negative finite number.
+pub fn non_negative(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(x) if x >= 0.0 && x.is_finite() => Ok(x),
+        Ok(x) => Err(format!("{x} is not a non-negative finite number")),
+        Err(e) => Err(format!("`{text}`: {e}")),
+    }
+}
+
 /// A number in [0, 1).
 pub fn below_one(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {

@@ -23,7 +23,6 @@ use nalgebra::{DMatrix, Matrix6, Vector6};
 use plotters::prelude::*;
 use stewart::Stewart;
 
-
 use crate::hypotheses::{Hypothesis, Platform, case_frequencies};
 use crate::limits::Limits;
 use crate::observe::Observer;
@@ -44,16 +43,6 @@ const FAST_FROM_HZ: f64 = 0.2;
 const FAST_TOP_HZ: f64 = 5.0;
 /// Spectra are written and drawn up to here.
 const SPECTRUM_TOP_HZ: f64 = 1.5;
-
-const HYPOTHESES: [Hypothesis; 6] = [
-    Hypothesis::Full,
-    Hypothesis::NoRotationalGeometricStiffness,
-    Hypothesis::NoWeightRotationalStiffness,
-    Hypothesis::NoRotationalLoadStiffness,
-    Hypothesis::StraightCables,
-    Hypothesis::StraightCablesNoGeometricStiffness,
-];
-const PLATFORMS: [Platform; 3] = [Platform::Locked, Platform::AddedMass, Platform::Absent];
 
 /// One modal case and its frequencies (or why it has none).
 struct ModalCase {
@@ -224,9 +213,9 @@ pub fn run(scenes: Scenes<'_>, quick: bool, limits: &Limits, observer: &dyn Obse
     // Table 2
     let mut modal = Vec::new();
     for (name, scene, _) in &scenes {
-        let hypotheses: &[Hypothesis] = if quick { &HYPOTHESES[..2] } else { &HYPOTHESES };
+        let hypotheses: &[Hypothesis] = if quick { &Hypothesis::ALL[..2] } else { Hypothesis::ALL };
         for &hypothesis in hypotheses {
-            for platform in PLATFORMS {
+            for &platform in Platform::ALL {
                 for &e in &moduli {
                     let frequencies = case_frequencies(scene, hypothesis, platform, e, 4)
                         .map_err(|e| format!("{e:#}"))
@@ -416,12 +405,8 @@ fn numbers_md(
                         && (c.platform == Platform::Locked || c.youngs_modulus == base_e)))
         });
         for c in single {
-            let what = format!(
-                "{}, platform {}, E = {}",
-                c.hypothesis.name(),
-                c.platform.name(),
-                e_name(c.youngs_modulus)
-            );
+            let what =
+                format!("{}, platform {}, E = {}", c.hypothesis.name(), c.platform.name(), e_name(c.youngs_modulus));
             s += &match &c.frequencies {
                 Ok(f) => format!("| {scene} | {what} | {} | {:.0} % |\n", f4(f), 100.0 * c.error(&paper)),
                 Err(e) => format!("| {scene} | {what} | fails: {e} | |\n"),
@@ -437,7 +422,7 @@ fn numbers_md(
                 "| {scene} | best of all {} cases: {}, platform {}, E = {} | {} | {:.0} % |\n",
                 modal.iter().filter(|c| c.scene == scene).count(),
                 best.hypothesis.name(),
-                platform_name(best.platform),
+                best.platform.name(),
                 e_name(best.youngs_modulus),
                 f4(f),
                 100.0 * best.error(&paper)
@@ -462,7 +447,7 @@ fn numbers_md(
         s += &format!(
             "\nThe one case closest at both poses: {}, platform {}, E = {} — largest error {:.0} % of the paper's frequencies.\n",
             b.hypothesis.name(),
-            platform_name(b.platform),
+            b.platform.name(),
             e_name(b.youngs_modulus),
             100.0 * err
         );
@@ -583,9 +568,9 @@ fn figure_time(title: &str, runs: &[&Response], bands: &[(usize, Vec<(&str, f64)
             let columns = chart.plotting_area().dim_in_pixel().0 as usize;
             for (i, r) in lines.iter().enumerate() {
                 let y: Vec<f64> = r.trace.disp_mm.iter().map(|d| d[axis]).collect();
-                studies::plot::palette_line(&mut chart, i, thinned(&r.trace.t, &y, (0.0, t1), columns), r.case.name)?;
+                crate::plot::palette_line(&mut chart, i, thinned(&r.trace.t, &y, (0.0, t1), columns), r.case.name)?;
             }
-            studies::plot::legend(&mut chart, 11)?;
+            crate::plot::legend(&mut chart, 11)?;
         }
         root.present().map_err(draw)?;
     }
@@ -635,16 +620,16 @@ fn figure_spectrum(responses: &[Response], natural: &[(&str, Vec<f64>)]) -> anyh
                 for f in fs {
                     let drawn = chart.draw_series(LineSeries::new([(f, floor), (f, top)], style)).map_err(draw)?;
                     if first {
-                        drawn.label(name).legend(studies::plot::line_key(style));
+                        drawn.label(name).legend(crate::plot::line_key(style));
                         first = false;
                     }
                 }
             }
             for (i, r) in runs.iter().enumerate() {
                 let pts: Vec<(f64, f64)> = r.spectrum.iter().map(|&(f, a)| (f, a.max(floor))).collect();
-                studies::plot::palette_line(&mut chart, i, pts, r.case.name)?;
+                crate::plot::palette_line(&mut chart, i, pts, r.case.name)?;
             }
-            studies::plot::legend(&mut chart, 11)?;
+            crate::plot::legend(&mut chart, 11)?;
         }
         root.present().map_err(draw)?;
     }

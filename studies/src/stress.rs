@@ -96,8 +96,8 @@ pub fn run(scenes: Scenes<'_>, quick: bool, limits: &Limits, observer: &dyn Obse
     };
     let scale = if quick { 1.0 / 50.0 } else { 1.0 };
     // the durations run, as the labels say them (shortened with --quick)
-    let long = |t: f64| studies::limits::num(t * scale);
-    let short = |t: f64| studies::limits::num(t * scale.max(0.1));
+    let long = |t: f64| crate::limits::num(t * scale);
+    let short = |t: f64| crate::limits::num(t * scale.max(0.1));
     let mut cases = Vec::new();
     let mut report = |case: &str, r: anyhow::Result<String>| {
         cases.push((case.to_string(), r.map_err(|e| format!("{e:#}"))));

@@ -11,8 +11,6 @@
 //! the scene with the chosen filter, `tune.csv` (every candidate, every run) and `tune.md` (the
 //! choice, and what the decoupled model's choice does on the coupled one).
 
-use std::path::Path;
-
 use anyhow::{Context, bail};
 use feedcore::scene::{FusionModel, Scene, SensorKind, ValidScene};
 use stewart::Stewart;
@@ -317,8 +315,9 @@ impl Results {
             Design::Coupled => Variant::Nominal,
             Design::Decoupled => Variant::Decoupled,
         };
-        let admissible =
-            |i: usize| if design == Design::Coupled { self.robust(i) } else { self.verdict(i, Variant::Decoupled).stable };
+        let admissible = |i: usize| {
+            if design == Design::Coupled { self.robust(i) } else { self.verdict(i, Variant::Decoupled).stable }
+        };
         (0..self.candidates.len())
             .filter(|&i| admissible(i) && self.verdict(i, variant).rms.is_finite())
             .min_by(|&a, &b| self.verdict(a, variant).rms.total_cmp(&self.verdict(b, variant).rms))
@@ -350,8 +349,13 @@ impl Results {
 
     /// The choice of each design model, and both on the coupled one.
     pub fn choices(&self) -> Table {
-        let mut choices =
-            Table::new(["designed on", "filter", "predicted RMS (mm)", "coupled RMS (mm)", "robust on the coupled model"]);
+        let mut choices = Table::new([
+            "designed on",
+            "filter",
+            "predicted RMS (mm)",
+            "coupled RMS (mm)",
+            "robust on the coupled model",
+        ]);
         for design in [Design::Coupled, Design::Decoupled] {
             let predicted = if design == Design::Coupled { Variant::Nominal } else { Variant::Decoupled };
             match self.pick(design) {

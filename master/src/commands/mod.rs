@@ -65,19 +65,6 @@ pub(crate) fn fingerprint(scene: &ValidScene) -> String {
     format!("{:016x}", fmi2::digest::digest(scene.to_toml().as_bytes()))
 }
 
-/// One run of a scene within the caps of the command line (what `master run` checks).
-pub(crate) fn simulate(
-    scene: &ValidScene,
-    scene_file: &Path,
-    method: studies::simulate::Method,
-    dt: f64,
-    t_end: f64,
-    quiet: bool,
-) -> Result<studies::simulate::Trace, studies::simulate::RunError> {
-    studies::simulate::Run::prepare(scene, scene_file, method, dt, t_end, &caps().run)?
-        .execute_watched(&mut crate::progress::Progress::new(quiet))
-}
-
 /// Reads a scene within the size cap; a file over it names the flag that raises it.
 pub(crate) fn load_scene(path: &Path) -> anyhow::Result<ValidScene> {
     match Scene::load_limited(path, caps().scene_bytes) {

@@ -118,11 +118,6 @@ impl SchemeOptions {
     pub(crate) fn method(&self, scheme: SchemeName) -> anyhow::Result<Method> {
         self.options().method(scheme)
     }
-
-    /// The same options at a fixed step (e.g. for a reference run).
-    pub(crate) fn fixed_step(&self) -> SchemeOptions {
-        SchemeOptions { adaptive: false, watch: Vec::new(), estimate: None, ..self.clone() }
-    }
 }
 
 /// Where a system's files may come from and what unpacking an archive may cost (--system only).
