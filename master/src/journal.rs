@@ -253,6 +253,10 @@ impl studies::points::Store for Journal {
         self.say_dropped();
     }
 
+    fn resumed(&self) -> usize {
+        Journal::resumed(self)
+    }
+
     fn record(&self, index: usize, key: &str, cells: &[String]) -> anyhow::Result<()> {
         Ok(Journal::record(self, index, key, cells)?)
     }

@@ -230,6 +230,8 @@ impl Verdict {
 /// A study ready to run: every run's steps and memory checked.
 pub struct Study {
     scene: ValidScene,
+    /// How messages name the scene (its file).
+    shown: String,
     comp: Compensation,
     settings: Settings,
     /// The step of the long runs, s, and their steps.
@@ -310,7 +312,7 @@ impl Study {
                 cases.push((rate, delay, s, steps));
             }
         }
-        Ok(Study { scene, comp, settings, h, steps, cases })
+        Ok(Study { scene, shown: shown.to_owned(), comp, settings, h, steps, cases })
     }
 
     /// The scene studied (with the bandwidth the settings give).
@@ -326,7 +328,7 @@ impl Study {
         let off = crate::options::Compensation::Off.apply(scene)?;
         observer.begin(&format!(
             "{}: uncompensated, compensated and decoupled runs over {} s at h = {h} s",
-            scene.name, self.settings.t_end
+            self.shown, self.settings.t_end
         ));
         let mains = crate::parallel::map_in_order(&[true, false], jobs, |_, &is_off| {
             if is_off { history(&off, comp, h, steps, Some(comp)) } else { history(scene, comp, h, steps, None) }
@@ -361,7 +363,8 @@ impl Study {
         // the sweep: a case is unstable when it stops, when its feed error keeps growing, or when
         // the platform's reactions drive the cabin to more than twice the uncompensated cabin's
         // peak (the cable–cabin modes excited): [`Verdict::judge`]
-        observer.begin(&format!("sweep: {} runs over {} s", self.cases.len(), self.settings.sweep_t_end));
+        let (n, t) = (self.cases.len(), self.settings.sweep_t_end);
+        observer.begin(&format!("sweep: {n} runs over {t} s ({} done before)", store.resumed()));
         let case = |(_, _, s, steps): &(f64, f64, ValidScene, usize)| {
             let c = Stewart::from_scene(s).map(|st| st.compensation().cloned().expect("has [control]"));
             let c = match c {

@@ -13,6 +13,10 @@ pub trait Store: Sync {
     fn refused(&self, index: usize);
     /// Every point has been looked up (a store may now say what it did not use).
     fn looked_up(&self) {}
+    /// How many points an earlier run left (before any is looked up).
+    fn resumed(&self) -> usize {
+        0
+    }
     /// Keeps point `index`, named `key`, with its cells.
     fn record(&self, index: usize, key: &str, cells: &[String]) -> anyhow::Result<()>;
 }
