@@ -185,6 +185,32 @@ impl ModelInfo {
                 ));
             }
         }
+        if let Some(me) = &d.model_exchange {
+            if !is_c_identifier(&me.model_identifier) {
+                return err(format!("ModelExchange modelIdentifier `{}` is not a C identifier", me.model_identifier));
+            }
+            let real =
+                |vr: u32| by_vr[0].binary_search_by_key(&vr, |&(r, _)| r).ok().map(|i| &d.variables[by_vr[0][i].1]);
+            for s in &me.states {
+                let (Some(x), Some(dx)) = (real(s.state), real(s.derivative)) else {
+                    return err(format!(
+                        "continuous state {} / derivative {}: no Real variable has that value reference",
+                        s.state, s.derivative
+                    ));
+                };
+                if dx.variability != Variability::Continuous || x.variability != Variability::Continuous {
+                    return err(format!(
+                        "continuous state `{}` and its derivative `{}` must be continuous",
+                        x.name, dx.name
+                    ));
+                }
+            }
+            if me.event_indicator_variables.len() != me.event_indicators
+                || me.event_indicator_variables.iter().any(|&vr| real(vr).is_none())
+            {
+                return err("every event indicator must be a Real variable, named once".into());
+            }
+        }
         // Dependencies: names → 1-based indices, and the names put in index order. In step mode
         // the knowns are the inputs; in initialization mode also the parameters (FMI 2.0, 2.2.8).
         let mut vars = Vec::with_capacity(d.variables.len());

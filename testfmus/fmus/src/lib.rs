@@ -42,6 +42,13 @@ fn description(
     d
 }
 
+/// `d` offering Model Exchange too, with these continuous states and event indicators.
+fn with_model_exchange(mut d: ModelDescription, states: &[(u32, u32)], event_indicators: &[u32]) -> ModelDescription {
+    let states = states.iter().map(|&(state, derivative)| fmi2::ContinuousState { state, derivative }).collect();
+    d.model_exchange = Some(fmi2::ModelExchange::exported(&d.model_identifier, states, event_indicators.to_vec()));
+    d
+}
+
 /// The message for a derivative with respect to a known the model does not take.
 fn not_a_known(vr: u32, known: &str) -> fmi2::export::ModelError {
     format!("derivatives with respect to value reference {vr} are not provided (knowns: {known})").into()
