@@ -48,7 +48,7 @@ pub fn scene_spec(scene: &ValidScene, scene_file: &Path) -> Result<SystemSpec, S
         components: sys
             .fmus
             .iter()
-            .map(|f| Component { name: f.name.clone(), source: relative_to(scene_file, &f.path) })
+            .map(|f| Component { name: f.name.clone(), source: relative_to(scene_file, &f.path), interface: None })
             .collect(),
         connections: sys
             .connections
@@ -82,7 +82,7 @@ pub fn needs(options: &Options, adaptive: bool) -> Needs {
     } else {
         format!("scheme {}", options.scheme.name())
     };
-    Needs { what, rollback: options.scheme.is_implicit() || adaptive }
+    Needs { what, rollback: options.scheme.is_implicit() || adaptive, model_exchange: Default::default() }
 }
 
 /// Step-size settings of an adaptive run.

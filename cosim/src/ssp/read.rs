@@ -263,7 +263,7 @@ fn read_ssd(ssd: &Path, origin: &str, limits: &ReadLimits) -> Result<LoadedSsp, 
             if spec.components.iter().any(|c| c.name == name) {
                 return Err(fail(e, format!("a second component named `{name}`: component names must be unique")));
             }
-            spec.components.push(Component { name: name.to_owned(), source: resolve(e, source)? });
+            spec.components.push(Component { name: name.to_owned(), source: resolve(e, source)?, interface: None });
             if let Some(connectors) = child(e, "Connectors") {
                 for c in children(connectors, "Connector") {
                     let cname = c.attribute("name").ok_or_else(|| fail(c, "a connector without `name`".into()))?;
