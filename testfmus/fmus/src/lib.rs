@@ -67,7 +67,12 @@ mod tests {
     fn reads_back<M: Model>() {
         let info = fmi2::ModelInfo::new(M::description().unwrap()).unwrap();
         let text = fmi2::xml::model_description_xml(&info.description).unwrap();
-        assert_eq!(fmi2::xml::parse_model_description(&text).unwrap(), info.description);
+        // FMI 2.0 gives the number of event indicators, not which variables they are
+        let mut expected = info.description.clone();
+        if let Some(me) = expected.model_exchange.as_mut() {
+            me.event_indicator_variables.clear();
+        }
+        assert_eq!(fmi2::xml::parse_model_description(&text).unwrap(), expected);
         assert!(!info.description.flags.provides_step_map_derivative, "the zoo knows no extension");
     }
 

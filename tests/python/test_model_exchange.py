@@ -1,0 +1,98 @@
+"""Model Exchange components in systems: the master integrates them (dopri5, esdirk3), events and
+all, checked against closed forms and against fmpy's Model Exchange simulation with CVode."""
+
+import math
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+
+from conftest import DIST
+from zoo import SCHEMES, ball_exact, pack, run
+
+TIGHT = ("--tol", "1e-13", "--max-iter", "500", "--me-rtol", "1e-10", "--me-atol", "1e-12")
+
+
+def fmi3(names):
+    return {n: DIST / "fmi3" / f"{n}.fmu" for n in names}
+
+
+@pytest.mark.parametrize("version", [2, 3])
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_dahlquist_as_model_exchange_meets_its_exact_solution_in_every_scheme(tmp_path, scheme, version):
+    """chain with d1 integrated by the master: x1 = 1 - exp(-t) to 1e-8 at rtol 1e-10; d2 (CS)
+    gets what it gets from the Co-Simulation d1 (the same held inputs)."""
+    fmus = fmi3(["dahlquist", "feedthrough"]) if version == 3 else None
+    ssp = pack("chain", tmp_path, fmus=fmus)
+    me, j, p = run(ssp, scheme, 0.1, *TIGHT, "--interface", "d1=me", out_dir=tmp_path)
+    cs, _, _ = run(ssp, scheme, 0.1, *TIGHT, out_dir=tmp_path / "..")
+    t = me["time"]
+    assert np.max(np.abs(me["d1.x"] - (1.0 - np.exp(-t)))) < 1e-8
+    assert np.max(np.abs(me["d2.x"] - cs["d2.x"])) < 1e-8
+    stats = j["model_exchange"]
+    assert [s["component"] for s in stats] == ["d1"] and stats[0]["solver"] == "dopri5" and stats[0]["steps"] > 0
+    assert "component `d1` (Model Exchange, dopri5)" not in p.stdout  # --json prints the JSON only
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_the_bouncing_ball_bounces_at_the_closed_form_times_and_heights(tmp_path, version):
+    fmus = fmi3(["bouncing_ball", "feedthrough"]) if version == 3 else None
+    ssp = pack("ball", tmp_path, fmus=fmus)
+    c, j, _ = run(ssp, "jacobi", 0.01, *TIGHT, "--interface", "ball=me", out_dir=tmp_path)
+    h, v, bounces, resting = ball_exact(c["time"])
+    assert np.max(np.abs(c["ball.h"] - h)) < 1e-8
+    assert np.max(np.abs(c["ball.v"] - v)) < 1e-7
+    assert list(c["ball.bounces"]) == list(bounces) and bounces[-1] == 11
+    assert j["model_exchange"][0]["state_events"] == 11
+
+
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_the_stairs_time_events_fall_exactly_on_their_times(tmp_path, scheme):
+    ssp = pack("stair", tmp_path)
+    c, j, _ = run(ssp, scheme, 0.4, "--interface", "stair=me", out_dir=tmp_path)
+    assert j["stopped_early"] and j["stopped_at"] == pytest.approx(8.8) and "terminateSimulation" in j["note"]
+    assert list(c["stair.counter"]) == [1 + math.floor(t + 1e-9) for t in c["time"]]
+    assert j["model_exchange"][0]["time_events"] == 9
+
+
+def van_der_pol_ssp(tmp_path, mu, x0=0.0, x1=2.0):
+    """`oscillators` with the Van der Pol oscillator's mu and start set."""
+    def edit(text):
+        text = text.replace('<ssv:Parameter name="x0_start"><ssv:Real value="0"/></ssv:Parameter>',
+                            f'<ssv:Parameter name="mu"><ssv:Real value="{mu}"/></ssv:Parameter>'
+                            f'<ssv:Parameter name="x0_start"><ssv:Real value="{x0}"/></ssv:Parameter>')
+        return text.replace('<ssv:Parameter name="x1_start"><ssv:Real value="2"/></ssv:Parameter>',
+                            f'<ssv:Parameter name="x1_start"><ssv:Real value="{x1}"/></ssv:Parameter>')
+    return pack("oscillators", tmp_path, edit=edit)
+
+
+# mu = 1000 starts near its slow manifold (x1 = x0 / (mu (1 - x0²))) and runs its slow phase up to
+# the first relaxation jump (near t = 807 s): fmpy's CVode stops at its step limit in the jump, and
+# in the fast start from x1 = 2
+@pytest.mark.parametrize("mu, x0, x1, solver, t_end, dt, rtol, bound", [
+    (1.0, 0.0, 2.0, "dopri5", 10.0, 0.1, "1e-10", 1e-7),
+    (1000.0, 2.0, -2.0 / 3000.0, "esdirk3", 800.0, 1.0, "1e-8", 1e-4),
+])
+def test_van_der_pol_against_fmpys_cvode(tmp_path, mu, x0, x1, solver, t_end, dt, rtol, bound):
+    ssp = van_der_pol_ssp(tmp_path, mu, x0, x1)
+    c, j, _ = run(ssp, "jacobi", dt, "--interface", "vdp=me", "--me-solver", solver, "--me-rtol", rtol,
+                  "--me-atol", "1e-10", t_end=t_end, out_dir=tmp_path)
+    assert j["model_exchange"][0]["solver"] == solver
+    ref = simulate_fmu(str(DIST / "van_der_pol.fmu"), fmi_type="ModelExchange", solver="CVode",
+                       relative_tolerance=1e-11, stop_time=t_end, output_interval=dt / 10,
+                       start_values={"mu": mu, "x0_start": x0, "x1_start": x1}, output=["x0", "x1"])
+    x0 = np.interp(c["time"], ref["time"], ref["x0"])
+    assert np.max(np.abs(c["vdp.x0"] - x0)) < bound
+
+
+def test_a_stiff_model_with_the_explicit_solver_stops_with_a_clear_error(tmp_path):
+    ssp = van_der_pol_ssp(tmp_path, 1e9)
+    _, _, p = run(ssp, "jacobi", 1.0, "--interface", "vdp=me", t_end=1.0, out_dir=tmp_path, expect_ok=False)
+    assert p.returncode != 0
+    assert "vdp" in p.stderr and "esdirk3" in p.stderr and "t = " in p.stderr, p.stderr
+
+
+def test_an_interface_the_fmu_does_not_offer_is_refused(tmp_path):
+    ssp = pack("resource", tmp_path)
+    _, _, p = run(ssp, "jacobi", 0.1, "--interface", "me", out_dir=tmp_path, expect_ok=False)
+    assert p.returncode != 0 and "no Model Exchange" in p.stderr, p.stderr
