@@ -516,10 +516,10 @@ impl Fmu {
                 let path = format!("{}/", resources.display());
                 let location = CString::new(path).map_err(|_| fail("path contains NUL".into()))?;
                 let (env, logger) = sink.fmi3_logger();
+                let instantiate = api.cs.as_ref().expect("loaded as Co-Simulation").instantiate;
                 // SAFETY: a loaded function (`self` keeps the binary); the strings are
                 // NUL-terminated and live for the call; the sink (`env`) is boxed and moved into
                 // the instance, so it stays where it is until the instance is freed.
-                let instantiate = api.cs.as_ref().expect("loaded as Co-Simulation").instantiate;
                 let component = unsafe {
                     instantiate(
                         name.as_ptr(),

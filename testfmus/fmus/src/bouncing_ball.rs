@@ -108,7 +108,7 @@ impl Model for BouncingBallFmu {
         let impact = !b.resting && b.h <= 0.0 && b.v < 0.0;
         if impact {
             b.h = 0.0;
-            b.v = -self.e * b.v;
+            b.v *= -self.e;
             b.bounces += 1;
             if b.v <= self.v_min {
                 (b.v, b.resting) = (0.0, true);
