@@ -421,6 +421,37 @@ const FAR_M: f64 = 1e6;
 /// Sample rates a sensor may have, Hz.
 const SENSOR_RATES_HZ: (f64, f64) = (1e-6, 1e6);
 
+/// The longest step against the shortest sample period of the second level's sensors.
+pub const STEP_PER_PERIOD: f64 = 0.25;
+
+/// The longest step a scene's sensors allow ([`Control::step_bound`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepBound {
+    /// The longest step, s.
+    pub most: f64,
+    /// The shortest sample period, s, and the key of `[control]` that sets it.
+    pub period: f64,
+    pub key: &'static str,
+}
+
+impl StepBound {
+    /// Whether a step of `h` s takes every sample (a relative 1e-9 over the bound is the
+    /// rounding of a step computed from a rate).
+    pub fn admits(&self, h: f64) -> bool {
+        h <= self.most * (1.0 + 1e-9)
+    }
+
+    /// Why a step of `h` is refused: the sensor, its period and the longest step that works.
+    pub fn refusal(&self, h: f64) -> String {
+        format!(
+            "a step of {h} s is longer than a quarter of the sensor's sample period {} s ([control] {}): a \
+             sample is taken at the first step start after its instant; take steps of at most {} s or lower \
+             control.{}",
+            self.period, self.key, self.most, self.key
+        )
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Control {
@@ -677,6 +708,14 @@ impl Control {
     /// The feed's axis as given ([`DEFAULT_FEED_AXIS`] if not), platform frame.
     pub fn feed_axis(&self) -> [f64; 3] {
         self.feed_axis.unwrap_or(DEFAULT_FEED_AXIS)
+    }
+
+    /// The longest step the sampled sensor and its inertial unit allow (None without them): a
+    /// sample or reading is taken at the first step start at or after its instant, so a step of
+    /// at most a quarter of the shortest period keeps that jitter below a quarter period and
+    /// every smooth step complete before the next command.
+    pub fn step_bound(&self) -> Option<StepBound> {
+        self.shortest_period().map(|(period, key)| StepBound { most: STEP_PER_PERIOD * period, period, key })
     }
 
     /// The shortest period a sampled sensor or its inertial unit samples at, s, and its key
@@ -1199,6 +1238,11 @@ impl Scene {
             c.finite_nonneg("disturbance.frequency_hz", d.frequency_hz)?;
         }
         let target = self.control.as_ref().map(|control| control.validate(&c)).transpose()?;
+        if let Some(bound) = self.control.as_ref().and_then(Control::step_bound)
+            && !bound.admits(self.solver.dt_s)
+        {
+            return Err(c.err("solver.dt_s", &show(self.solver.dt_s), &bound.refusal(self.solver.dt_s)));
+        }
         if let Some(w) = &self.wind {
             c.finite_nonneg("wind.mean_speed_m_s", w.mean_speed_m_s)?;
             c.finite("wind.direction_deg", w.direction_deg)?;

@@ -405,3 +405,37 @@ fn every_shipped_scene_file_loads() {
     }
     assert!(count >= 8, "{count} scenes in {dir}");
 }
+
+/// A scene's own step must take every sample of its sensors: a step longer than a quarter of the
+/// shortest period (the sampled sensor's, or its inertial unit's when faster) is refused by the
+/// scene check, naming `solver.dt_s`, the key that sets the period and the longest step that
+/// works; a step exactly at the bound is accepted.
+#[test]
+fn a_step_the_sensors_cannot_take_is_refused_by_the_scene_check() {
+    let sampled = text("lt50m_C_sampled.toml"); // 50 Hz, no inertial unit
+    let fused = text("lt50m_C_compensated.toml"); // 50 Hz fused with a 100 Hz unit
+    let step = "dt_s = 0.0025";
+    assert_eq!(sampled.matches(step).count(), 1);
+    assert_eq!(fused.matches(step).count(), 1);
+    for (text, dt, key, most) in [
+        (&sampled, "0.0051", "sample_rate_hz", "0.005"),
+        (&sampled, "0.01", "sample_rate_hz", "0.005"),
+        (&fused, "0.005", "imu.rate_hz", "0.0025"),
+        (&fused, "0.0026", "imu.rate_hz", "0.0025"),
+    ] {
+        let e = Scene::from_toml(&text.replace(step, &format!("dt_s = {dt}")), "fast.toml").unwrap_err();
+        assert_eq!((e.key.as_str(), e.value.as_str()), ("solver.dt_s", dt), "{e}");
+        assert!(
+            e.reason.contains(&format!("[control] {key}")) && e.reason.contains(&format!("at most {most} s")),
+            "{e}"
+        );
+    }
+    for (text, dt) in [(&sampled, "0.005"), (&fused, "0.0025"), (&fused, "0.001")] {
+        Scene::from_toml(&text.replace(step, &format!("dt_s = {dt}")), "ok.toml").unwrap();
+    }
+    // the uncompensated reference: a sensor switched off bounds no step
+    let sensor = "sensor = \"sampled\"\nsample_rate_hz = 50.0\ndelay_s = 0.02\nnoise_m = 1e-4\nnoise_rad = 2e-5\nseed = 1\nbandwidth_hz = 0.5\n";
+    assert_eq!(sampled.matches(sensor).count(), 1);
+    let off = sampled.replace(step, "dt_s = 0.01").replace(sensor, "sensor = \"off\"\n");
+    Scene::from_toml(&off, "off.toml").unwrap();
+}

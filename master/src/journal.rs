@@ -1,44 +1,68 @@
 //! The finished points of a long command (a sweep, a stability map, a bench, a compensation
 //! study), each written as it finishes, so that an interrupted or killed command loses nothing
-//! done: `<out>/<name>.partial` — an identity line, then one line per point (its index and
-//! cells, CSV). It is removed when the command completes; `--resume` reads it back and skips
-//! what is done, and the result is the uninterrupted one. The `.partial` name says what it is:
-//! never a table that looks complete.
+//! done: `<out>/<name>.partial` — an identity line, then one line per point. It is removed when
+//! the command completes; `--resume` reads it back and skips what is done, and the result is the
+//! uninterrupted one. The `.partial` name says what it is: never a table that looks complete.
+//!
+//! A point's line is CSV: its index, its key (what the point is: its grid values, its case),
+//! its cells, the FNV-1a digest of everything before, and a record separator. On resume a line
+//! is used only if it is whole, its digest verifies, its key is the one the point has in this
+//! run and the command's decoder accepts its cells; two lines that disagree about one point are
+//! both dropped. A dropped line's point is computed again, and the count is said once on
+//! stderr: an edited, truncated or foreign journal costs time, never a wrong table.
 
 use std::collections::BTreeMap;
+use std::collections::btree_map::Entry;
 use std::fs::File;
-use std::io::{BufRead, BufReader, Write};
+use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::sweep::table::{quoted, split};
 
-/// What a journal line begins with.
+/// What a journal's first line begins with.
 const IDENTITY: &str = "# master journal: ";
+
+/// The end of a whole point line (a line cut short by a kill lacks it).
+const END: &str = "\u{1e}";
+
+/// Longest line read back, bytes: a point's line is a few hundred bytes; anything longer is
+/// not ours and is dropped unread.
+const MAX_LINE: u64 = 1 << 20;
 
 /// Why a journal cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum JournalError {
     #[error(
-        "{0}: the points of an interrupted run are here; continue it with --resume, or remove the file to start \
-         afresh"
+        "{0}: the finished points of an earlier run of this command that did not complete (interrupted, killed \
+         or failed) are here; continue it with the same command and --resume, or remove the file to start afresh"
     )]
     Exists(PathBuf),
     #[error(
         "{path}: a journal of other work ({found}); this run is {expected}: remove it, or give the run it belongs to"
     )]
     Foreign { path: PathBuf, found: String, expected: String },
-    #[error("{path}, line {line}: {message}")]
-    Malformed { path: PathBuf, line: usize, message: String },
+    #[error("{path}: not a journal of `master` ({reason}); remove it, or point --out elsewhere")]
+    NotAJournal { path: PathBuf, reason: String },
     #[error("{path}: {source}")]
     Io { path: PathBuf, source: std::io::Error },
+}
+
+/// A point an earlier run finished, as its line gives it.
+#[derive(Clone, Debug, PartialEq)]
+struct Point {
+    key: String,
+    cells: Vec<String>,
 }
 
 /// The journal of one command's points.
 pub struct Journal {
     path: PathBuf,
     file: Mutex<File>,
-    done: BTreeMap<usize, Vec<String>>,
+    done: BTreeMap<usize, Point>,
+    /// Lines not used: cut short, not verifying, disagreeing, not of this run's points.
+    dropped: AtomicUsize,
 }
 
 impl Journal {
@@ -49,72 +73,70 @@ impl Journal {
     pub fn open(path: &Path, identity: &str, resume: bool) -> Result<Journal, JournalError> {
         let io = |source| JournalError::Io { path: path.to_owned(), source };
         let identity = identity.replace('\n', " ");
-        let mut done = BTreeMap::new();
-        if path.exists() {
-            if !resume {
-                return Err(JournalError::Exists(path.to_owned()));
+        let (done, dropped) = match path.symlink_metadata() {
+            Err(_) => (BTreeMap::new(), 0),
+            Ok(meta) if !meta.is_file() => {
+                return Err(JournalError::NotAJournal { path: path.to_owned(), reason: "not a regular file".into() });
             }
-            let reader = BufReader::new(File::open(path).map_err(io)?);
-            for (k, line) in reader.lines().enumerate() {
-                let line = line.map_err(io)?;
-                let malformed =
-                    |message: String| JournalError::Malformed { path: path.to_owned(), line: k + 1, message };
-                if k == 0 {
-                    let found = line.strip_prefix(IDENTITY).ok_or_else(|| malformed("not a journal".into()))?;
-                    if found != identity {
-                        return Err(JournalError::Foreign {
-                            path: path.to_owned(),
-                            found: found.to_owned(),
-                            expected: identity.clone(),
-                        });
-                    }
-                    continue;
-                }
-                // a line cut short by a kill is the point in hand: done again
-                let Ok(mut cells) = split(&line) else { continue };
-                if cells.len() < 2 || !line.ends_with('\u{1e}') {
-                    continue;
-                }
-                cells.pop();
-                let index = cells.remove(0).parse().map_err(|_| malformed("a point without its index".into()))?;
-                done.insert(index, cells);
-            }
+            Ok(_) if !resume => return Err(JournalError::Exists(path.to_owned())),
+            Ok(_) => read_back(path, &identity)?,
+        };
+        // what was read is written back whole, replacing the file at once: the lines dropped
+        // go, and the next point starts a line of its own
+        let mut text = format!("{IDENTITY}{identity}\n");
+        for (index, point) in &done {
+            text.push_str(&line(*index, &point.key, &point.cells));
         }
-        let mut file = std::fs::OpenOptions::new().create(true).append(true).open(path).map_err(io)?;
-        if done.is_empty() {
-            file.set_len(0).map_err(io)?;
-            writeln!(file, "{IDENTITY}{identity}").map_err(io)?;
-        } else {
-            // a line cut short goes, so that the next point starts a line of its own
-            let bytes = std::fs::read(path).map_err(io)?;
-            let whole = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-            file.set_len(whole as u64).map_err(io)?;
-        }
-        Ok(Journal { path: path.to_owned(), file: Mutex::new(file), done })
+        let mut fresh = path.as_os_str().to_owned();
+        fresh.push(format!(".{}.tmp", std::process::id()));
+        std::fs::write(&fresh, text).map_err(io)?;
+        std::fs::rename(&fresh, path).map_err(io)?;
+        let file = std::fs::OpenOptions::new().append(true).open(path).map_err(io)?;
+        Ok(Journal { path: path.to_owned(), file: Mutex::new(file), done, dropped: AtomicUsize::new(dropped) })
     }
 
-    /// The cells of point `index` if an earlier run finished it.
-    pub fn done(&self, index: usize) -> Option<&[String]> {
-        self.done.get(&index).map(Vec::as_slice)
-    }
-
-    /// How many points an earlier run finished.
+    /// How many points an earlier run finished (before any is checked against its key).
     pub fn resumed(&self) -> usize {
         self.done.len()
     }
 
-    /// Writes point `index` (a line that ends with a record separator, so that a line cut short
-    /// by a kill is recognised, and dropped on resume).
-    pub fn record(&self, index: usize, cells: &[String]) -> Result<(), JournalError> {
-        let mut line = index.to_string();
-        for c in cells {
-            line.push(',');
-            line.push_str(&quoted(c));
+    /// Point `index` as an earlier run finished it, if its line names `key` and `decode`
+    /// accepts its cells; otherwise the line is dropped (counted for [`Journal::say_dropped`])
+    /// and the point is to be computed again.
+    pub fn take<R>(&self, index: usize, key: &str, decode: impl Fn(&[String]) -> anyhow::Result<R>) -> Option<R> {
+        let point = self.done.get(&index)?;
+        let decoded = (point.key == key).then(|| decode(&point.cells).ok()).flatten();
+        if decoded.is_none() {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
         }
-        line.push_str(",\u{1e}\n");
+        decoded
+    }
+
+    /// Says on stderr, once, how many lines of the journal were not used, if any.
+    pub fn say_dropped(&self) {
+        let n = self.dropped.swap(0, Ordering::Relaxed);
+        if n > 0 {
+            eprintln!(
+                "note: {}: {n} line{} dropped (cut short, edited, repeated with other values or not of this run's \
+                 points); {} computed again",
+                self.path.display(),
+                if n == 1 { "" } else { "s" },
+                if n == 1 { "its point is" } else { "their points are" },
+            );
+        }
+    }
+
+    /// Writes point `index`, which `key` names, with its cells.
+    pub fn record(&self, index: usize, key: &str, cells: &[String]) -> Result<(), JournalError> {
+        let text = line(index, key, cells);
         let mut file = self.file.lock().unwrap_or_else(|p| p.into_inner());
         // unbuffered: the line is the kernel's once written, so a killed process keeps it
-        file.write_all(line.as_bytes()).map_err(|source| JournalError::Io { path: self.path.clone(), source })
+        file.write_all(text.as_bytes()).map_err(|source| JournalError::Io { path: self.path.clone(), source })
+    }
+
+    /// The journal's path.
+    pub fn path(&self) -> &Path {
+        &self.path
     }
 
     /// The work is complete: the journal goes.
@@ -123,46 +145,159 @@ impl Journal {
     }
 }
 
+/// The points of an earlier run of the work `identity` in the journal at `path`, and how many
+/// of its lines were dropped.
+fn read_back(path: &Path, identity: &str) -> Result<(BTreeMap<usize, Point>, usize), JournalError> {
+    let io = |source| JournalError::Io { path: path.to_owned(), source };
+    let mut reader = BufReader::new(File::open(path).map_err(io)?);
+    let mut bytes = Vec::new();
+    read_line(&mut reader, &mut bytes).map_err(io)?;
+    let found = std::str::from_utf8(&bytes)
+        .ok()
+        .and_then(|l| l.strip_suffix('\n'))
+        .and_then(|l| l.strip_prefix(IDENTITY))
+        .ok_or_else(|| JournalError::NotAJournal { path: path.to_owned(), reason: "no identity line".into() })?;
+    if found != identity {
+        return Err(JournalError::Foreign {
+            path: path.to_owned(),
+            found: found.to_owned(),
+            expected: identity.to_owned(),
+        });
+    }
+    let (mut done, mut dropped, mut conflicting) = (BTreeMap::new(), 0, Vec::new());
+    while read_line(&mut reader, &mut bytes).map_err(io)? {
+        let Some((index, point)) = parse(&bytes) else {
+            dropped += 1;
+            continue;
+        };
+        match done.entry(index) {
+            Entry::Vacant(e) => {
+                e.insert(point);
+            }
+            // the same point written twice (a resumed run that repeated it): one is enough
+            Entry::Occupied(e) if *e.get() == point => {}
+            Entry::Occupied(_) => {
+                conflicting.push(index);
+                dropped += 1;
+            }
+        }
+    }
+    for index in conflicting {
+        if done.remove(&index).is_some() {
+            dropped += 1;
+        }
+    }
+    Ok((done, dropped))
+}
+
+/// The next line into `bytes` (its newline kept), at most [`MAX_LINE`] bytes of it: the rest of
+/// a longer line is skipped unread into memory. False at the end of the file.
+fn read_line(reader: &mut impl BufRead, bytes: &mut Vec<u8>) -> std::io::Result<bool> {
+    bytes.clear();
+    let n = reader.by_ref().take(MAX_LINE).read_until(b'\n', bytes)?;
+    if n as u64 == MAX_LINE && bytes.last() != Some(&b'\n') {
+        loop {
+            let buf = reader.fill_buf()?;
+            if buf.is_empty() {
+                break;
+            }
+            match buf.iter().position(|&b| b == b'\n') {
+                Some(at) => {
+                    reader.consume(at + 1);
+                    break;
+                }
+                None => {
+                    let len = buf.len();
+                    reader.consume(len);
+                }
+            }
+        }
+    }
+    Ok(n > 0)
+}
+
+/// The line of one point: index, key, cells, the digest of all that, the end mark.
+fn line(index: usize, key: &str, cells: &[String]) -> String {
+    let mut text = format!("{index},{}", quoted(key));
+    for c in cells {
+        text.push(',');
+        text.push_str(&quoted(c));
+    }
+    text.push(',');
+    let digest = fmi2::digest::digest(text.as_bytes());
+    text.push_str(&format!("{digest:016x},{END}\n"));
+    text
+}
+
+/// The point a line holds, if it is whole and verifies.
+fn parse(bytes: &[u8]) -> Option<(usize, Point)> {
+    let text = std::str::from_utf8(bytes).ok()?.strip_suffix('\n')?.strip_suffix(END)?.strip_suffix(',')?;
+    let (body, digest) = text.rsplit_once(',')?;
+    let body_with_comma = &text[..body.len() + 1];
+    if u64::from_str_radix(digest, 16).ok()? != fmi2::digest::digest(body_with_comma.as_bytes()) || digest.len() != 16 {
+        return None;
+    }
+    let mut cells = split(body).ok()?;
+    if cells.len() < 2 {
+        return None;
+    }
+    let index = cells[0].parse().ok()?;
+    let key = cells.remove(1);
+    cells.remove(0);
+    Some((index, Point { key, cells }))
+}
+
 /// `<dir>/<name>.partial`.
 pub fn path(dir: &Path, name: &str) -> PathBuf {
     dir.join(format!("{name}.partial"))
 }
 
 /// `compute(i, &items[i])` for every item on `jobs` threads, the costliest first (`cost`: an
-/// estimate of the run time), results in order: each written to
-/// `journal` as it finishes (as `encode` gives its cells) and taken from it (`decode`) where an
-/// earlier run finished it. After Ctrl-C no item starts, a result finished meanwhile is not
+/// estimate of the run time), results in order: each written to `journal` as it finishes
+/// (under the key `key` gives, as `encode` gives its cells) and taken from it where an earlier
+/// run finished it and `decode` accepts the item's cells. After Ctrl-C no item starts, a result finished meanwhile is not
 /// kept (it may have been cut short), and the whole is [`Interrupted`](crate::interrupt::Interrupted),
 /// naming the journal that keeps the rest for `--resume`.
+#[allow(clippy::too_many_arguments)]
 pub fn map_journaled<T, R>(
     items: &[T],
     jobs: Option<usize>,
     cost: impl Fn(&T) -> f64,
     journal: &Journal,
+    key: impl Fn(&T) -> String + Sync,
     encode: impl Fn(&R) -> Vec<String> + Sync,
-    decode: impl Fn(&[String]) -> anyhow::Result<R> + Sync,
+    decode: impl Fn(&T, &[String]) -> anyhow::Result<R> + Sync,
     compute: impl Fn(usize, &T) -> anyhow::Result<R> + Sync + Send,
 ) -> anyhow::Result<Vec<R>>
 where
     T: Sync,
     R: Send,
 {
-    let results = crate::parallel::map_longest_first(items, jobs, cost, |i, item| -> anyhow::Result<Option<R>> {
-        if let Some(cells) = journal.done(i) {
-            return decode(cells).map(Some);
-        }
-        if crate::interrupt::interrupted() {
-            return Ok(None);
-        }
-        let result = compute(i, item);
-        if crate::interrupt::interrupted() {
-            return Ok(None);
-        }
-        let result = result?;
-        journal.record(i, &encode(&result))?;
-        Ok(Some(result))
-    })?;
-    match results.into_iter().collect::<anyhow::Result<Option<Vec<R>>>>()? {
+    let mut earlier: Vec<Option<R>> =
+        items.iter().enumerate().map(|(i, t)| journal.take(i, &key(t), |cells| decode(t, cells))).collect();
+    journal.say_dropped();
+    let todo: Vec<usize> = (0..items.len()).filter(|&i| earlier[i].is_none()).collect();
+    let computed = crate::parallel::map_longest_first(
+        &todo,
+        jobs,
+        |&i| cost(&items[i]),
+        |_, &i| -> anyhow::Result<Option<R>> {
+            if crate::interrupt::interrupted() {
+                return Ok(None);
+            }
+            let result = compute(i, &items[i]);
+            if crate::interrupt::interrupted() {
+                return Ok(None);
+            }
+            let result = result?;
+            journal.record(i, &key(&items[i]), &encode(&result))?;
+            Ok(Some(result))
+        },
+    )?;
+    for (&i, result) in todo.iter().zip(computed) {
+        earlier[i] = result?;
+    }
+    match earlier.into_iter().collect::<Option<Vec<R>>>() {
         Some(all) => Ok(all),
         None => Err(anyhow::Error::new(crate::interrupt::Interrupted).context(format!(
             "the finished points are kept in {}; continue with the same command and --resume",
@@ -175,36 +310,91 @@ where
 mod tests {
     use super::*;
 
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("master-journal-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = path(&dir, "t.csv");
+        let _ = std::fs::remove_file(&path);
+        path
+    }
+
+    fn cells(x: &str) -> Vec<String> {
+        vec![x.to_owned(), "with, comma".to_owned(), "NaN".to_owned()]
+    }
+
+    fn decode(c: &[String]) -> anyhow::Result<Vec<String>> {
+        anyhow::ensure!(c.len() == 3, "{} cells", c.len());
+        Ok(c.to_vec())
+    }
+
     /// Points come back as written; a line cut short by a kill is dropped (and does not swallow
     /// the next point's line); another identity is refused; without resume an existing journal
     /// is kept, not overwritten.
     #[test]
     fn points_survive_a_cut_line_and_other_work_is_refused() {
-        let dir = std::env::temp_dir().join(format!("master-journal-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = path(&dir, "t.csv");
-        let _ = std::fs::remove_file(&path);
-        let cells = |x: &str| vec![x.to_owned(), "with, comma".to_owned(), "NaN".to_owned()];
+        let path = scratch("cut");
         let j = Journal::open(&path, "work A", false).unwrap();
-        j.record(0, &cells("a")).unwrap();
-        j.record(2, &cells("c")).unwrap();
+        j.record(0, "x=1", &cells("a")).unwrap();
+        j.record(2, "x=3", &cells("c")).unwrap();
         drop(j);
         // a kill in the middle of point 1's line
         let mut f = std::fs::OpenOptions::new().append(true).open(&path).unwrap();
-        f.write_all(b"1,b,\"with").unwrap();
+        f.write_all(b"1,x=2,b,\"with").unwrap();
         drop(f);
         assert!(matches!(Journal::open(&path, "work A", false), Err(JournalError::Exists(_))));
         assert!(matches!(Journal::open(&path, "work B", true), Err(JournalError::Foreign { .. })));
         let j = Journal::open(&path, "work A", true).unwrap();
-        assert_eq!((j.resumed(), j.done(0), j.done(1)), (2, Some(cells("a").as_slice()), None));
-        assert_eq!(j.done(2), Some(cells("c").as_slice()));
-        j.record(1, &cells("b")).unwrap();
+        assert_eq!(j.dropped.load(Ordering::Relaxed), 1);
+        assert_eq!(j.resumed(), 2);
+        assert_eq!(j.take(0, "x=1", decode), Some(cells("a")));
+        assert_eq!(j.take(1, "x=2", decode), None);
+        assert_eq!(j.take(2, "x=3", decode), Some(cells("c")));
+        j.record(1, "x=2", &cells("b")).unwrap();
         drop(j);
         let j = Journal::open(&path, "work A", true).unwrap();
-        assert_eq!(j.resumed(), 3);
-        assert_eq!(j.done(1), Some(cells("b").as_slice()));
+        assert_eq!((j.resumed(), j.dropped.load(Ordering::Relaxed)), (3, 0));
+        assert_eq!(j.take(1, "x=2", decode), Some(cells("b")));
         j.finish().unwrap();
         assert!(!path.exists());
-        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Every way a line can be wrong drops that line only: an edited cell (the digest fails), a
+    /// key of another grid, cells the decoder refuses, two lines that disagree about one point
+    /// (both go), binary bytes, an overlong line; a repeated identical line is kept once.
+    #[test]
+    fn a_line_that_does_not_verify_is_dropped_and_the_rest_kept() {
+        let path = scratch("edited");
+        let j = Journal::open(&path, "work", false).unwrap();
+        for (i, x) in ["a", "b", "c", "d", "e", "f"].iter().enumerate() {
+            j.record(i, &format!("x={i}"), &cells(x)).unwrap();
+        }
+        j.record(5, "x=5", &cells("f")).unwrap(); // the same point again, the same values
+        j.record(3, "x=3", &cells("other")).unwrap(); // the same point, other values
+        drop(j);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let text = text.replacen("1,x=1,b,", "1,x=1,inf,", 1);
+        let mut bytes = text.into_bytes();
+        bytes.extend_from_slice(b"\xff\xfe\x00binary\n");
+        bytes.extend(std::iter::repeat_n(b'7', 3 << 20));
+        bytes.extend_from_slice(b"\n");
+        std::fs::write(&path, &bytes).unwrap();
+        let j = Journal::open(&path, "work", true).unwrap();
+        // point 1 edited, point 3 twice with other values, the binary and the overlong lines
+        assert_eq!(j.dropped.load(Ordering::Relaxed), 1 + 2 + 2, "{:?}", j.done.keys());
+        assert_eq!(j.take(0, "x=0", decode), Some(cells("a")));
+        assert_eq!(j.take(1, "x=1", decode), None);
+        assert_eq!(j.take(2, "x=9", decode), None, "a key of another grid");
+        assert_eq!(j.take(3, "x=3", decode), None);
+        assert_eq!(j.take(4, "x=4", |_| anyhow::bail!("refused")), None::<()>);
+        assert_eq!(j.take(5, "x=5", decode), Some(cells("f")));
+        drop(j);
+        // what the resumed run kept is written back alone
+        let j = Journal::open(&path, "work", true).unwrap();
+        assert_eq!((j.resumed(), j.dropped.load(Ordering::Relaxed)), (4, 0));
+        drop(j);
+        // a file that is no journal at all
+        std::fs::write(&path, b"\x00\x01\x02").unwrap();
+        assert!(matches!(Journal::open(&path, "work", true), Err(JournalError::NotAJournal { .. })));
+        std::fs::remove_file(&path).unwrap();
     }
 }

@@ -14,10 +14,11 @@ mod commands;
 #[command(
     name = "master",
     version,
-    about = "Co-simulation of a cable-suspended feed cabin with a Stewart platform (LT50m scenes)",
+    about = "Co-simulation of a cable-suspended feed cabin with a Stewart platform (LT50m and FAST scenes)",
     long_about = "Co-simulation of a cable-suspended feed cabin with a Stewart platform.\n\n\
-                  Each command reads a scene file (see scenes/*.toml) and prints readable tables, \
-                  or JSON with --json."
+                  The commands read a scene file (see scenes/*.toml), `run --system` any SSP system \
+                  of FMUs; they print readable tables (JSON with --json where offered) and write \
+                  tables and figures to --out."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -52,7 +53,8 @@ enum Command {
     Calibrate(commands::calibrate::Args),
     /// Stewart platform on a fixed cabin: added mass, static wrench, wrench range over one circle.
     Stewart(commands::stewart::Args),
-    /// Simulate the scene with a coupling scheme, the monolithic model or the decoupled model.
+    /// Simulate a scene with a coupling scheme of its FMUs, the monolithic, decoupled or cable-only
+    /// model, or any SSP system of FMUs (--system).
     Run(commands::run::Args),
     /// Compare coupling schemes against the monolithic model at the same step.
     Compare(commands::compare::Args),
@@ -60,13 +62,15 @@ enum Command {
     Bench(commands::bench::Args),
     /// Stability map of the coupling schemes over the platform's mass and the macro step.
     Stability(commands::stability::Args),
-    /// The second level: cabin motion against feed error (uncompensated, coupled, decoupled) and
-    /// the feed error against sensor delay and rate.
+    /// The second level: cabin motion against feed error (uncompensated, coupled, decoupled), the
+    /// feed error against sensor delay and rate, and the error budget.
     Compensation(commands::compensation::Args),
-    /// The second level's command filter chosen on coupled (or decoupled) runs in
-    /// parallel, robust to the sensor's delay ±50 % and the platform's mass ±20 %.
+    /// The second level's command filter (stages, bandwidth, prediction, notch, the fusion's
+    /// noise model) chosen on coupled (or decoupled) runs in parallel, robust to the sensor's
+    /// delay ±50 % and the platform's mass ±20 %; writes the tuned scene.
     Tune(commands::tune::Args),
-    /// Statics, first frequencies and short coupled runs over a grid of poses and parameters, on every core.
+    /// Statics, first frequencies and short coupled runs over a grid of poses and parameters, on
+    /// every core or in shards (--shard, joined by --merge).
     Sweep(commands::sweep::Args),
     /// Run time and peak memory against elements per cable, set-up and stepping apart.
     Scaling(commands::scaling::Args),
@@ -74,9 +78,11 @@ enum Command {
     Stress(commands::stress::Args),
     /// The paper side by side: Table 2 and Figs. 4–6 against ours and every hypothesis (docs/reproduction.md).
     Reproduce(commands::reproduce::Args),
-    /// Write the scene's co-simulated system (FMUs, connections, parameters) as an SSP 1.0 archive.
+    /// Write the scene's co-simulated system (FMUs, connections, parameters) as an SSP 1.0 archive
+    /// (with the FMUs' FMI 3.0 twins: --fmi 3).
     ExportSsp(commands::export_ssp::Args),
-    /// Build the FMI 2.0 Co-Simulation archives cable_fmu.fmu and stewart_fmu.fmu.
+    /// Build every FMU of the workspace from the built libraries: cable_fmu, stewart_fmu, the test
+    /// oscillator and the zoo (testfmus/), FMI 2.0 in --out and their FMI 3.0 twins in --out/fmi3.
     Package(commands::package::Args),
     /// Run a model's library in-process on an input table (the reference of the fmpy cross-checks).
     #[command(hide = true)]

@@ -35,7 +35,7 @@
 use std::collections::VecDeque;
 
 use feedcore::random::SplitMix64;
-use feedcore::scene::{Compensate, Control, ControlTarget, LEGS, SensorKind, TargetKind, ValidScene};
+use feedcore::scene::{Compensate, Control, ControlTarget, LEGS, STEP_PER_PERIOD, SensorKind, TargetKind, ValidScene};
 use feedcore::{Mat3, Quat, Vec3};
 use nalgebra::{Rotation3, Vector6};
 use serde::{Deserialize, Serialize};
@@ -225,11 +225,9 @@ impl Compensation {
         }
     }
 
-    /// Largest macro step a sampled sensor allows: a sample (or reading) is taken at the first
-    /// communication point at or after its instant, so a step of at most a quarter period keeps
-    /// that jitter below a quarter period and every smooth step complete before the next command.
+    /// Largest macro step a sampled sensor allows (the scene's rule, [`Control::step_bound`]).
     pub fn max_step(&self) -> f64 {
-        0.25 * self.step_period().0
+        STEP_PER_PERIOD * self.step_period().0
     }
 
     /// The inertial unit and its filter, with `[control.imu]`.

@@ -8,6 +8,7 @@ simulate test, and the String parameter that names its resource file.
 from dataclasses import dataclass, field
 from typing import Callable, Dict, List, Optional
 
+import os
 import pathlib
 import subprocess
 import tempfile
@@ -17,7 +18,10 @@ import numpy as np
 import oscillator_reference as osc
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
-MASTER = REPO / "target" / "release" / "master"
+# cargo's build directory: CARGO_TARGET_DIR where it is set (relative to the repository, where
+# the test command runs cargo), else target/
+TARGET = REPO / os.environ.get("CARGO_TARGET_DIR", "target")
+MASTER = TARGET / "release" / "master"
 
 
 @dataclass

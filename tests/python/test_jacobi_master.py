@@ -11,10 +11,10 @@ import numpy as np
 import tomllib
 
 from conftest import DIST, REPO, Slave
+from fmus import MASTER
 import fmpy
 from fmpy import read_model_description
 
-MASTER = REPO / "target" / "release" / "master"
 SCENE = REPO / "scenes" / "lt50m_C.toml"
 H, STEPS = 0.01, 30
 

@@ -15,9 +15,9 @@ import pandas as pd
 import pytest
 
 import feedsim
+from fmus import MASTER
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
-MASTER = REPO / os.environ.get("CARGO_TARGET_DIR", "target") / "release" / "master"
 C = REPO / "scenes" / "lt50m_C.toml"
 B = REPO / "scenes" / "lt50m_B.toml"
 

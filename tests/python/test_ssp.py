@@ -26,8 +26,8 @@ from fmpy.ssp.ssd import read_ssd
 from fmpy.ssp.simulation import simulate_ssp
 
 from conftest import DIST, REPO
+from fmus import MASTER
 
-MASTER = REPO / "target" / "release" / "master"
 
 
 def master(*args):

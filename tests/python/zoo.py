@@ -14,9 +14,9 @@ import zipfile
 import numpy as np
 
 from conftest import DIST, REPO
+from fmus import MASTER
 
 SYSTEMS = REPO / "tests" / "systems"
-MASTER = REPO / "target" / "release" / "master"
 
 # Every coupling scheme of `master run --system`.
 SCHEMES = ["jacobi", "gauss-seidel", "gauss-seidel-reversed", "iterative", "ijcsa", "iqn-ils"]

@@ -98,12 +98,18 @@ fn to_cells(result: &Result<Vec<f64>, String>) -> Vec<String> {
     }
 }
 
+/// The measurement a journal line gives, if a run can give it: `count` numbers, each finite
+/// and not negative (times, errors, counts, steps), or why the run failed.
 fn from_cells(cells: &[String], count: usize) -> anyhow::Result<Result<Vec<f64>, String>> {
+    let number = |x: &String| -> anyhow::Result<f64> {
+        let v: f64 = x.parse().with_context(|| format!("a journal number `{x}`"))?;
+        anyhow::ensure!(v.is_finite() && v >= 0.0, "a journal number `{x}`");
+        Ok(v)
+    };
     match cells {
-        [ok, numbers @ ..] if ok == "ok" && numbers.len() == count => Ok(Ok(numbers
-            .iter()
-            .map(|x| x.parse::<f64>().with_context(|| format!("a journal number `{x}`")))
-            .collect::<anyhow::Result<_>>()?)),
+        [ok, numbers @ ..] if ok == "ok" && numbers.len() == count => {
+            Ok(Ok(numbers.iter().map(number).collect::<anyhow::Result<_>>()?))
+        }
         [failed, why] if failed == "failed" => Ok(Err(why.clone())),
         _ => anyhow::bail!("a journal measurement of {} fields", cells.len()),
     }
@@ -221,20 +227,33 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let reference = reference.execute(quiet)?;
     let peak = reference.peak_mm();
     let percent = |m: f64| if peak > 0.0 { 100.0 * m / peak } else { f64::NAN };
+    // the measurements an earlier run took: a run's label is its key in the journal
+    let labels: Vec<(String, usize)> = runs
+        .iter()
+        .map(|(name, dt, _)| (format!("{} at h = {dt} s", name.as_str()), 4))
+        .chain(adaptive_runs.iter().map(|(name, rtol, _)| (format!("{} adaptive at rtol {rtol:e}", name.as_str()), 6)))
+        .collect();
+    let mut earlier: Vec<_> = labels
+        .iter()
+        .enumerate()
+        .map(|(i, (label, count))| journal.take(i, label, |cells| from_cells(cells, *count)))
+        .collect();
+    journal.say_dropped();
     // a measurement: from the journal where an earlier run took it, else taken and journaled
-    let measure = |i: usize, label: String, count: usize, run: &Run, numbers: &dyn Fn(f64, &Trace) -> Vec<f64>| {
-        if let Some(done) = journal.done(i) {
-            return from_cells(done, count);
+    let mut measure = |i: usize, run: &Run, numbers: &dyn Fn(f64, &Trace) -> Vec<f64>| {
+        if let Some(done) = earlier[i].take() {
+            return anyhow::Ok(done);
         }
+        let label = &labels[i].0;
         eprintln!("{label} …");
         let taken =
             repeated(run, args.repeats, quiet).with_context(|| label.clone())?.map(|(wall, t)| numbers(wall, &t));
-        journal.record(i, &to_cells(&taken))?;
+        journal.record(i, label, &to_cells(&taken))?;
         Ok(taken)
     };
     let mut cells = Vec::new();
     for (i, (name, dt, run)) in runs.iter().enumerate() {
-        let numbers = measure(i, format!("{} at h = {dt} s", name.as_str()), 4, run, &|wall, t| {
+        let numbers = measure(i, run, &|wall, t| {
             let (max, rms) = t.error_against(&reference);
             vec![wall, max, rms, t.mean_iterations()]
         })?;
@@ -243,8 +262,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let mut adaptive_cells = Vec::new();
     for (k, (name, rtol, run)) in adaptive_runs.iter().enumerate() {
-        let label = format!("{} adaptive at rtol {rtol:e}", name.as_str());
-        let numbers = measure(runs.len() + k, label, 6, run, &|wall, t| {
+        let numbers = measure(runs.len() + k, run, &|wall, t| {
             let s = &t.summary;
             let max = t.error_against(&reference).0;
             vec![wall, max, s.steps as f64, s.rejected_steps as f64, s.h_min_used, s.h_max_used]
@@ -479,4 +497,32 @@ fn adaptive_results(
         }
     }
     (table, csv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A measurement reads back as written; one with a number that is not finite or negative,
+    /// too few or too many numbers, or of another shape does not.
+    #[test]
+    fn only_a_measurement_a_run_can_give_reads_back_from_the_journal() {
+        let taken: Result<Vec<f64>, String> = Ok(vec![0.236, 1.1e-4, 3e-5, 2.02]);
+        let failed: Result<Vec<f64>, String> = Err("unstable at t = 0.3 s".into());
+        for m in [&taken, &failed] {
+            assert_eq!(&from_cells(&to_cells(m), 4).unwrap(), m);
+        }
+        let cells = |x: &[&str]| x.iter().map(|c| c.to_string()).collect::<Vec<_>>();
+        for bad in [
+            cells(&["ok", "0.2", "NaN", "3e-5", "2"]),
+            cells(&["ok", "0.2", "inf", "3e-5", "2"]),
+            cells(&["ok", "-0.2", "1e-4", "3e-5", "2"]),
+            cells(&["ok", "0.2", "1e-4", "3e-5"]),
+            cells(&["ok", "0.2", "1e-4", "3e-5", "2", "2"]),
+            cells(&["failed"]),
+            cells(&["maybe", "0.2"]),
+        ] {
+            assert!(from_cells(&bad, 4).is_err(), "{bad:?}");
+        }
+    }
 }

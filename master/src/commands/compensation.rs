@@ -226,15 +226,23 @@ impl Verdict {
         vec![self.stable.to_string(), format!("{:?}", self.rms), format!("{:?}", self.peak), self.note.clone()]
     }
 
+    /// The verdict a journal case gives, if it is one a run can give: a stable run's RMS and
+    /// peak are finite, an unstable one's finite or (stopped) none.
     fn from_cells(cells: &[String]) -> anyhow::Result<Verdict> {
         let [stable, rms, peak, note] = cells else { bail!("a journal case of {} fields, not 4", cells.len()) };
-        let number = |x: &String| x.parse::<f64>().with_context(|| format!("a journal number `{x}`"));
-        Ok(Verdict {
+        let number = |x: &String| -> anyhow::Result<f64> {
+            let v: f64 = x.parse().with_context(|| format!("a journal number `{x}`"))?;
+            anyhow::ensure!(v.is_nan() || (v.is_finite() && v >= 0.0), "a journal number `{x}`");
+            Ok(v)
+        };
+        let v = Verdict {
             stable: stable.parse().with_context(|| format!("a journal verdict `{stable}`"))?,
             rms: number(rms)?,
             peak: number(peak)?,
             note: note.clone(),
-        })
+        };
+        anyhow::ensure!(!v.stable || (v.rms.is_finite() && v.peak.is_finite()), "a stable case without its error");
+        Ok(v)
     }
 }
 
@@ -306,9 +314,13 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     for &rate in &args.rates {
         for &delay in &args.delays {
             let case = format!("sweep case {rate} Hz, delay {delay} s");
+            // the case's own step (the scene's may not take the samples of a faster sensor)
             let at_case = |s: &mut Scene| {
                 if let Some(c) = s.control.as_mut() {
                     (c.sample_rate_hz, c.delay_s) = (Some(rate), delay);
+                    if let Some((period, _)) = c.shortest_period() {
+                        s.solver.dt_s = step_for(period);
+                    }
                 }
             };
             let s = scene.edited(at_case).with_context(|| case.clone())?;
@@ -349,8 +361,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         jobs,
         |c| c.3 as f64,
         &journal,
+        |(rate, delay, ..)| format!("{rate:?} Hz, delay {delay:?} s"),
         Verdict::to_cells,
-        Verdict::from_cells,
+        |_, cells| Verdict::from_cells(cells),
         |_, c| Ok(case(c)),
     )?;
 
@@ -589,5 +602,27 @@ mod tests {
             assert_eq!((c.noise_m, c.noise_rad, imu.accel_noise_density, imu.gyro_noise_density), (0.0, 0.0, 0.0, 0.0));
             assert_eq!(c.fusion_model(), Some(before), "{}", budget.label());
         }
+    }
+
+    /// A journal case reads back as written, NaN for a stopped run included; an error that is
+    /// not finite, negative, missing from a stable case, or a case of another shape does not.
+    #[test]
+    fn only_a_case_a_run_can_give_reads_back_from_the_journal() {
+        let stable = Verdict { stable: true, rms: 3.45, peak: 9.1, note: String::new() };
+        let stopped = Verdict::stopped("a leg left its range".into());
+        for v in [&stable, &stopped] {
+            let back = Verdict::from_cells(&v.to_cells()).unwrap();
+            assert_eq!(back.to_cells(), v.to_cells());
+        }
+        let cells = |x: [&str; 4]| x.map(String::from);
+        for bad in [
+            cells(["true", "NaN", "NaN", ""]),
+            cells(["true", "inf", "9.1", ""]),
+            cells(["false", "-1", "9.1", ""]),
+            cells(["yes", "3.45", "9.1", ""]),
+        ] {
+            assert!(Verdict::from_cells(&bad).is_err(), "{bad:?}");
+        }
+        assert!(Verdict::from_cells(&stable.to_cells()[..3]).is_err());
     }
 }

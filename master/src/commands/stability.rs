@@ -88,13 +88,23 @@ fn to_cells((verdict, iterations, note): &(Verdict, f64, String)) -> Vec<String>
     vec![verdict.label().to_owned(), format!("{iterations:?}"), note.clone()]
 }
 
+/// The outcome a journal cell gives, if it is one a run can give: iterations per step (at least
+/// one) for a run that ended, none (NaN) for one that stopped or could not start.
 fn from_cells(cells: &[String]) -> anyhow::Result<(Verdict, f64, String)> {
     let [verdict, iterations, note] = cells else { anyhow::bail!("a journal cell of {} fields, not 3", cells.len()) };
     let verdict = Verdict::ALL
         .into_iter()
         .find(|v| v.label() == verdict)
         .with_context(|| format!("a journal verdict `{verdict}`"))?;
-    Ok((verdict, iterations.parse().with_context(|| format!("a journal number `{iterations}`"))?, note.clone()))
+    let it: f64 = iterations.parse().with_context(|| format!("a journal number `{iterations}`"))?;
+    let ran = it.is_finite() && it >= 1.0;
+    let possible = match verdict {
+        Verdict::Stable => ran,
+        Verdict::Unstable => ran || it.is_nan(),
+        Verdict::NotConverged | Verdict::Infeasible => it.is_nan(),
+    };
+    anyhow::ensure!(possible, "{} with {iterations} iterations per step", verdict.label());
+    Ok((verdict, it, note.clone()))
 }
 
 /// How a run that stopped failed: an iteration limit reached without a sign of divergence is
@@ -206,9 +216,16 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     // steps × the scheme's cost per step (an infeasible variant's cells are estimated as runs:
     // which variants are infeasible is known only once their cells start)
     let cost = |case: &Case<'_>| args.t_end / case.dt * case.scheme.relative_cost();
-    let results = journal::map_journaled(&cases, jobs, cost, &journal, to_cells, from_cells, |_, case| {
-        cell(case).with_context(|| case.label())
-    })?;
+    let results = journal::map_journaled(
+        &cases,
+        jobs,
+        cost,
+        &journal,
+        Case::label,
+        to_cells,
+        |_, c| from_cells(c),
+        |_, case| cell(case).with_context(|| case.label()),
+    )?;
     let mut rows = Vec::new(); // (scheme, ratio, dt, verdict, iterations, note)
     for (case, (verdict, iterations, note)) in cases.iter().zip(results) {
         rows.push((case.scheme, case.ratio, case.dt, verdict, iterations, note));
@@ -278,4 +295,36 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     writeln!(out)?;
     writeln!(out, "{} and {} written", csv_path.display(), svg_path.display())?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A journal cell reads back as written; iterations a run cannot give with its verdict (a
+    /// stable run without them, a stopped one with them, none at all below one, infinite) do not.
+    #[test]
+    fn only_an_outcome_a_run_can_give_reads_back_from_the_journal() {
+        for outcome in [
+            (Verdict::Stable, 2.02, String::new()),
+            (Verdict::Unstable, 1.0, "growing".to_string()),
+            (Verdict::Unstable, f64::NAN, "stopped".to_string()),
+            (Verdict::NotConverged, f64::NAN, "stopped".to_string()),
+            (Verdict::Infeasible, f64::NAN, "a cable would have to push".to_string()),
+        ] {
+            assert_eq!(to_cells(&from_cells(&to_cells(&outcome)).unwrap()), to_cells(&outcome));
+        }
+        let cells = |x: [&str; 3]| x.map(String::from);
+        for bad in [
+            cells(["S", "NaN", ""]),
+            cells(["S", "inf", ""]),
+            cells(["S", "0.5", ""]),
+            cells(["N", "2.0", ""]),
+            cells(["–", "3", ""]),
+            cells(["X", "2.0", ""]),
+        ] {
+            assert!(from_cells(&bad).is_err(), "{bad:?}");
+        }
+        assert!(from_cells(&cells(["S", "2.0", ""])[..2]).is_err());
+    }
 }

@@ -168,8 +168,12 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         jobs,
         cost,
         &journal,
+        |&index| sweep::point_key(index, &grid.point(index)),
         |cells: &Vec<String>| cells.clone(),
-        |cells| Ok(cells.to_vec()),
+        |&index, cells| {
+            sweep::check_cells(&columns, index, &grid.point(index), cells).map_err(anyhow::Error::msg)?;
+            Ok(cells.to_vec())
+        },
         |_, &index| {
             let values = grid.point(index);
             let outcome = sweep::evaluate(&scene, scene_file, &placement, &request, &values);

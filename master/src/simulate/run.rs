@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use feedcore::scene::{SensorKind, StewartMode, ValidScene};
+use feedcore::scene::{Control, SensorKind, StewartMode, ValidScene};
 use stewart::Stewart;
 
 use super::Method;
@@ -98,23 +98,6 @@ impl<'a> Run<'a> {
                     scene_file.display(),
                 )));
             }
-            Method::MonolithicAdaptive(a)
-                if scene
-                    .control
-                    .as_ref()
-                    .and_then(|c| c.shortest_period())
-                    .is_some_and(|(t, _)| a.h_max > 0.25 * t) =>
-            {
-                let (period, key) = scene.control.as_ref().and_then(|c| c.shortest_period()).expect("matched");
-                return Err(refused(format!(
-                    "{}: --h-max {} s is longer than a quarter of the sensor's sample period {period} s ([control] \
-                     {key}): a sample is taken at the first step start after its instant; set --h-max to \
-                     at most {} s",
-                    scene_file.display(),
-                    a.h_max,
-                    0.25 * period
-                )));
-            }
             Method::Monolithic | Method::MonolithicAdaptive(_) => {}
             _ if !scene.analyses.wrench.is_full() => {
                 return Err(refused(format!(
@@ -130,6 +113,19 @@ impl<'a> Run<'a> {
                         scene_file.display()
                     )));
                 }
+            }
+        }
+        // a sampled sensor's samples are taken at step starts: no step may skip one
+        if let Some(bound) = scene.control.as_ref().and_then(Control::step_bound) {
+            let refusal = match schedule {
+                Schedule::Fixed(plan) if !bound.admits(plan.dt) => Some(bound.refusal(plan.dt)),
+                Schedule::Adaptive { h_max, .. } if !bound.admits(h_max) => {
+                    Some(format!("--h-max {h_max} s: {}", bound.refusal(h_max)))
+                }
+                _ => None,
+            };
+            if let Some(reason) = refusal {
+                return Err(refused(format!("{}: {reason}", scene_file.display())));
             }
         }
         let every = match schedule {

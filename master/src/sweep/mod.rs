@@ -492,11 +492,53 @@ pub fn columns(grid: &Grid, request: &Request) -> Vec<String> {
     c
 }
 
+/// What names a point of the grid: its index and its values.
+pub fn point_key(index: usize, values: &[(Axis, f64)]) -> String {
+    let mut key = index.to_string();
+    for (axis, v) in values {
+        key.push_str(&format!(" {}={v:?}", axis.column()));
+    }
+    key
+}
+
+/// Whether `cells` could be the row [`cells`] writes for point `index` at `values` under
+/// `columns`: as many cells, the point's own index and values, `feasible` true or false, and
+/// every other cell but the note empty or a finite number.
+pub fn check_cells(columns: &[String], index: usize, values: &[(Axis, f64)], cells: &[String]) -> Result<(), String> {
+    if cells.len() != columns.len() {
+        return Err(format!("{} cells for {} columns", cells.len(), columns.len()));
+    }
+    let expected = cells_of_point(index, values);
+    if cells[..expected.len()] != expected[..] {
+        return Err(format!("point {index} at {:?}, not {:?}", &cells[..expected.len()], expected));
+    }
+    for (column, cell) in columns.iter().zip(cells).skip(expected.len()) {
+        let fine = match column.as_str() {
+            "feasible" => cell == "true" || cell == "false",
+            "note" => true,
+            _ => cell.is_empty() || cell.parse::<f64>().is_ok_and(f64::is_finite),
+        };
+        if !fine {
+            return Err(format!("{column} = `{cell}`"));
+        }
+    }
+    Ok(())
+}
+
+/// The cells that say which point a row is: its index and its values.
+fn cells_of_point(index: usize, values: &[(Axis, f64)]) -> Vec<String> {
+    std::iter::once(index.to_string()).chain(values.iter().map(|(_, v)| number_cell(*v))).collect()
+}
+
+/// A number as a row holds it: its shortest exact form, empty if not finite.
+fn number_cell(x: f64) -> String {
+    if x.is_finite() { format!("{x:?}") } else { String::new() }
+}
+
 /// One CSV row (numbers in their shortest exact form; empty where not computed).
 pub fn cells(index: usize, values: &[(Axis, f64)], request: &Request, o: &Outcome) -> Vec<String> {
-    let num = |x: f64| if x.is_finite() { format!("{x:?}") } else { String::new() };
-    let mut c = vec![index.to_string()];
-    c.extend(values.iter().map(|(_, v)| num(*v)));
+    let num = number_cell;
+    let mut c = cells_of_point(index, values);
     c.push(o.feasible.to_string());
     c.extend([num(o.min_tension_n), num(o.max_tension_n)]);
     if o.min_tension_n.is_finite() {
@@ -523,6 +565,47 @@ pub fn cells(index: usize, values: &[(Axis, f64)], request: &Request, o: &Outcom
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A row as [`cells`] writes it passes [`check_cells`]; one cell short or over, another
+    /// point's index or value, a non-finite number, a feasibility that is no boolean do not.
+    #[test]
+    fn only_a_row_the_sweep_could_write_passes_the_check() {
+        let g = grid(&["x=-1:1:3", "mass=2,0.5"]).unwrap();
+        let request = Request { modes: 2, run: None, limits: Limits::default(), utilisation: false };
+        let outcome = Outcome {
+            feasible: true,
+            min_tension_n: 1.5e3,
+            max_tension_n: 4e3,
+            max_utilisation: f64::NAN,
+            slack_cables: 0,
+            nearly_slack_cables: 1,
+            length_over_chord: 1.001,
+            frequencies_hz: vec![0.46, 0.47],
+            run: None,
+            wall_s: 0.01,
+            note: "a note, with a comma".into(),
+        };
+        let columns = columns(&g, &request);
+        let row = cells(3, &g.point(3), &request, &outcome);
+        check_cells(&columns, 3, &g.point(3), &row).unwrap();
+        let edited = |at: usize, to: &str| {
+            let mut r = row.clone();
+            r[at] = to.into();
+            r
+        };
+        let short = row[..row.len() - 1].to_vec();
+        let long = [row.clone(), vec!["1".into()]].concat();
+        let nan = edited(columns.iter().position(|c| c == "min_tension_n").unwrap(), "NaN");
+        let inf = edited(columns.iter().position(|c| c == "f1_hz").unwrap(), "inf");
+        let text = edited(columns.iter().position(|c| c == "wall_s").unwrap(), "fast");
+        let feasible = edited(columns.iter().position(|c| c == "feasible").unwrap(), "maybe");
+        for bad in [short, long, nan, inf, text, feasible, edited(0, "4"), edited(1, "0.5")] {
+            assert!(check_cells(&columns, 3, &g.point(3), &bad).is_err(), "{bad:?}");
+        }
+        assert!(check_cells(&columns, 4, &g.point(4), &row).is_err(), "another point's row");
+        // not computed is empty, which passes
+        check_cells(&columns, 3, &g.point(3), &edited(columns.iter().position(|c| c == "f2_hz").unwrap(), "")).unwrap();
+    }
 
     fn grid(specs: &[&str]) -> Result<Grid, SweepError> {
         Grid::parse(&specs.iter().map(|s| s.to_string()).collect::<Vec<_>>())

@@ -160,8 +160,8 @@ fn limits_reached_are_reported_with_time_leg_and_value() {
 }
 
 /// The decoupled model refuses a compensating sensor, the monolithic model an ideal one (its
-/// strokes would follow the cabin's velocity and acceleration), and its adaptive step a largest
-/// step that skips samples; each with a clear reason.
+/// strokes would follow the cabin's velocity and acceleration), and every run a step (or its
+/// adaptive step a largest step) that skips samples; each with a clear reason.
 #[test]
 fn models_refuse_what_they_cannot_compensate() {
     let (_, file) = controlled("refuse", |_| {});
@@ -175,6 +175,17 @@ fn models_refuse_what_they_cannot_compensate() {
     assert!(!out.status.success());
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("--h-max 0.01 s") && e.contains("at most 0.005 s"), "{e}");
+    // a fixed step that skips samples, refused before any model is built (the FMUs' own check
+    // would stop the co-simulation at its first step)
+    for scheme in ["monolithic", "ijcsa"] {
+        let out = master(&["run", "--scene", f, "--scheme", scheme, "--dt", "0.01", "--t-end", "0.1", "--quiet"]);
+        assert!(!out.status.success());
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            e.contains("cannot start") && e.contains("[control] sample_rate_hz") && e.contains("at most 0.005 s"),
+            "{e}"
+        );
+    }
     let (_, file) = controlled("refuse-ideal", |c| {
         c.sensor = SensorKind::Ideal;
         (c.sample_rate_hz, c.delay_s, c.noise_m, c.noise_rad, c.bandwidth_hz, c.seed) =

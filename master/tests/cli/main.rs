@@ -7,6 +7,7 @@
 //! * `plots`: the SVG figures read back;
 //! * `misuse`: careless and hostile use of the command line;
 //! * `mutants`: every scene key set to hostile values, each outcome classified;
+//! * `shipped`: every shipped scene with every method, as shipped;
 //! * `archive_mutants`: hostile SSP archives and FMU states, each outcome classified;
 //! * `slack`: a cable going slack and taut again, the monolithic model against IJCSA;
 //! * `cosim`: the coupling schemes and the adaptive step against the monolithic model;
@@ -34,6 +35,7 @@ mod plots;
 mod reproduce;
 mod resume;
 mod run;
+mod shipped;
 mod slack;
 mod ssp_system;
 mod stability;

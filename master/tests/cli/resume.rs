@@ -1,6 +1,6 @@
 //! Long commands killed halfway and continued with `--resume`: the stability map, the bench and
-//! the compensation study give the uninterrupted results (but for wall times). The sweep's
-//! test, with the interrupt as well, is in `sweep`.
+//! the compensation study give the uninterrupted results (but for wall times), also from a
+//! journal damaged after the kill. The sweep's test, with the interrupt as well, is in `sweep`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -8,8 +8,37 @@ use std::time::{Duration, Instant};
 
 use crate::{MASTER, common, master};
 
-/// Runs `args` into `out` and kills it (SIGKILL) once its journal holds `points`, then
-/// continues it with --resume; returns the directory.
+/// A journal line signed as the journal signs it (the FNV-1a digest of the cells before it):
+/// what a careless edit that also mended the digest would leave.
+fn signed(cells: &[String]) -> String {
+    let mut body: String = cells.iter().map(|c| format!("{},", master::sweep::table::quoted(c))).collect();
+    let digest = fmi2::digest::digest(body.as_bytes());
+    body.push_str(&format!("{digest:016x},\u{1e}\n"));
+    body
+}
+
+/// Damages the journal of a killed command three ways and returns the message its resumption
+/// must give: its last point's line gets an infinite number in its last cell but one (the
+/// digest mended, so that only the command's own check of the cells refuses it), and two lines
+/// are added, one of binary bytes and one edited without its digest mended.
+pub(crate) fn vandalize(journal: &Path) -> &'static str {
+    let text = std::fs::read_to_string(journal).unwrap();
+    let whole: Vec<&str> = text.split_inclusive('\n').filter(|l| l.ends_with("\u{1e}\n")).collect();
+    let last = *whole.last().expect("a finished point");
+    let mut cells = master::sweep::table::split(last.trim_end_matches('\n')).unwrap();
+    let n = cells.len();
+    assert!(n >= 6, "index, key, two cells at least, digest, end: {last:?}");
+    cells[n - 4] = "inf".into();
+    let mut damaged = text.replacen(last, &signed(&cells[..n - 2]), 1);
+    damaged.push_str(&whole[0].replacen(',', ",9", 2));
+    let mut bytes = damaged.into_bytes();
+    bytes.extend_from_slice(b"\x00\xff\xfe binary \x1e\n");
+    std::fs::write(journal, bytes).unwrap();
+    "3 lines dropped"
+}
+
+/// Runs `args` into `out` and kills it (SIGKILL) once its journal holds `points`, damages the
+/// journal ([`vandalize`]), then continues it with --resume; returns the directory.
 fn killed_and_resumed(args: &[String], out: &Path, journal: &str, points: usize) {
     let journal = out.join(journal);
     let mut child = Command::new(MASTER).args(args).arg("--out").arg(out).stderr(Stdio::null()).spawn().unwrap();
@@ -22,10 +51,14 @@ fn killed_and_resumed(args: &[String], out: &Path, journal: &str, points: usize)
     child.kill().unwrap();
     child.wait().unwrap();
     assert!(journal.exists());
+    let said = vandalize(&journal);
     let mut resumed: Vec<&str> = args.iter().map(String::as_str).collect();
     resumed.extend(["--out", out.to_str().unwrap(), "--resume"]);
     let done = master(&resumed);
-    assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+    let stderr = String::from_utf8_lossy(&done.stderr);
+    assert!(done.status.success(), "{stderr}");
+    assert_eq!(stderr.matches("dropped").count(), 1, "said once: {stderr}");
+    assert!(stderr.contains(said), "{stderr}");
     assert!(!journal.exists(), "the journal goes when the work completes");
 }
 

@@ -313,13 +313,16 @@ fn a_killed_or_interrupted_sweep_resumes_to_the_uninterrupted_table() {
         }
         assert!(!out.join("sweep.csv").exists(), "{how}: no table that looks complete");
         assert!(journal.exists(), "{how}: the finished points are kept");
+        let said = (how == "kill").then(|| crate::resume::vandalize(&journal));
         let again = master(&args(&out).iter().map(String::as_str).collect::<Vec<_>>());
         assert!(!again.status.success() && String::from_utf8_lossy(&again.stderr).contains("--resume"));
         let mut resumed = args(&out);
         resumed.push("--resume".into());
         let done = master(&resumed.iter().map(String::as_str).collect::<Vec<_>>());
         assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
-        assert!(String::from_utf8_lossy(&done.stderr).contains("done before"));
+        let stderr = String::from_utf8_lossy(&done.stderr);
+        assert!(stderr.contains("done before"));
+        assert!(said.is_none_or(|said| stderr.contains(said)), "{stderr}");
         assert_eq!(rows_but_wall(&out.join("sweep.csv")), expected, "{how}");
         assert!(!journal.exists(), "{how}: the journal goes when the sweep completes");
     }

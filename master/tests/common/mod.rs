@@ -51,7 +51,7 @@ pub(crate) fn scene_file(name: &str, tag: &str, edit: impl FnOnce(&mut Scene)) -
     let mut s = Scene::load(scene_path(name)).unwrap().to_scene();
     edit(&mut s);
     let dir = fmu_dir();
-    for f in &mut s.system.as_mut().unwrap().fmus {
+    for f in s.system.iter_mut().flat_map(|system| &mut system.fmus) {
         f.path = dir.join(format!("{}_fmu.fmu", f.name)).display().to_string();
     }
     let file = dir.join(format!("{tag}-{name}"));
