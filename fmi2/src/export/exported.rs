@@ -178,8 +178,12 @@ pub unsafe fn instantiate<M: Model>(
                 t if t == fmi2CoSimulation => false,
                 t if t == fmi2ModelExchange && info.description.model_exchange.is_some() => true,
                 _ => {
-                    let offered = if info.description.model_exchange.is_some() { "0 or 1" } else { "1 only" };
-                    return Err(format!("fmuType = {fmu_type}: this FMU supports fmuType {offered}"));
+                    let offered = if info.description.model_exchange.is_some() {
+                        "Model Exchange (0) and Co-Simulation (1)"
+                    } else {
+                        "Co-Simulation (1) only"
+                    };
+                    return Err(format!("fmuType = {fmu_type}: this FMU supports {offered}"));
                 }
             };
             // SAFETY: non-null strings are NUL-terminated (the contract).

@@ -5,7 +5,7 @@
 //! Contract of every `unsafe fn` here: that of [`super::exported`] (`c` an instance of this
 //! layer for the same `M`, arrays of the lengths passed with them), or of `fmi3` likewise.
 
-use super::exported::{GETTABLE, call, finite, slice, slice_mut};
+use super::exported::{ALL_BUT_FATAL, GETTABLE, call, finite, slice, slice_mut};
 use super::instance::{Instance, Phase};
 use super::{DiscreteUpdate, Model};
 use crate::ffi::*;
@@ -23,8 +23,15 @@ fn me<M: Model>(inst: &Instance<M>) -> Result<&super::instance::MeInstance, Stri
 pub unsafe fn enter_event_mode<M: Model>(c: fmi2Component, func: &'static str) -> fmi2Status {
     // SAFETY: `c` as the contract says.
     unsafe {
-        call::<M>(c, func, &[EventMode, ContinuousTime], |inst| {
+        // every phase but the fatal one: a Co-Simulation instance is told why before the phase
+        call::<M>(c, func, ALL_BUT_FATAL, |inst| {
+            if inst.me.is_none() && inst.v3.is_some() {
+                return Err("this FMU has no event mode in Co-Simulation (hasEventMode = false)".into());
+            }
             me(inst)?;
+            if !matches!(inst.phase, EventMode | ContinuousTime) {
+                return Err(format!("not allowed in state `{}`", inst.phase.name()));
+            }
             inst.phase = EventMode;
             Ok(fmi2OK)
         })

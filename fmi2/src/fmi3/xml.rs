@@ -90,11 +90,6 @@ pub fn model_description_xml3(d: &ModelDescription, layout: &Layout3) -> String 
             unknown(&mut x, "ContinuousStateDerivative", v.vr, None);
         }
     }
-    for &z in d.model_exchange.iter().flat_map(|m| &m.event_indicator_variables) {
-        if let Some(v) = scalar(z) {
-            unknown(&mut x, "EventIndicator", v.vr, None);
-        }
-    }
     // the outputs with initial approx/calculated and the calculated parameters, and the
     // continuous states and their derivatives with initial approx/calculated
     let is_state = |v: &Var3| states.iter().any(|s| v.elements == [s.state] || v.elements == [s.derivative]);
@@ -104,6 +99,12 @@ pub fn model_description_xml3(d: &ModelDescription, layout: &Layout3) -> String 
             || v.causality == Causality::CalculatedParameter
     }) {
         unknown(&mut x, "InitialUnknown", v.vr, v.initial_depends_on.as_deref());
+    }
+    // the schema's order: outputs, derivatives, (clocked states,) initial unknowns, indicators
+    for &z in d.model_exchange.iter().flat_map(|m| &m.event_indicator_variables) {
+        if let Some(v) = scalar(z) {
+            unknown(&mut x, "EventIndicator", v.vr, None);
+        }
     }
     x.push_str("  </ModelStructure>\n");
     if f.provides_step_map_derivative {
