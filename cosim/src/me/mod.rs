@@ -55,7 +55,6 @@ struct Saved {
 
 /// One Model Exchange unit's integration.
 pub(crate) struct MeUnit {
-    name: String,
     nx: usize,
     nz: usize,
     needs_completed: bool,
@@ -115,13 +114,33 @@ impl Rhs for FmuRhs<'_> {
     }
 }
 
+/// What the last attempted step said, for the message when the step size collapses.
+#[derive(Clone, Copy)]
+enum Trouble {
+    /// Its scaled error norm.
+    Error(f64),
+    /// Newton's iteration on an implicit stage did not converge.
+    Newton,
+}
+
+impl Trouble {
+    fn describe(self, names: &[String], x: &[f64]) -> String {
+        let largest = (0..x.len()).max_by(|&a, &b| x[a].abs().total_cmp(&x[b].abs()));
+        let state = largest.map_or(String::new(), |i| format!("; largest state `{}` = {:e}", names[i], x[i]));
+        match self {
+            Trouble::Error(e) => format!("last error norm {e:.3e}{state}"),
+            Trouble::Newton => format!("the implicit stages did not converge{state}"),
+        }
+    }
+}
+
 /// `a` → `b` crosses zero (from a nonzero side).
 fn crossed(a: f64, b: f64) -> bool {
     (a > 0.0 && b <= 0.0) || (a < 0.0 && b >= 0.0)
 }
 
 impl MeUnit {
-    pub(crate) fn new(name: &str, inst: &Instance, inputs: &[u32], options: MeOptions) -> MeUnit {
+    pub(crate) fn new(inst: &Instance, inputs: &[u32], options: MeOptions) -> MeUnit {
         let fmu = inst.fmu();
         let me = fmu.description().model_exchange.clone().unwrap_or_default();
         let (nx, nz) = (me.states.len(), me.event_indicators);
@@ -135,7 +154,6 @@ impl MeUnit {
             .collect();
         let saved = || Saved { x: vec![0.0; nx], z: vec![0.0; nz], h: 0.0, next_time_event: None };
         MeUnit {
-            name: name.to_owned(),
             nx,
             nz,
             needs_completed: me.needs_completed_integrator_step,
@@ -159,7 +177,7 @@ impl MeUnit {
     }
 
     fn other(&self, message: String) -> UnitError {
-        UnitError::Other(format!("Model Exchange unit `{}`: {message}", self.name))
+        UnitError::Other(format!("integrated as Model Exchange: {message}"))
     }
 
     /// After `exitInitializationMode` at `t0`: the event iteration, then continuous-time mode.
@@ -287,6 +305,7 @@ impl MeUnit {
             self.handle(inst, t, false, 1)?;
         }
         let (mut steps, mut events) = (0u64, 0u64);
+        let mut last_trouble = Trouble::Error(0.0);
         let tiny = |t: f64| 4.0 * f64::EPSILON * t.abs().max(1.0);
         while t_end - t > tiny(t_end) {
             let target = self.next_time_event.map_or(t_end, |te| te.min(t_end));
@@ -309,13 +328,30 @@ impl MeUnit {
             }
             steps += 1;
             if steps > MAX_STEPS_PER_STEP {
+                let hint = match self.integrator.method {
+                    Method::Dopri5 => "; a stiff model needs --me-solver esdirk3",
+                    Method::Esdirk3 => "",
+                };
                 return Err(self.other(format!(
                     "{MAX_STEPS_PER_STEP} integrator steps from t = {t_start} without reaching t = {t_end} (at \
-                     t = {t}); a stiff model needs --me-solver esdirk3"
+                     t = {t}){hint}"
                 )));
             }
             if self.integrator.h == 0.0 {
                 self.integrator.h = self.integrator.initial_step(&self.x, &self.f, target - t);
+            }
+            // a step the clock can hardly resolve: the tolerance cannot be met (a blow-up, a
+            // discontinuity no indicator announces, an implicit stage that does not converge)
+            if !(self.integrator.h > 4.0 * tiny(t)) {
+                return Err(self.other(format!(
+                    "the {} solver cannot meet the tolerance (rtol {:e}, atol {:e}) at t = {t}: its step fell to \
+                     {:e} s ({})",
+                    self.integrator.method.name(),
+                    self.integrator.tol.rtol,
+                    self.integrator.tol.atol,
+                    self.integrator.h,
+                    last_trouble.describe(&self.state_names, &self.x)
+                )));
             }
             let mut h = self.integrator.h.min(target - t);
             if t + 1.01 * h >= target {
@@ -328,21 +364,11 @@ impl MeUnit {
             };
             (self.x, self.f) = (x, f);
             let attempt = attempt?;
+            last_trouble = if attempt.failed { Trouble::Newton } else { Trouble::Error(attempt.err) };
             if attempt.failed || !(attempt.err <= 1.0) {
                 self.stats.rejected += 1;
-                let next =
+                self.integrator.h =
                     if attempt.failed { h / 4.0 } else { self.integrator.next_size(h, attempt.err.min(1e10), false) };
-                if !(next > tiny(t) * 4.0) {
-                    return Err(self.other(format!(
-                        "the {} solver cannot meet the tolerance (rtol {:e}, atol {:e}) at t = {t}: its step fell to \
-                         {next:e} s (error norm {:e})",
-                        self.integrator.method.name(),
-                        self.integrator.tol.rtol,
-                        self.integrator.tol.atol,
-                        attempt.err
-                    )));
-                }
-                self.integrator.h = next;
                 continue;
             }
             self.stats.steps += 1;

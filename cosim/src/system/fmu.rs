@@ -179,7 +179,7 @@ impl FmuSystem {
             }
             unit.ones = vec![1; unit.inputs.len()];
             if unit.inst.fmu().interface() == fmi2::import::Interface::ModelExchange {
-                unit.me = Some(Box::new(MeUnit::new(&unit.name, &unit.inst, &unit.inputs, needs.model_exchange)));
+                unit.me = Some(Box::new(MeUnit::new(&unit.inst, &unit.inputs, needs.model_exchange)));
             }
             layout.units.push(UnitLayout {
                 name: unit.name.clone(),

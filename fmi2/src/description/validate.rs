@@ -117,7 +117,11 @@ impl ModelInfo {
         if d.guid.trim().is_empty() {
             return err("`guid` is empty".into());
         }
-        if layer_flags(&d.flags) != CoSimulationFlags::EXPORTED {
+        // a Model Exchange only description has no <CoSimulation> flags: none are written
+        if !d.co_simulation && d.flags != CoSimulationFlags::default() {
+            return err("a description without Co-Simulation has no <CoSimulation> flags: leave them default".into());
+        }
+        if d.co_simulation && layer_flags(&d.flags) != CoSimulationFlags::EXPORTED {
             return err(format!(
                 "the <CoSimulation> flags {:?} are not what the export layer implements; start from \
                  `CoSimulationFlags::EXPORTED` and set only canInterpolateInputs, providesDirectionalDerivative \

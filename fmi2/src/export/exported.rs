@@ -174,14 +174,15 @@ pub unsafe fn instantiate<M: Model>(
             if name.is_none() {
                 return Err("instanceName is a null pointer".into());
             }
+            let (cs, me) = (info.description.co_simulation, info.description.model_exchange.is_some());
             let me = match fmu_type {
-                t if t == fmi2CoSimulation => false,
-                t if t == fmi2ModelExchange && info.description.model_exchange.is_some() => true,
+                t if t == fmi2CoSimulation && cs => false,
+                t if t == fmi2ModelExchange && me => true,
                 _ => {
-                    let offered = if info.description.model_exchange.is_some() {
-                        "Model Exchange (0) and Co-Simulation (1)"
-                    } else {
-                        "Co-Simulation (1) only"
+                    let offered = match (me, cs) {
+                        (true, true) => "Model Exchange (0) and Co-Simulation (1)",
+                        (true, false) => "Model Exchange (0) only",
+                        _ => "Co-Simulation (1) only",
                     };
                     return Err(format!("fmuType = {fmu_type}: this FMU supports {offered}"));
                 }

@@ -134,6 +134,9 @@ unsafe fn instantiate<M: Model>(
             if me && info.description.model_exchange.is_none() {
                 return Err("this FMU implements Co-Simulation only (no <ModelExchange>)".into());
             }
+            if !me && !info.description.co_simulation {
+                return Err("this FMU implements Model Exchange only (no <CoSimulation>)".into());
+            }
             if event_mode_used != fmi3False {
                 return Err("eventModeUsed = true, but this FMU has no event mode (hasEventMode = false)".into());
             }

@@ -57,17 +57,19 @@ pub fn model_description_xml3(d: &ModelDescription, layout: &Layout3) -> String 
             bool_attr(me.provides_directional_derivative),
         );
     }
-    let _ = writeln!(
-        x,
-        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="{}" canBeInstantiatedOnlyOncePerProcess="{}" canGetAndSetFMUState="{}" canSerializeFMUState="{}" providesDirectionalDerivatives="{}" canHandleVariableCommunicationStepSize="{}" maxOutputDerivativeOrder="0" hasEventMode="false"/>"#,
-        escape(&d.model_identifier),
-        bool_attr(f.needs_execution_tool),
-        bool_attr(f.can_be_instantiated_only_once_per_process),
-        bool_attr(f.can_get_and_set_fmu_state),
-        bool_attr(f.can_serialize_fmu_state),
-        bool_attr(f.provides_directional_derivative),
-        bool_attr(f.can_handle_variable_communication_step_size),
-    );
+    if d.co_simulation {
+        let _ = writeln!(
+            x,
+            r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="{}" canBeInstantiatedOnlyOncePerProcess="{}" canGetAndSetFMUState="{}" canSerializeFMUState="{}" providesDirectionalDerivatives="{}" canHandleVariableCommunicationStepSize="{}" maxOutputDerivativeOrder="0" hasEventMode="false"/>"#,
+            escape(&d.model_identifier),
+            bool_attr(f.needs_execution_tool),
+            bool_attr(f.can_be_instantiated_only_once_per_process),
+            bool_attr(f.can_get_and_set_fmu_state),
+            bool_attr(f.can_serialize_fmu_state),
+            bool_attr(f.provides_directional_derivative),
+            bool_attr(f.can_handle_variable_communication_step_size),
+        );
+    }
     units(&mut x, d);
     log_categories(&mut x);
     default_experiment(&mut x, d);

@@ -11,10 +11,14 @@
 //! | `feedthrough` | one of each type | the inputs | the Real outputs on their inputs |
 //! | `stair` | — | `counter` | — (ends with fmi2Discard at its final count) |
 //! | `resource` | — | `y`, `points`, `title` from a file in `resources/` | — |
+//!
+//! [`hostile`] is no member of the zoo: a Model Exchange FMU that misbehaves on request, for the
+//! master's tests (`master package` leaves it out).
 
 pub mod bouncing_ball;
 pub mod dahlquist;
 pub mod feedthrough;
+pub mod hostile;
 pub mod resource;
 pub mod stair;
 pub mod van_der_pol;
@@ -84,5 +88,6 @@ mod tests {
         reads_back::<crate::feedthrough::FeedthroughFmu>();
         reads_back::<crate::stair::StairFmu>();
         reads_back::<crate::resource::ResourceFmu>();
+        reads_back::<crate::hostile::HostileFmu>();
     }
 }
