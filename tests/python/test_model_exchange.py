@@ -2,13 +2,16 @@
 all, checked against closed forms and against fmpy's Model Exchange simulation with CVode."""
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
+from fmpy.ssp.simulation import simulate_ssp
+from fmpy.ssp.ssd import read_ssd
 
 from conftest import DIST
-from zoo import SCHEMES, ball_exact, pack, run
+from zoo import SCHEMES, ball_exact, chain_expected, pack, run
 
 TIGHT = ("--tol", "1e-13", "--max-iter", "500", "--me-rtol", "1e-10", "--me-atol", "1e-12")
 
@@ -96,3 +99,48 @@ def test_an_interface_the_fmu_does_not_offer_is_refused(tmp_path):
     ssp = pack("resource", tmp_path)
     _, _, p = run(ssp, "jacobi", 0.1, "--interface", "me", out_dir=tmp_path, expect_ok=False)
     assert p.returncode != 0 and "no Model Exchange" in p.stderr, p.stderr
+
+
+D1_BINDINGS = '<ssd:ParameterBinding source="chain_d1.ssv"/>\n        </ssd:ParameterBindings>'
+
+
+@pytest.mark.parametrize("how", ["annotation", "attribute"])
+def test_the_ssd_chooses_model_exchange_per_component(tmp_path, how):
+    """`chain` with d1 marked in the .ssd — by this master's annotation (a preference other tools
+    skip) or by SSP's own `implementation` attribute — runs d1 as Model Exchange without
+    --interface (x1 = 1 - e^-t to 1e-8); --interface d1=cs overrides the file (Jacobi's exact
+    answer of the Co-Simulation chain, to 1e-14). fmpy validates the annotated .ssd against the
+    SSP 1.0 schema and runs it as before."""
+    annotation = ('<ssd:Annotations><ssc:Annotation type="org.feedsim.interface">'
+                  '<Interface implementation="ModelExchange"/></ssc:Annotation></ssd:Annotations>')
+
+    def edit(text):
+        if how == "attribute":
+            return text.replace('<ssd:Component name="d1" source="../../dist/dahlquist.fmu">',
+                                '<ssd:Component name="d1" source="../../dist/dahlquist.fmu" implementation="ModelExchange">')
+        # after the component's parameter bindings, as the schema orders them
+        return text.replace(D1_BINDINGS, D1_BINDINGS + "\n        " + annotation)
+    ssp = pack("chain", tmp_path, edit=edit)
+    me, j, _ = run(ssp, "jacobi", 0.1, *TIGHT, out_dir=tmp_path)
+    assert [s["component"] for s in j["model_exchange"]] == ["d1"]
+    assert np.max(np.abs(me["d1.x"] - (1.0 - np.exp(-me["time"])))) < 1e-8
+    (tmp_path / "cs").mkdir()
+    cs, j, _ = run(ssp, "jacobi", 0.1, *TIGHT, "--interface", "d1=cs", out_dir=tmp_path / "cs")
+    assert j["model_exchange"] == []
+    x1, _, x2 = chain_expected(cs["time"], "jacobi")
+    assert np.max(np.abs(cs["d1.x"] - x1)) < 1e-14 and np.max(np.abs(cs["d2.x"] - x2)) < 1e-12
+    if how == "annotation":
+        read_ssd(str(ssp), validate=True)
+        params = {"d1.k": 1.0, "d1.x0": 0.0, "d1.u": 1.0, "d2.k": 2.0, "d2.x0": 0.0}
+        theirs = simulate_ssp(str(ssp), stop_time=1.0, step_size=0.1, parameter_set=SimpleNamespace(
+            parameters=[SimpleNamespace(name=k, value=v) for k, v in params.items()]))
+        # fmpy's rows are one step early (fmi2-facts.md)
+        assert np.max(np.abs(theirs["d1.x"][:10] - cs["d1.x"][1:11])) < 1e-12
+
+
+def test_an_ssd_asking_for_an_interface_the_fmu_lacks_is_refused(tmp_path):
+    """SSP: "It is an error if the specified type of FMU implementation is not present"."""
+    ssp = pack("resource", tmp_path, edit=lambda t: t.replace(
+        'source="../../dist/resource.fmu"', 'source="../../dist/resource.fmu" implementation="ModelExchange"'))
+    _, _, p = run(ssp, "jacobi", 0.1, out_dir=tmp_path, expect_ok=False)
+    assert p.returncode == 1 and "signal" in p.stderr and "no Model Exchange" in p.stderr, p.stderr
