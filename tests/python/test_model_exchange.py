@@ -2,6 +2,7 @@
 all, checked against closed forms and against fmpy's Model Exchange simulation with CVode."""
 
 import math
+import shutil
 from types import SimpleNamespace
 
 import numpy as np
@@ -10,6 +11,7 @@ from fmpy import simulate_fmu
 from fmpy.ssp.simulation import simulate_ssp
 from fmpy.ssp.ssd import read_ssd
 
+import c_fmus
 from conftest import DIST
 from zoo import SCHEMES, ball_exact, chain_expected, pack, run
 
@@ -144,3 +146,115 @@ def test_an_ssd_asking_for_an_interface_the_fmu_lacks_is_refused(tmp_path):
         'source="../../dist/resource.fmu"', 'source="../../dist/resource.fmu" implementation="ModelExchange"'))
     _, _, p = run(ssp, "jacobi", 0.1, out_dir=tmp_path, expect_ok=False)
     assert p.returncode == 1 and "signal" in p.stderr and "no Model Exchange" in p.stderr, p.stderr
+
+
+# --- the FMI 3.0 Model Exchange FMUs written in C (testfmus/c/), independent of our export layer
+
+
+@pytest.fixture(scope="module")
+def c_built(tmp_path_factory):
+    return c_fmus.build(tmp_path_factory.mktemp("c-fmus-me"))
+
+
+def test_fmpy_integrates_the_c_model_exchange_fmus_to_their_exact_answers(c_built):
+    """fmpy's own Model Exchange simulation (CVode) of the C FMUs: Dahlquist's closed form, the
+    ball's bounces and heights, the stair's counts on their time events."""
+    r = simulate_fmu(str(c_built["dahlquist"]), fmi_type="ModelExchange", solver="CVode", relative_tolerance=1e-10,
+                     stop_time=2.0, output_interval=0.1, start_values={"k": 1.5, "x0": 2.0})
+    assert np.max(np.abs(r["x"] - 2.0 * np.exp(-1.5 * r["time"]))) < 1e-8
+    r = simulate_fmu(str(c_built["bouncing_ball"]), fmi_type="ModelExchange", solver="CVode",
+                     relative_tolerance=1e-10, stop_time=3.0, output_interval=0.01)
+    h, _, bounces, _ = ball_exact(r["time"])
+    assert np.max(np.abs(r["h"] - h)) < 1e-6 and r["bounces"][-1] == 11
+    # fmpy ends on the final count's time event (9 s), recording the values before it
+    r = simulate_fmu(str(c_built["stair"]), fmi_type="ModelExchange", stop_time=20.0, output_interval=0.4)
+    between = r["time"] % 1.0 > 1e-9
+    assert r["time"][-1] == pytest.approx(9.0)
+    assert np.array_equal(r["counter"][between], 1 + np.floor(r["time"][between]))
+
+
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_the_c_dahlquist_as_model_exchange_meets_its_exact_solution(c_built, tmp_path, scheme):
+    fmus = {n: c_built[n] for n in ["dahlquist", "feedthrough"]}
+    ssp = pack("chain", tmp_path, fmus=fmus)
+    me, j, _ = run(ssp, scheme, 0.1, *TIGHT, "--interface", "d1=me", out_dir=tmp_path)
+    cs, _, _ = run(ssp, scheme, 0.1, *TIGHT, out_dir=tmp_path / "..")
+    assert np.max(np.abs(me["d1.x"] - (1.0 - np.exp(-me["time"])))) < 1e-8
+    assert np.max(np.abs(me["d2.x"] - cs["d2.x"])) < 1e-8
+    assert [s["component"] for s in j["model_exchange"]] == ["d1"]
+
+
+@pytest.mark.parametrize("scheme", ["jacobi", "ijcsa", "iqn-ils"])
+def test_the_c_ball_offering_only_model_exchange_bounces_at_the_closed_form(c_built, tmp_path, scheme):
+    """No --interface: the C ball offers only Model Exchange; with the exported FMI 3.0
+    feedthrough (Int32 and Boolean connections)."""
+    ssp = pack("ball", tmp_path, fmus={"bouncing_ball": c_built["bouncing_ball"],
+                                       "feedthrough": DIST / "fmi3" / "feedthrough.fmu"})
+    c, j, _ = run(ssp, scheme, 0.01, *TIGHT, out_dir=tmp_path)
+    h, v, bounces, resting = ball_exact(c["time"])
+    assert np.max(np.abs(c["ball.h"] - h)) < 1e-8 and np.max(np.abs(c["ball.v"] - v)) < 1e-7
+    assert list(c["ball.bounces"]) == list(bounces) and bounces[-1] == 11
+    assert j["model_exchange"][0]["state_events"] == 11
+
+
+def test_the_c_stairs_time_events_fall_exactly_on_their_times(c_built, tmp_path):
+    ssp = pack("stair", tmp_path, fmus={"stair": c_built["stair"], "feedthrough": DIST / "fmi3" / "feedthrough.fmu"})
+    c, j, _ = run(ssp, "jacobi", 0.4, "--interface", "stair=me", out_dir=tmp_path)
+    assert j["stopped_early"] and j["stopped_at"] == pytest.approx(8.8) and "terminateSimulation" in j["note"]
+    assert list(c["stair.counter"]) == [1 + math.floor(t + 1e-9) for t in c["time"]]
+    assert j["model_exchange"][0]["time_events"] == 9
+
+
+def test_the_c_van_der_pol_as_model_exchange_against_fmpys_cvode(c_built, tmp_path):
+    ssp = pack("oscillators", tmp_path, fmus={n: c_built[n] for n in ["van_der_pol", "dahlquist"]})
+    c, _, _ = run(ssp, "jacobi", 0.1, "--interface", "vdp=me", "--me-rtol", "1e-10", "--me-atol", "1e-10",
+                  t_end=10.0, out_dir=tmp_path)
+    ref = simulate_fmu(str(c_built["van_der_pol"]), fmi_type="ModelExchange", solver="CVode",
+                       relative_tolerance=1e-11, stop_time=10.0, output_interval=0.01,
+                       start_values={"x0_start": 0.0, "x1_start": 2.0}, output=["x0"])
+    assert np.max(np.abs(c["vdp.x0"] - np.interp(c["time"], ref["time"], ref["x0"]))) < 1e-7
+
+
+def careless_system(tmp_path, c_built, misbehaviour):
+    """The C hostile_me (`bad`) feeding the C feedthrough, with its misbehaviour set."""
+    for n in ["hostile_me", "feedthrough"]:
+        shutil.copy(c_built[n], tmp_path / f"{n}.fmu")
+    ssd = tmp_path / "careless.ssd"
+    ssd.write_text(f"""<?xml version="1.0" encoding="UTF-8"?>
+<ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="careless">
+  <ssd:System name="careless">
+    <ssd:Elements>
+      <ssd:Component name="bad" source="hostile_me.fmu">
+        <ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>
+          <ssv:ParameterSet version="1.0" name="bad"><ssv:Parameters>
+            <ssv:Parameter name="misbehaviour"><ssv:Integer value="{misbehaviour}"/></ssv:Parameter>
+          </ssv:Parameters></ssv:ParameterSet>
+        </ssd:ParameterValues></ssd:ParameterBinding></ssd:ParameterBindings>
+      </ssd:Component>
+      <ssd:Component name="f" source="feedthrough.fmu"/>
+    </ssd:Elements>
+    <ssd:Connections>
+      <ssd:Connection startElement="bad" startConnector="x" endElement="f" endConnector="real_continuous_in"/>
+    </ssd:Connections>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="0" stopTime="2"/>
+</ssd:SystemStructureDescription>
+""")
+    return ssd
+
+
+@pytest.mark.parametrize("misbehaviour, cause", [
+    (1, "the derivative of state `x` is NaN at t = 0.5"),
+    (2, "event indicator 0 is NaN at t = 0.5"),
+])
+@pytest.mark.parametrize("scheme", ["jacobi", "ijcsa"])
+def test_a_careless_fmu_returning_nan_with_fmi3ok_is_stopped(c_built, tmp_path, misbehaviour, cause, scheme):
+    """NaN derivatives or indicators from an FMU that says fmi3OK: the master's own checks name
+    the component, the time and the cause; exit 1, no NaN in a result."""
+    ssd = careless_system(tmp_path, c_built, misbehaviour)
+    _, _, p = run(ssd, scheme, 0.1, out_dir=tmp_path, expect_ok=False)
+    assert p.returncode == 1 and "panicked" not in p.stderr, p.stderr
+    assert "FMU `bad`" in p.stderr and cause in p.stderr, p.stderr
+    assert not list(tmp_path.glob("*.csv")), "no result written"
+    well, j, _ = run(careless_system(tmp_path / "..", c_built, 0), scheme, 0.1, *TIGHT, out_dir=tmp_path)
+    assert np.max(np.abs(well["bad.x"] - np.exp(-well["time"]))) < 1e-8 and j["model_exchange"][0]["time_events"] == 1

@@ -25,7 +25,10 @@ impl Default for MeOptions {
     }
 }
 
-/// What a unit's integration did so far (every step tried counts, rolled back or not).
+/// What a unit's integration did so far. The work — steps, rejected steps, evaluations — counts
+/// every try, rolled back or not; the events are those of the run as it went on (a rollback
+/// takes back the events of the steps it undoes, so that an iterating scheme reports the
+/// system's events once).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MeStats {
     pub steps: u64,
@@ -51,6 +54,8 @@ struct Saved {
     z: Vec<f64>,
     h: f64,
     next_time_event: Option<f64>,
+    /// The event counts (state, time, step).
+    events: [u64; 3],
 }
 
 /// One Model Exchange unit's integration.
@@ -152,7 +157,7 @@ impl MeUnit {
                 v.map_or_else(|| format!("#{}", s.state), |v| v.name.clone())
             })
             .collect();
-        let saved = || Saved { x: vec![0.0; nx], z: vec![0.0; nz], h: 0.0, next_time_event: None };
+        let saved = || Saved { x: vec![0.0; nx], z: vec![0.0; nz], h: 0.0, next_time_event: None, events: [0; 3] };
         MeUnit {
             nx,
             nz,
@@ -512,6 +517,7 @@ impl MeUnit {
         s.z.copy_from_slice(&self.z);
         s.h = self.integrator.h;
         s.next_time_event = self.next_time_event;
+        s.events = [self.stats.state_events, self.stats.time_events, self.stats.step_events];
     }
 
     /// Restores what [`MeUnit::save`] kept, bit for bit.
@@ -521,5 +527,6 @@ impl MeUnit {
         self.z.copy_from_slice(&s.z);
         self.integrator.h = s.h;
         self.next_time_event = s.next_time_event;
+        [self.stats.state_events, self.stats.time_events, self.stats.step_events] = s.events;
     }
 }
