@@ -262,9 +262,13 @@ static fmi3Status set(Instance *inst, const char *function, Type type, const fmi
         if (!v || v->type != type)
             return fail(inst, function, "unknown value reference %u (no settable %s variable has it)", vrs[i],
                         TYPE_NAMES[type]);
-        bool allowed = v->role == INPUT || (v->role == TUNABLE && (inst->phase == STEP || inst->phase == EVENT)) ||
+        bool discrete = v->role == DISCRETE_INPUT || (v->role == INPUT && type != FLOAT64);
+        bool allowed = (v->role == INPUT && !discrete) || (discrete && inst->phase != CONTINUOUS) ||
+                       (v->role == TUNABLE && (inst->phase == STEP || inst->phase == EVENT)) ||
                        ((v->role == PARAMETER || v->role == TUNABLE) &&
                         (inst->phase == INSTANTIATED || inst->phase == INITIALIZATION));
+        if (discrete && inst->phase == CONTINUOUS)
+            return fail(inst, function, "value reference %u: a discrete input, set in event mode only", vrs[i]);
         if (!allowed || inst->phase == TERMINATED || inst->phase == BROKEN)
             return fail(inst, function, "value reference %u cannot be set now", vrs[i]);
         if (k + v->count > n_values) return fail(inst, function, "nValues = %zu is too small", n_values);

@@ -13,8 +13,9 @@
 
 typedef enum { FLOAT64, INT32, BOOLEAN, STRING } Type;
 /* Who may set a variable, and when: a parameter before initialization ends, a tunable one also
- * between steps, an input at any time; outputs are computed. */
-typedef enum { PARAMETER, TUNABLE, INPUT, OUTPUT } Role;
+ * between steps, an input at any time (a discrete one, as every Int32, Boolean and String input,
+ * not in Model Exchange's continuous-time mode); outputs are computed. */
+typedef enum { PARAMETER, TUNABLE, INPUT, OUTPUT, DISCRETE_INPUT } Role;
 
 typedef struct {
     fmi3ValueReference vr;

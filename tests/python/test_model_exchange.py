@@ -258,3 +258,33 @@ def test_a_careless_fmu_returning_nan_with_fmi3ok_is_stopped(c_built, tmp_path, 
     assert not list(tmp_path.glob("*.csv")), "no result written"
     well, j, _ = run(careless_system(tmp_path / "..", c_built, 0), scheme, 0.1, *TIGHT, out_dir=tmp_path)
     assert np.max(np.abs(well["bad.x"] - np.exp(-well["time"]))) < 1e-8 and j["model_exchange"][0]["time_events"] == 1
+
+
+@pytest.mark.parametrize("scheme", ["jacobi", "gauss-seidel", "ijcsa", "iqn-ils"])
+def test_discrete_inputs_of_a_model_exchange_unit_change_in_event_mode(c_built, tmp_path, scheme):
+    """The C feedthrough as Model Exchange (no states) refuses a discrete input set in
+    continuous-time mode, as FMI 3.0 says: the master sets a changed one in event mode (an input
+    event). The ball's Int32 and Boolean values, and the chain routed through the Float64
+    discrete input, pass as through the Co-Simulation feedthrough, to the bit."""
+    ball = pack("ball", tmp_path / "ball", fmus={n: c_built[n] for n in ["bouncing_ball", "feedthrough"]})
+    me, _, _ = run(ball, scheme, 0.01, *TIGHT, "--interface", "f=me", out_dir=tmp_path / "ball")
+    (tmp_path / "ball-cs").mkdir()
+    cs, _, _ = run(ball, scheme, 0.01, *TIGHT, out_dir=tmp_path / "ball-cs")
+    for name in ("f.int_out", "f.bool_out", "f.real_continuous_out"):
+        assert np.array_equal(me[name], cs[name]), name
+    assert me["f.int_out"][-1] == 11
+
+    def discrete(text):
+        return text.replace('endConnector="real_continuous_in"', 'endConnector="real_discrete_in"').replace(
+            'startConnector="real_continuous_out"', 'startConnector="real_discrete_out"').replace(
+            '<ssd:Connector name="real_continuous_in" kind="input"><ssc:Real/></ssd:Connector>',
+            '<ssd:Connector name="real_discrete_in" kind="input"><ssc:Real/></ssd:Connector>').replace(
+            '<ssd:Connector name="real_continuous_out" kind="output"><ssc:Real/></ssd:Connector>',
+            '<ssd:Connector name="real_discrete_out" kind="output"><ssc:Real/></ssd:Connector>')
+    chain = pack("chain", tmp_path / "chain", edit=discrete, fmus={n: c_built[n] for n in ["dahlquist", "feedthrough"]})
+    me, _, _ = run(chain, scheme, 0.1, *TIGHT, "--interface", "f=me", out_dir=tmp_path / "chain")
+    (tmp_path / "chain-cs").mkdir()
+    cs, _, _ = run(chain, scheme, 0.1, *TIGHT, out_dir=tmp_path / "chain-cs")
+    assert np.array_equal(me["f.real_discrete_out"], cs["f.real_discrete_out"])
+    assert np.array_equal(me["d2.x"], cs["d2.x"])
+    assert np.max(np.abs(me["d1.x"] - (1.0 - np.exp(-me["time"])))) < 1e-14

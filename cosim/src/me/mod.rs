@@ -7,6 +7,7 @@
 pub mod solver;
 
 use fmi2::import::Instance;
+use fmi2::{VarType, Variability};
 use solver::{Integrator, Rhs};
 pub use solver::{Method, Tolerances};
 
@@ -52,6 +53,7 @@ const MAX_STEPS_PER_STEP: u64 = 1_000_000;
 struct Saved {
     x: Vec<f64>,
     z: Vec<f64>,
+    t: f64,
     h: f64,
     next_time_event: Option<f64>,
     /// The event counts (state, time, step).
@@ -77,7 +79,21 @@ pub(crate) struct MeUnit {
     u0: Vec<f64>,
     slope: Vec<f64>,
     sloped: bool,
-    u_now: Vec<f64>,
+    /// Those of them of discrete variability: set in event mode only (an input event), and
+    /// never moved along a slope; their positions, value references, values to set, values set.
+    discrete: Vec<usize>,
+    discrete_vrs: Vec<u32>,
+    discrete_new: Vec<f64>,
+    discrete_now: Vec<f64>,
+    /// The continuous ones likewise.
+    continuous: Vec<usize>,
+    continuous_vrs: Vec<u32>,
+    continuous_new: Vec<f64>,
+    /// Out of initialization mode (inputs set from then on obey the modes).
+    started: bool,
+    /// The unit's time (where the FMU is), and whether it is in event mode for an input event.
+    t: f64,
+    input_event: bool,
     state_names: Vec<String>,
     saved: [Saved; 2],
     pub(crate) stats: MeStats,
@@ -87,12 +103,30 @@ pub(crate) struct MeUnit {
 /// checked.
 struct FmuRhs<'a> {
     inst: &'a mut Instance,
-    inputs: &'a [u32],
-    u0: &'a [f64],
-    slope: Option<(&'a [f64], f64)>,
-    u_now: &'a mut [f64],
+    inputs: MovingInputs<'a>,
     names: &'a [String],
     evaluations: &'a mut u64,
+}
+
+/// The continuous inputs along their slopes from `t0`, if the step has slopes.
+struct MovingInputs<'a> {
+    slope: Option<(&'a [f64], f64)>,
+    u0: &'a [f64],
+    positions: &'a [usize],
+    vrs: &'a [u32],
+    values: &'a mut [f64],
+}
+
+impl MovingInputs<'_> {
+    fn set(&mut self, inst: &mut Instance, t: f64) -> Result<(), UnitError> {
+        if let Some((slope, t0)) = self.slope {
+            for (v, &i) in self.values.iter_mut().zip(self.positions) {
+                *v = self.u0[i] + slope[i] * (t - t0);
+            }
+            inst.set_real(self.vrs, self.values)?;
+        }
+        Ok(())
+    }
 }
 
 impl Rhs for FmuRhs<'_> {
@@ -102,12 +136,7 @@ impl Rhs for FmuRhs<'_> {
         if !x.is_empty() {
             self.inst.set_continuous_states(x)?;
         }
-        if let Some((slope, t0)) = self.slope {
-            for i in 0..self.u0.len() {
-                self.u_now[i] = self.u0[i] + slope[i] * (t - t0);
-            }
-            self.inst.set_real(self.inputs, self.u_now)?;
-        }
+        self.inputs.set(self.inst, t)?;
         self.inst.get_derivatives(dx)?;
         if let Some(i) = dx.iter().position(|d| !d.is_finite()) {
             return Err(UnitError::Other(format!(
@@ -157,7 +186,13 @@ impl MeUnit {
                 v.map_or_else(|| format!("#{}", s.state), |v| v.name.clone())
             })
             .collect();
-        let saved = || Saved { x: vec![0.0; nx], z: vec![0.0; nz], h: 0.0, next_time_event: None, events: [0; 3] };
+        let saved = || Saved { x: vec![0.0; nx], z: vec![0.0; nz], ..Saved::default() };
+        let is_discrete = |vr: u32| {
+            let real =
+                fmu.description().variables.iter().find(|v| v.value_reference == vr && v.var_type == VarType::Real);
+            real.is_some_and(|v| v.variability == Variability::Discrete)
+        };
+        let (discrete, continuous): (Vec<usize>, Vec<usize>) = (0..inputs.len()).partition(|&i| is_discrete(inputs[i]));
         MeUnit {
             nx,
             nz,
@@ -174,7 +209,16 @@ impl MeUnit {
             u0: vec![0.0; inputs.len()],
             slope: vec![0.0; inputs.len()],
             sloped: false,
-            u_now: vec![0.0; inputs.len()],
+            discrete_vrs: discrete.iter().map(|&i| inputs[i]).collect(),
+            discrete_new: vec![0.0; discrete.len()],
+            discrete_now: vec![0.0; discrete.len()],
+            discrete,
+            continuous_vrs: continuous.iter().map(|&i| inputs[i]).collect(),
+            continuous_new: vec![0.0; continuous.len()],
+            continuous,
+            started: false,
+            t: 0.0,
+            input_event: false,
             state_names,
             saved: [saved(), saved()],
             stats: MeStats::default(),
@@ -187,34 +231,80 @@ impl MeUnit {
 
     /// After `exitInitializationMode` at `t0`: the event iteration, then continuous-time mode.
     pub(crate) fn start(&mut self, inst: &mut Instance, t0: f64) -> Result<(), UnitError> {
+        (self.started, self.t) = (true, t0);
         self.event(inst, t0)?;
         self.evaluate(inst, t0)?;
         Ok(())
     }
 
-    /// The inputs set for the next step (their values at its start).
-    pub(crate) fn inputs_set(&mut self, u: &[f64]) {
+    /// Sets the connected inputs for the next step (their values at its start). In
+    /// continuous-time mode only continuous inputs may be set (FMI 2.0 and 3.0): a discrete one
+    /// that changes is an input event — event mode, the value, the event iteration.
+    pub(crate) fn set_inputs(&mut self, inst: &mut Instance, u: &[f64]) -> Result<(), UnitError> {
         self.u0.copy_from_slice(u);
         self.sloped = false;
+        if !self.started || self.discrete.is_empty() {
+            return Ok(inst.set_real(&self.inputs, u)?);
+        }
+        if !self.continuous.is_empty() {
+            for (v, &i) in self.continuous_new.iter_mut().zip(&self.continuous) {
+                *v = u[i];
+            }
+            inst.set_real(&self.continuous_vrs, &self.continuous_new)?;
+        }
+        for (v, &i) in self.discrete_new.iter_mut().zip(&self.discrete) {
+            *v = u[i];
+        }
+        inst.get_real(&self.discrete_vrs, &mut self.discrete_now)?;
+        if self.discrete_new.iter().zip(&self.discrete_now).any(|(a, b)| a.to_bits() != b.to_bits()) {
+            self.begin_input_event(inst)?;
+            inst.set_real(&self.discrete_vrs, &self.discrete_new)?;
+            self.end_input_event(inst)?;
+        }
+        Ok(())
     }
 
-    /// Slopes of the inputs over the next step only.
+    /// Before a discrete input (any Integer, Boolean or String) that changes is set: event mode
+    /// at the unit's time (once for several). Before the start, nothing: initialization mode
+    /// takes any input.
+    pub(crate) fn begin_input_event(&mut self, inst: &mut Instance) -> Result<(), UnitError> {
+        if self.started && !self.input_event {
+            inst.set_time(self.t)?;
+            inst.enter_event_mode()?;
+            self.input_event = true;
+        }
+        Ok(())
+    }
+
+    /// After the discrete inputs of an input event are set: the event iteration, back to
+    /// continuous-time mode with the values after it (its events are not the unit's own:
+    /// not counted).
+    pub(crate) fn end_input_event(&mut self, inst: &mut Instance) -> Result<(), UnitError> {
+        if !self.input_event {
+            return Ok(());
+        }
+        self.input_event = false;
+        let t = self.t;
+        self.event(inst, t)?;
+        self.evaluate(inst, t)
+    }
+
+    /// Slopes of the inputs over the next step only (of the continuous ones: a discrete input
+    /// holds).
     pub(crate) fn slopes_set(&mut self, slopes: &[f64]) {
         self.slope.copy_from_slice(slopes);
         self.sloped = true;
     }
 
     fn rhs<'a>(&'a mut self, inst: &'a mut Instance, t0: f64) -> (FmuRhs<'a>, &'a mut Integrator) {
-        let slope = self.sloped.then_some((&self.slope[..], t0));
-        let rhs = FmuRhs {
-            inst,
-            inputs: &self.inputs,
+        let inputs = MovingInputs {
+            slope: self.sloped.then_some((&self.slope[..], t0)),
             u0: &self.u0,
-            slope,
-            u_now: &mut self.u_now,
-            names: &self.state_names,
-            evaluations: &mut self.stats.evaluations,
+            positions: &self.continuous,
+            vrs: &self.continuous_vrs,
+            values: &mut self.continuous_new,
         };
+        let rhs = FmuRhs { inst, inputs, names: &self.state_names, evaluations: &mut self.stats.evaluations };
         (rhs, &mut self.integrator)
     }
 
@@ -297,6 +387,7 @@ impl MeUnit {
     pub(crate) fn advance(&mut self, inst: &mut Instance, t: f64, h: f64) -> Result<(), UnitError> {
         let result = self.integrate(inst, t, t + h);
         self.sloped = false;
+        self.t = t + h;
         result
     }
 
@@ -475,12 +566,8 @@ impl MeUnit {
             self.stats.evaluations += 1;
             inst.set_time(tm)?;
             inst.set_continuous_states(&self.x_mid)?;
-            if self.sloped {
-                for k in 0..self.u0.len() {
-                    self.u_now[k] = self.u0[k] + self.slope[k] * (tm - t_start);
-                }
-                inst.set_real(&self.inputs, &self.u_now)?;
-            }
+            let rhs = &mut self.rhs(inst, t_start).0;
+            rhs.inputs.set(rhs.inst, tm)?;
             inst.get_event_indicators(&mut self.z_mid)?;
             self.check_indicators(tm, &self.z_mid)?;
             if (0..self.nz).any(|k| crossed(self.z[k], self.z_mid[k])) {
@@ -515,6 +602,7 @@ impl MeUnit {
         let s = &mut self.saved[slot];
         s.x.copy_from_slice(&self.x);
         s.z.copy_from_slice(&self.z);
+        s.t = self.t;
         s.h = self.integrator.h;
         s.next_time_event = self.next_time_event;
         s.events = [self.stats.state_events, self.stats.time_events, self.stats.step_events];
@@ -525,6 +613,7 @@ impl MeUnit {
         let s = &self.saved[slot];
         self.x.copy_from_slice(&s.x);
         self.z.copy_from_slice(&s.z);
+        self.t = s.t;
         self.integrator.h = s.h;
         self.next_time_event = s.next_time_event;
         [self.stats.state_events, self.stats.time_events, self.stats.step_events] = s.events;

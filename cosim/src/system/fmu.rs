@@ -26,6 +26,16 @@ pub struct Needs {
     pub model_exchange: crate::me::MeOptions,
 }
 
+impl FmuUnit {
+    /// Before a discrete input is set: event mode where the unit is of Model Exchange.
+    fn begin_input_event(&mut self) -> Result<(), UnitError> {
+        match self.me.as_mut() {
+            Some(me) => me.begin_input_event(&mut self.inst),
+            None => Ok(()),
+        }
+    }
+}
+
 struct FmuUnit {
     name: String,
     inst: Instance,
@@ -341,39 +351,60 @@ impl FmuSystem {
         })
     }
 
-    /// Copies every non-Real connection; with `compare`, returns whether any input changed.
+    /// Copies every non-Real connection; with `compare`, returns whether any input changed. A
+    /// Model Exchange unit takes a changed value in event mode (an input event, FMI 2.0 and 3.0:
+    /// discrete inputs are not set in continuous-time mode), and an unchanged one not at all.
     fn exchange(&mut self, compare: bool) -> Result<bool, (usize, UnitError)> {
         let mut changed = false;
         for l in &self.discrete {
             let (a, b) = (l.from.0, l.to.0);
             let e = |k: usize| move |e: fmi2::import::Error| (k, UnitError::Fmi(e));
-            match l.var_type {
+            // a Model Exchange unit's input is read to set it only if it changes
+            let me = self.units[b].me.is_some();
+            let look = compare || me;
+            let differs = match l.var_type {
                 VarType::Integer => {
                     let (mut x, mut old) = ([0], [0]);
                     self.units[a].inst.get_integer(&[l.from.1], &mut x).map_err(e(a))?;
-                    if compare {
+                    if look {
                         self.units[b].inst.get_integer(&[l.to.1], &mut old).map_err(e(b))?;
-                        changed |= x != old;
                     }
-                    self.units[b].inst.set_integer(&[l.to.1], &x).map_err(e(b))?;
+                    let differs = look && x != old;
+                    if differs || !me {
+                        self.units[b].begin_input_event().map_err(|e| (b, e))?;
+                        self.units[b].inst.set_integer(&[l.to.1], &x).map_err(e(b))?;
+                    }
+                    differs
                 }
                 VarType::Boolean => {
                     let (mut x, mut old) = ([false], [false]);
                     self.units[a].inst.get_boolean(&[l.from.1], &mut x).map_err(e(a))?;
-                    if compare {
+                    if look {
                         self.units[b].inst.get_boolean(&[l.to.1], &mut old).map_err(e(b))?;
-                        changed |= x != old;
                     }
-                    self.units[b].inst.set_boolean(&[l.to.1], &x).map_err(e(b))?;
+                    let differs = look && x != old;
+                    if differs || !me {
+                        self.units[b].begin_input_event().map_err(|e| (b, e))?;
+                        self.units[b].inst.set_boolean(&[l.to.1], &x).map_err(e(b))?;
+                    }
+                    differs
                 }
                 VarType::String => {
                     let x = self.units[a].inst.get_string(&[l.from.1]).map_err(e(a))?;
-                    if compare {
-                        changed |= self.units[b].inst.get_string(&[l.to.1]).map_err(e(b))? != x;
+                    let differs = look && self.units[b].inst.get_string(&[l.to.1]).map_err(e(b))? != x;
+                    if differs || !me {
+                        self.units[b].begin_input_event().map_err(|e| (b, e))?;
+                        self.units[b].inst.set_string(&[l.to.1], &[x[0].as_str()]).map_err(e(b))?;
                     }
-                    self.units[b].inst.set_string(&[l.to.1], &[x[0].as_str()]).map_err(e(b))?;
+                    differs
                 }
                 VarType::Real => unreachable!("Real connections are interface unknowns"),
+            };
+            changed |= compare && differs;
+        }
+        for (k, unit) in self.units.iter_mut().enumerate() {
+            if let Some(me) = unit.me.as_mut() {
+                me.end_input_event(&mut unit.inst).map_err(|e| (k, e))?;
             }
         }
         Ok(changed)
@@ -723,7 +754,7 @@ impl Units for FmuSystem {
     fn set_inputs(&mut self, k: usize, u: &[f64]) -> Result<(), UnitError> {
         let unit = &mut self.units[k];
         if let Some(me) = unit.me.as_mut() {
-            me.inputs_set(u);
+            return me.set_inputs(&mut unit.inst, u);
         }
         Ok(unit.inst.set_real(&unit.inputs, u)?)
     }
@@ -789,7 +820,7 @@ impl Units for FmuSystem {
         Ok(step_map_derivative(&mut unit.inst, &unit.outputs, knowns, seeds, out)?)
     }
 
-    fn exchange_discrete(&mut self) -> Result<(), UnitError> {
-        self.exchange(false).map(|_| ()).map_err(|(_, e)| e)
+    fn exchange_discrete(&mut self) -> Result<(), (usize, UnitError)> {
+        self.exchange(false).map(|_| ())
     }
 }
