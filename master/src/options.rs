@@ -224,6 +224,21 @@ pub struct SystemFileArgs {
     /// description, the FMUs, the parameter files; nothing else is unpacked) [default: 1024].
     #[arg(long, value_parser = |t: &str| megabytes(t, UNPACKED_MB))]
     pub max_unpacked_mb: Option<u64>,
+    /// Run FMUs that offer both interfaces as Model Exchange (`me`) or Co-Simulation (`cs`, the
+    /// default), all of them, or one component: `COMPONENT=me` (comma-separated). An FMU with
+    /// one interface runs as that one.
+    #[arg(long, value_delimiter = ',', value_name = "[COMPONENT=]me|cs")]
+    pub interface: Vec<String>,
+    /// The integrator of Model Exchange components: `dopri5` (explicit) or `esdirk3` (implicit,
+    /// for stiff models).
+    #[arg(long, default_value = "dopri5", value_parser = ["dopri5", "esdirk3"])]
+    pub me_solver: String,
+    /// Relative tolerance of the Model Exchange integrator, in (0, 1).
+    #[arg(long, default_value = "1e-6", value_parser = tolerance, allow_negative_numbers = true)]
+    pub me_rtol: f64,
+    /// Absolute tolerance of the Model Exchange integrator (in the states' units).
+    #[arg(long, default_value = "1e-8", value_parser = positive, allow_negative_numbers = true)]
+    pub me_atol: f64,
 }
 
 impl SystemFileArgs {
@@ -236,12 +251,34 @@ impl SystemFileArgs {
         }
     }
 
+    /// The interfaces asked for (component or all, interface) and the Model Exchange integrator.
+    pub fn model_exchange(&self) -> anyhow::Result<crate::system::ModelExchangeChoice> {
+        use fmi2::import::Interface;
+        let mut interfaces = Vec::new();
+        for item in &self.interface {
+            let (component, name) = match item.split_once('=') {
+                Some((c, n)) => (Some(c.trim().to_owned()), n.trim()),
+                None => (None, item.trim()),
+            };
+            let interface = match name {
+                "me" => Interface::ModelExchange,
+                "cs" => Interface::CoSimulation,
+                other => bail!("--interface {item}: `{other}` is neither `me` nor `cs`"),
+            };
+            interfaces.push((component, interface));
+        }
+        let method = if self.me_solver == "esdirk3" { cosim::me::Method::Esdirk3 } else { cosim::me::Method::Dopri5 };
+        let tol = cosim::me::Tolerances { rtol: self.me_rtol, atol: self.me_atol };
+        Ok(crate::system::ModelExchangeChoice { interfaces, options: cosim::me::MeOptions { method, tol } })
+    }
+
     /// The options given, for a run that has no system to apply them to.
     pub fn given(&self) -> Option<&'static str> {
         [
             (self.allow_external_fmus, "--allow-external-fmus"),
             (self.max_archive_entries.is_some(), "--max-archive-entries"),
             (self.max_unpacked_mb.is_some(), "--max-unpacked-mb"),
+            (!self.interface.is_empty(), "--interface"),
         ]
         .into_iter()
         .find_map(|(given, name)| given.then_some(name))

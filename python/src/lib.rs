@@ -241,6 +241,7 @@ fn run_system(py: Python<'_>, path: String, argv: Vec<String>) -> PyResult<(Stri
     py.detach(|| {
         let file = Path::new(&path);
         let system = SystemFile::prepare(file, method, args.dt, args.t_end, &files.limits(), &Limits::default())
+            .and_then(|s| s.with_model_exchange(&files.model_exchange()?))
             .map_err(|e| RunError::new_err(format!("{e:#}")))?;
         let mut csv = Vec::new();
         let sinks = master::system::Sinks { csv: Some(&mut csv), real: None };
