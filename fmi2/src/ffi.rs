@@ -9,7 +9,7 @@ pub type fmi2Component = *mut c_void;
 pub(crate) type fmi2ComponentEnvironment = *mut c_void;
 pub type fmi2FMUstate = *mut c_void;
 pub(crate) type fmi2ValueReference = u32;
-pub(crate) type fmi2Real = f64;
+pub type fmi2Real = f64;
 pub(crate) type fmi2Integer = c_int;
 pub type fmi2Boolean = c_int;
 pub type fmi2String = *const c_char;
@@ -20,8 +20,8 @@ pub type fmi2Status = c_int;
 pub type fmi2Type = c_int;
 pub type fmi2StatusKind = c_int;
 
-pub(crate) const fmi2True: fmi2Boolean = 1;
-pub(crate) const fmi2False: fmi2Boolean = 0;
+pub const fmi2True: fmi2Boolean = 1;
+pub const fmi2False: fmi2Boolean = 0;
 
 pub(crate) const fmi2OK: fmi2Status = 0;
 pub(crate) const fmi2Warning: fmi2Status = 1;
@@ -31,7 +31,7 @@ pub(crate) const fmi2Fatal: fmi2Status = 4;
 pub(crate) const fmi2Pending: fmi2Status = 5;
 
 pub const fmi2ModelExchange: fmi2Type = 0;
-pub(crate) const fmi2CoSimulation: fmi2Type = 1;
+pub const fmi2CoSimulation: fmi2Type = 1;
 
 pub const fmi2DoStepStatus: fmi2StatusKind = 0;
 pub const fmi2PendingStatus: fmi2StatusKind = 1;
@@ -131,6 +131,28 @@ pub(crate) type fmi2GetBooleanStatusTYPE =
     unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2Boolean) -> fmi2Status;
 pub(crate) type fmi2GetStringStatusTYPE =
     unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2String) -> fmi2Status;
+
+/// What `fmi2NewDiscreteStates` reports (Model Exchange).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct fmi2EventInfo {
+    pub newDiscreteStatesNeeded: fmi2Boolean,
+    pub terminateSimulation: fmi2Boolean,
+    pub nominalsOfContinuousStatesChanged: fmi2Boolean,
+    pub valuesOfContinuousStatesChanged: fmi2Boolean,
+    pub nextEventTimeDefined: fmi2Boolean,
+    pub nextEventTime: fmi2Real,
+}
+
+// The Model Exchange functions.
+pub(crate) type fmi2NewDiscreteStatesTYPE = unsafe extern "C" fn(fmi2Component, *mut fmi2EventInfo) -> fmi2Status;
+pub(crate) type fmi2CompletedIntegratorStepTYPE =
+    unsafe extern "C" fn(fmi2Component, fmi2Boolean, *mut fmi2Boolean, *mut fmi2Boolean) -> fmi2Status;
+pub(crate) type fmi2SetTimeTYPE = unsafe extern "C" fn(fmi2Component, fmi2Real) -> fmi2Status;
+pub(crate) type fmi2SetContinuousStatesTYPE = unsafe extern "C" fn(fmi2Component, *const fmi2Real, usize) -> fmi2Status;
+/// `fmi2GetDerivatives`, `fmi2GetEventIndicators`, `fmi2GetContinuousStates`,
+/// `fmi2GetNominalsOfContinuousStates`.
+pub(crate) type fmi2GetRealArrayTYPE = unsafe extern "C" fn(fmi2Component, *mut fmi2Real, usize) -> fmi2Status;
 
 /// The status an FMI function returned, for the safe API.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -32,7 +32,7 @@ pub mod uri;
 pub mod xml;
 
 pub use description::{
-    Causality, CoSimulationFlags, DefaultExperiment, Initial, ModelDescription, ModelInfo, Unit, Value, VarType,
-    Variability, Variable,
+    Causality, CoSimulationFlags, ContinuousState, DefaultExperiment, Initial, ModelDescription, ModelExchange,
+    ModelInfo, Unit, Value, VarType, Variability, Variable,
 };
 pub use export::{Model, Resource};

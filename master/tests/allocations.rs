@@ -83,6 +83,39 @@ fn the_co_simulation_steps_without_allocating() {
     schemes_step_without_allocating(&spec3, "FMI 3.0");
 }
 
+/// Units the master integrates (Model Exchange), with a Co-Simulation FMU: the ball's steps
+/// hold impacts (state events, the event iteration) and the loop's IJCSA differences through
+/// the unit; the integrator's buffers are made once, at set-up. Every scheme, FMI 2.0 and 3.0.
+#[test]
+fn model_exchange_units_step_without_allocating() {
+    for version in [2, 3] {
+        for which in ["ball", "loop"] {
+            let spec = common::me_system(which, version);
+            let label = format!("{which}, FMI {version}");
+            schemes_step_without_allocating(&spec, &label);
+            if which == "ball" {
+                for scheme in [Scheme::Jacobi, Scheme::GaussSeidel { reversed: false }] {
+                    let options = Options { scheme, ..Options::default() };
+                    let system = FmuSystem::load(&spec, &studies::system::needs(&options, false)).unwrap();
+                    let mut c = Coupled::new(system, options).unwrap();
+                    for _ in 0..100 {
+                        c.step(0.01).unwrap();
+                    }
+                    let events = |c: &Coupled<FmuSystem>| c.units().model_exchange_stats()[0].2.state_events;
+                    let before = events(&c);
+                    let n = allocations(|| {
+                        for _ in 0..100 {
+                            c.step(0.01).unwrap();
+                        }
+                    });
+                    assert_eq!(n, 0, "allocations in 100 macro steps of {} ({label})", scheme.name());
+                    assert!(events(&c) - before >= 3, "impacts in the steps counted ({label})");
+                }
+            }
+        }
+    }
+}
+
 /// The fixed-step schemes over `spec`, 100 macro steps each after 100 of warm-up.
 fn schemes_step_without_allocating(spec: &studies::cosim::SystemSpec, version: &str) {
     for (scheme, jacobian) in [

@@ -181,7 +181,9 @@ def run_system(path, scheme: str = "ijcsa", *, dt: float | None = None, t_end: f
     columns of its ``--out`` (``time``, with the adaptive step then ``h_s``, and every output as
     ``<component>.<variable>``). ``dt`` is the macro step (not with ``adaptive=True``); ``t_end``
     defaults to the system's DefaultExperiment stopTime. ``options``: the scheme options of
-    :func:`run`, and ``allow_external_fmus``, ``max_archive_entries``, ``max_unpacked_mb``."""
+    :func:`run`, and ``allow_external_fmus``, ``max_archive_entries``, ``max_unpacked_mb``; for
+    Model Exchange components ``interface`` (``"me"``, or ``"COMPONENT=me,..."``),
+    ``me_solver`` (``"dopri5"`` or ``"esdirk3"``), ``me_rtol``, ``me_atol``."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path: give the path of an .ssp or .ssd file, not {type(path).__name__}")
     summary, csv = _feedsim.run_system(os.fspath(path), {"scheme": scheme, "dt": dt, "t_end": t_end, **options})

@@ -320,16 +320,26 @@ fn modes(py: Python<'_>, path: Option<String>, toml: Option<String>, label: Stri
 fn run_system(py: Python<'_>, path: String, options: Bound<'_, PyDict>) -> PyResult<(String, String)> {
     let kwargs = Kwargs::new(options);
     let (scheme, dt, t_end, options) = kwargs.method()?;
+    let defaults = SystemFiles::default();
     let files = SystemFiles {
         allow_external_fmus: kwargs.flag("allow_external_fmus")?,
         max_archive_entries: kwargs.take("max_archive_entries", opt::whole)?,
         max_unpacked_mb: kwargs.take("max_unpacked_mb", |t| opt::megabytes(t, UNPACKED_MB))?,
+        interface: kwargs
+            .list("interface")?
+            .iter()
+            .map(|t| opt::interface(t).map_err(|r| invalid("interface", t, &r)))
+            .collect::<PyResult<_>>()?,
+        me_solver: kwargs.named("me_solver")?.unwrap_or(defaults.me_solver),
+        me_rtol: kwargs.take("me_rtol", opt::tolerance)?.unwrap_or(defaults.me_rtol),
+        me_atol: kwargs.take("me_atol", positive)?.unwrap_or(defaults.me_atol),
     };
     kwargs.done()?;
     let method = options.method(scheme).map_err(|e| option_value_error(&e))?;
     py.detach(|| {
         let file = Path::new(&path);
         let system = SystemFile::prepare(file, method, dt, t_end, &files.limits(), &Limits::default())
+            .and_then(|s| s.with_model_exchange(&files.model_exchange()))
             .map_err(|e| RunError::new_err(format!("{e:#}")))?;
         let mut csv = Vec::new();
         let sinks = studies::system::Sinks { csv: Some(&mut csv), real: None };

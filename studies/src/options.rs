@@ -10,6 +10,7 @@ use crate::system::Adaptive;
 use anyhow::bail;
 use cosim::ssp::read::ReadLimits;
 use feedcore::scene::{Control, ValidScene};
+use fmi2::import::Interface;
 
 /// A choice among named values, as a user gives it (a flag's value, a keyword's string): the
 /// names, a line of help for each, and parsing.
@@ -364,8 +365,9 @@ pub fn megabytes(text: &str, bytes_per_mb: u64) -> Result<u64, String> {
     Ok(mb)
 }
 
-/// Where a system's files may come from and what unpacking an archive may cost.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// Where a system's files may come from and what unpacking an archive may cost, and how its
+/// Model Exchange components are integrated.
+#[derive(Clone, Debug, PartialEq)]
 pub struct SystemFiles {
     /// Load FMUs and parameter files from outside the archive (or, for an `.ssd`, its folder).
     pub allow_external_fmus: bool,
@@ -374,6 +376,59 @@ pub struct SystemFiles {
     /// Most megabytes ([`UNPACKED_MB`]) unpacked from an `.ssp` archive [default: 1024];
     /// checked by [`megabytes`].
     pub max_unpacked_mb: Option<u64>,
+    /// The interface to run FMUs that offer both as: all of them (no component), or one
+    /// component; an FMU with one interface runs as that one ([`interface`]).
+    pub interface: Vec<(Option<String>, Interface)>,
+    /// The integrator of Model Exchange components, and its tolerances (relative in (0, 1),
+    /// absolute in the states' units).
+    pub me_solver: cosim::me::Method,
+    pub me_rtol: f64,
+    pub me_atol: f64,
+}
+
+impl Default for SystemFiles {
+    fn default() -> Self {
+        SystemFiles {
+            allow_external_fmus: false,
+            max_archive_entries: None,
+            max_unpacked_mb: None,
+            interface: Vec::new(),
+            me_solver: cosim::me::Method::Dopri5,
+            me_rtol: 1e-6,
+            me_atol: 1e-8,
+        }
+    }
+}
+
+/// An interface choice as typed: `me` or `cs` for every FMU offering both, `COMPONENT=me` for one.
+pub fn interface(text: &str) -> Result<(Option<String>, Interface), String> {
+    let (component, name) = match text.split_once('=') {
+        Some((c, n)) => (Some(c.trim().to_owned()), n.trim()),
+        None => (None, text.trim()),
+    };
+    match name {
+        "me" => Ok((component, Interface::ModelExchange)),
+        "cs" => Ok((component, Interface::CoSimulation)),
+        other => Err(format!("`{other}` is neither `me` nor `cs`")),
+    }
+}
+
+impl Named for cosim::me::Method {
+    const ALL: &'static [cosim::me::Method] = &[cosim::me::Method::Dopri5, cosim::me::Method::Esdirk3];
+
+    fn name(self) -> &'static str {
+        match self {
+            cosim::me::Method::Dopri5 => "dopri5",
+            cosim::me::Method::Esdirk3 => "esdirk3",
+        }
+    }
+
+    fn help(self) -> &'static str {
+        match self {
+            cosim::me::Method::Dopri5 => "Dormand–Prince 5(4), explicit",
+            cosim::me::Method::Esdirk3 => "ESDIRK 3(2), implicit, L-stable: for stiff models",
+        }
+    }
 }
 
 impl SystemFiles {
@@ -388,12 +443,22 @@ impl SystemFiles {
         }
     }
 
+    /// The interfaces asked for (component or all, interface) and the Model Exchange integrator.
+    pub fn model_exchange(&self) -> crate::system::ModelExchangeChoice {
+        let tol = cosim::me::Tolerances { rtol: self.me_rtol, atol: self.me_atol };
+        crate::system::ModelExchangeChoice {
+            interfaces: self.interface.clone(),
+            options: cosim::me::MeOptions { method: self.me_solver, tol },
+        }
+    }
+
     /// The first option given (its name), for a run that has no system to apply it to.
     pub fn given(&self) -> Option<&'static str> {
         [
             (self.allow_external_fmus, "allow-external-fmus"),
             (self.max_archive_entries.is_some(), "max-archive-entries"),
             (self.max_unpacked_mb.is_some(), "max-unpacked-mb"),
+            (!self.interface.is_empty(), "interface"),
         ]
         .into_iter()
         .find_map(|(given, name)| given.then_some(name))

@@ -48,7 +48,7 @@ pub fn scene_spec(scene: &ValidScene, scene_file: &Path) -> Result<SystemSpec, S
         components: sys
             .fmus
             .iter()
-            .map(|f| Component { name: f.name.clone(), source: relative_to(scene_file, &f.path) })
+            .map(|f| Component { name: f.name.clone(), source: relative_to(scene_file, &f.path), interface: None })
             .collect(),
         connections: sys
             .connections
@@ -82,7 +82,7 @@ pub fn needs(options: &Options, adaptive: bool) -> Needs {
     } else {
         format!("scheme {}", options.scheme.name())
     };
-    Needs { what, rollback: options.scheme.is_implicit() || adaptive }
+    Needs { what, rollback: options.scheme.is_implicit() || adaptive, model_exchange: Default::default() }
 }
 
 /// Step-size settings of an adaptive run.
@@ -106,6 +106,34 @@ impl Adaptive {
     pub fn controller(&self) -> Result<Controller, String> {
         let h_init = (10.0 * self.h_min).min(self.h_max);
         Ok(Controller::new(Limits { h_min: self.h_min, h_max: self.h_max, h_init })?.holding(REFACTORIZING_HOLD))
+    }
+}
+
+/// Which components run as Model Exchange, and how those are integrated.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ModelExchangeChoice {
+    /// (component, or every component, interface), in order: a later entry overrides.
+    pub interfaces: Vec<(Option<String>, fmi2::import::Interface)>,
+    pub options: cosim::me::MeOptions,
+}
+
+impl ModelExchangeChoice {
+    /// Applies the interfaces to the components of `spec`; a component not in it is an error.
+    pub fn apply(&self, spec: &mut SystemSpec) -> Result<(), String> {
+        for (component, interface) in &self.interfaces {
+            match component {
+                None => spec.components.iter_mut().for_each(|c| c.interface = Some(*interface)),
+                Some(name) => {
+                    let c = spec
+                        .components
+                        .iter_mut()
+                        .find(|c| &c.name == name)
+                        .ok_or_else(|| format!("--interface {name}=…: the system has no component `{name}`"))?;
+                    c.interface = Some(*interface);
+                }
+            }
+        }
+        Ok(())
     }
 }
 
@@ -157,6 +185,8 @@ pub struct SystemOutcome {
     pub wall_time_s: f64,
     /// `time` and every output, as in the CSV.
     pub columns: Vec<String>,
+    /// What the integration of each Model Exchange component did: (component, solver, stats).
+    pub model_exchange: Vec<(String, &'static str, cosim::me::MeStats)>,
 }
 
 /// A run of a system checked whole, ready to start (like [`crate::simulate::Run`]).
@@ -165,6 +195,8 @@ pub struct SystemRun<'a> {
     options: Options,
     adaptive: Option<Adaptive>,
     schedule: Schedule,
+    /// How Model Exchange components are integrated.
+    pub model_exchange: cosim::me::MeOptions,
 }
 
 impl<'a> SystemRun<'a> {
@@ -193,7 +225,7 @@ impl<'a> SystemRun<'a> {
             }
             None => Schedule::Fixed(Plan::new(dt, t_end, limits).map_err(|e| refused(e.to_string()))?),
         };
-        Ok(SystemRun { spec, options, adaptive, schedule })
+        Ok(SystemRun { spec, options, adaptive, schedule, model_exchange: Default::default() })
     }
 
     /// Runs it from 0 to the end time, writing the samples (every step) to `sinks`. Stops on a
@@ -210,9 +242,8 @@ impl<'a> SystemRun<'a> {
         // every step too
         let watch = self.adaptive.as_ref().map(|a| if a.watch.is_empty() { &self.spec.watch } else { &a.watch });
         let spec = watch.filter(|w| !w.is_empty()).map(|w| SystemSpec { observed: w.clone(), ..self.spec.clone() });
-        let system =
-            FmuSystem::load(spec.as_ref().unwrap_or(self.spec), &needs(&self.options, self.adaptive.is_some()))
-                .map_err(|e| setup(&e))?;
+        let needs = Needs { model_exchange: self.model_exchange, ..needs(&self.options, self.adaptive.is_some()) };
+        let system = FmuSystem::load(spec.as_ref().unwrap_or(self.spec), &needs).map_err(|e| setup(&e))?;
         let mut c = Coupled::new(system, self.options).map_err(|e| setup(&e))?;
         if let (Some(a), Some(watch)) = (&self.adaptive, watch) {
             let from =
@@ -378,6 +409,7 @@ impl<'a> SystemRun<'a> {
             terminated.map_err(|e| setup(&e))?;
         }
         Ok(SystemOutcome {
+            model_exchange: c.units().model_exchange_stats(),
             steps: totals.steps,
             rejected_steps: totals.rejected,
             h_min_used: totals.h_min,

@@ -216,6 +216,23 @@ def test_run_system_equals_the_command(tmp_path, options):
         np.testing.assert_allclose(dx.to_numpy(), scene["dx_mm"].to_numpy(), rtol=0, atol=1e-12)
 
 
+def test_run_system_integrates_model_exchange_components_as_the_command(tmp_path):
+    """interface=, me_solver=, me_rtol=, me_atol= reach the master: the zoo's chain with d1 as
+    Model Exchange, the CSV of the command's run byte for byte, d1.x on 1 - e^-t to 1e-8."""
+    from zoo import pack
+
+    ssp = pack("chain", tmp_path)
+    options = {"dt": 0.1, "interface": "d1=me", "me_solver": "esdirk3", "me_rtol": 1e-10, "me_atol": 1e-12}
+    r = feedsim.run_system(ssp, "jacobi", **options)
+    csv = tmp_path / "out.csv"
+    cli = json.loads(master("run", "--system", ssp, "--scheme", "jacobi", *flags(options), "--out", csv,
+                            "--json", "--quiet"))
+    assert r.csv == csv.read_text() and stable(r.summary) == stable(cli)
+    assert [(m["component"], m["solver"]) for m in r.summary["model_exchange"]] == [("d1", "esdirk3")]
+    t = r.frame["time"].to_numpy()
+    assert np.max(np.abs(r.frame["d1.x"].to_numpy() - (1.0 - np.exp(-t)))) < 1e-8
+
+
 def test_run_system_errors():
     with pytest.raises(feedsim.RunError, match="no-such.ssp"):
         feedsim.run_system(REPO / "no-such.ssp", "ijcsa", dt=0.01, t_end=1.0)
@@ -287,7 +304,8 @@ def test_the_two_front_ends_take_the_same_options():
     test holds the flags' defaults to it)."""
     help_text = master("run", "--help")
     cli_only = {"scene", "system", "scheme", "out", "json", "plot", "quiet", "help", "vtk", "vtk-every", "adaptive",
-                "watch", "allow-external-fmus", "max-archive-entries", "max-unpacked-mb", "max-steps",
+                "watch", "allow-external-fmus", "max-archive-entries", "max-unpacked-mb", "interface", "me-solver",
+                "me-rtol", "me-atol", "max-steps",
                 "max-memory-mb", "max-scene-bytes"}
     options = set(re.findall(r"^\s+--([a-z][a-z0-9-]*)", help_text, re.M)) - cli_only
     assert options == {k.replace("_", "-") for k in REFUSED}, options ^ {k.replace("_", "-") for k in REFUSED}

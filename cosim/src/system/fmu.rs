@@ -13,6 +13,7 @@ use super::spec::{Connection, Endpoint, Linear, Matching, Parameter, SystemSpec,
 use super::{Capabilities, Layout, Slot, UnitError, UnitLayout, Units};
 use crate::error::SetupError;
 use crate::iqn::{Accelerator, IqnOptions};
+use crate::me::{MeStats, MeUnit};
 
 /// What the scheme to run needs from every FMU, checked before anything is instantiated.
 #[derive(Clone, Debug, Default)]
@@ -21,6 +22,18 @@ pub struct Needs {
     pub what: String,
     /// Get/set FMU state.
     pub rollback: bool,
+    /// How Model Exchange units are integrated.
+    pub model_exchange: crate::me::MeOptions,
+}
+
+impl FmuUnit {
+    /// Before a discrete input is set: event mode where the unit is of Model Exchange.
+    fn begin_input_event(&mut self) -> Result<(), UnitError> {
+        match self.me.as_mut() {
+            Some(me) => me.begin_input_event(&mut self.inst),
+            None => Ok(()),
+        }
+    }
 }
 
 struct FmuUnit {
@@ -37,6 +50,8 @@ struct FmuUnit {
     /// The inputs with a nonzero seed and their seeds (a step-map derivative asks the FMU
     /// about those only: a seed per input costs one known, not all of them).
     seeded: (Vec<u32>, Vec<f64>),
+    /// A Model Exchange FMU: the master's integration of it.
+    me: Option<Box<MeUnit>>,
 }
 
 /// A connection of Integer, Boolean or String variables, passed at communication points.
@@ -106,12 +121,14 @@ impl FmuSystem {
             let mut inst = fmu.instantiate(&c.name, false).map_err(fmu_err(k))?;
             inst.setup_experiment(None, 0.0, None).map_err(fmu_err(k))?;
             let flags = &fmu.description().flags;
+            let me = fmu.interface() == fmi2::import::Interface::ModelExchange;
             units.push(FmuUnit {
                 name: c.name.clone(),
                 caps: Capabilities {
                     rollback: flags.can_get_and_set_fmu_state,
-                    step_derivatives: provides_step_map_derivative(fmu),
-                    interpolates: flags.can_interpolate_inputs,
+                    step_derivatives: provides_step_map_derivative(fmu) && !me,
+                    // the master integrates it: it follows any input slope over the step
+                    interpolates: flags.can_interpolate_inputs || me,
                 },
                 inst,
                 inputs: Vec::new(),
@@ -119,6 +136,7 @@ impl FmuSystem {
                 states: [None, None],
                 ones: Vec::new(),
                 seeded: (Vec::new(), Vec::new()),
+                me: None,
             });
         }
         for p in &spec.parameters {
@@ -170,6 +188,9 @@ impl FmuSystem {
                 }
             }
             unit.ones = vec![1; unit.inputs.len()];
+            if unit.inst.fmu().interface() == fmi2::import::Interface::ModelExchange {
+                unit.me = Some(Box::new(MeUnit::new(&unit.inst, &unit.inputs, needs.model_exchange)));
+            }
             layout.units.push(UnitLayout {
                 name: unit.name.clone(),
                 inputs: i0..layout.input_names.len(),
@@ -219,6 +240,15 @@ impl FmuSystem {
         system.initialize_loop()?;
         for (k, u) in system.units.iter_mut().enumerate() {
             u.inst.exit_initialization_mode().map_err(fmu_err(k))?;
+            if let Some(me) = u.me.as_mut() {
+                me.start(&mut u.inst, 0.0).map_err(|e| SetupError::Fmu {
+                    component: u.name.clone(),
+                    source: match e {
+                        UnitError::Fmi(e) => e,
+                        other => fmi2::import::Error::Usage(other.to_string()),
+                    },
+                })?;
+            }
         }
         // Scales: per unit and unit of measure, the largest start value (at least 1).
         let mut u0 = vec![0.0; nu];
@@ -321,39 +351,60 @@ impl FmuSystem {
         })
     }
 
-    /// Copies every non-Real connection; with `compare`, returns whether any input changed.
+    /// Copies every non-Real connection; with `compare`, returns whether any input changed. A
+    /// Model Exchange unit takes a changed value in event mode (an input event, FMI 2.0 and 3.0:
+    /// discrete inputs are not set in continuous-time mode), and an unchanged one not at all.
     fn exchange(&mut self, compare: bool) -> Result<bool, (usize, UnitError)> {
         let mut changed = false;
         for l in &self.discrete {
             let (a, b) = (l.from.0, l.to.0);
             let e = |k: usize| move |e: fmi2::import::Error| (k, UnitError::Fmi(e));
-            match l.var_type {
+            // a Model Exchange unit's input is read to set it only if it changes
+            let me = self.units[b].me.is_some();
+            let look = compare || me;
+            let differs = match l.var_type {
                 VarType::Integer => {
                     let (mut x, mut old) = ([0], [0]);
                     self.units[a].inst.get_integer(&[l.from.1], &mut x).map_err(e(a))?;
-                    if compare {
+                    if look {
                         self.units[b].inst.get_integer(&[l.to.1], &mut old).map_err(e(b))?;
-                        changed |= x != old;
                     }
-                    self.units[b].inst.set_integer(&[l.to.1], &x).map_err(e(b))?;
+                    let differs = look && x != old;
+                    if differs || !me {
+                        self.units[b].begin_input_event().map_err(|e| (b, e))?;
+                        self.units[b].inst.set_integer(&[l.to.1], &x).map_err(e(b))?;
+                    }
+                    differs
                 }
                 VarType::Boolean => {
                     let (mut x, mut old) = ([false], [false]);
                     self.units[a].inst.get_boolean(&[l.from.1], &mut x).map_err(e(a))?;
-                    if compare {
+                    if look {
                         self.units[b].inst.get_boolean(&[l.to.1], &mut old).map_err(e(b))?;
-                        changed |= x != old;
                     }
-                    self.units[b].inst.set_boolean(&[l.to.1], &x).map_err(e(b))?;
+                    let differs = look && x != old;
+                    if differs || !me {
+                        self.units[b].begin_input_event().map_err(|e| (b, e))?;
+                        self.units[b].inst.set_boolean(&[l.to.1], &x).map_err(e(b))?;
+                    }
+                    differs
                 }
                 VarType::String => {
                     let x = self.units[a].inst.get_string(&[l.from.1]).map_err(e(a))?;
-                    if compare {
-                        changed |= self.units[b].inst.get_string(&[l.to.1]).map_err(e(b))? != x;
+                    let differs = look && self.units[b].inst.get_string(&[l.to.1]).map_err(e(b))? != x;
+                    if differs || !me {
+                        self.units[b].begin_input_event().map_err(|e| (b, e))?;
+                        self.units[b].inst.set_string(&[l.to.1], &[x[0].as_str()]).map_err(e(b))?;
                     }
-                    self.units[b].inst.set_string(&[l.to.1], &[x[0].as_str()]).map_err(e(b))?;
+                    differs
                 }
                 VarType::Real => unreachable!("Real connections are interface unknowns"),
+            };
+            changed |= compare && differs;
+        }
+        for (k, unit) in self.units.iter_mut().enumerate() {
+            if let Some(me) = unit.me.as_mut() {
+                me.end_input_event(&mut unit.inst).map_err(|e| (k, e))?;
             }
         }
         Ok(changed)
@@ -372,6 +423,12 @@ impl FmuSystem {
     /// The components' names and instances, in the order of the description.
     pub fn instances(&mut self) -> impl Iterator<Item = (&str, &mut Instance)> {
         self.units.iter_mut().map(|u| (u.name.as_str(), &mut u.inst))
+    }
+
+    /// What the integration of each Model Exchange unit did so far: (component, solver, stats).
+    pub fn model_exchange_stats(&self) -> Vec<(String, &'static str, MeStats)> {
+        let me = |u: &FmuUnit| u.me.as_ref().map(|m| (u.name.clone(), m.method_name(), m.stats));
+        self.units.iter().filter_map(me).collect()
     }
 
     /// Serialized states of every FMU (for checks of bit-exact rollback).
@@ -419,9 +476,9 @@ fn load_fmus(spec: &SystemSpec, needs: &Needs) -> Result<Vec<Fmu>, SetupError> {
     for c in &spec.components {
         let path = &c.source;
         let fmu = if path.is_dir() {
-            Fmu::load_unpacked(path)
+            Fmu::load_unpacked_as(path, c.interface)
         } else if path.is_file() {
-            Fmu::load(path)
+            Fmu::load_as(path, c.interface)
         } else {
             return Err(SetupError::File {
                 path: path.clone(),
@@ -696,16 +753,26 @@ impl Units for FmuSystem {
 
     fn set_inputs(&mut self, k: usize, u: &[f64]) -> Result<(), UnitError> {
         let unit = &mut self.units[k];
+        if let Some(me) = unit.me.as_mut() {
+            return me.set_inputs(&mut unit.inst, u);
+        }
         Ok(unit.inst.set_real(&unit.inputs, u)?)
     }
 
     fn set_input_slopes(&mut self, k: usize, slopes: &[f64]) -> Result<(), UnitError> {
         let unit = &mut self.units[k];
+        if let Some(me) = unit.me.as_mut() {
+            me.slopes_set(slopes);
+            return Ok(());
+        }
         Ok(unit.inst.set_real_input_derivatives(&unit.inputs, &unit.ones, slopes)?)
     }
 
     fn do_step(&mut self, k: usize, t: f64, h: f64) -> Result<(), UnitError> {
         let unit = &mut self.units[k];
+        if let Some(me) = unit.me.as_mut() {
+            return me.advance(&mut unit.inst, t, h);
+        }
         unit.inst.do_step(t, h).map_err(|e| step_error(&mut unit.inst, e))
     }
 
@@ -721,6 +788,9 @@ impl Units for FmuSystem {
             Some(s) => unit.inst.update_state(s)?,
             None => *state = Some(unit.inst.get_state()?),
         }
+        if let Some(me) = unit.me.as_mut() {
+            me.save(slot as usize);
+        }
         Ok(())
     }
 
@@ -729,7 +799,11 @@ impl Units for FmuSystem {
         let s = unit.states[slot as usize]
             .as_ref()
             .ok_or_else(|| UnitError::Other(format!("no state saved in the {slot:?} slot to restore")))?;
-        Ok(unit.inst.set_state(s)?)
+        unit.inst.set_state(s)?;
+        if let Some(me) = unit.me.as_mut() {
+            me.restore(slot as usize);
+        }
+        Ok(())
     }
 
     fn step_derivative(&mut self, k: usize, seed: &[f64], out: &mut [f64]) -> Result<(), UnitError> {
@@ -746,7 +820,7 @@ impl Units for FmuSystem {
         Ok(step_map_derivative(&mut unit.inst, &unit.outputs, knowns, seeds, out)?)
     }
 
-    fn exchange_discrete(&mut self) -> Result<(), UnitError> {
-        self.exchange(false).map(|_| ()).map_err(|(_, e)| e)
+    fn exchange_discrete(&mut self) -> Result<(), (usize, UnitError)> {
+        self.exchange(false).map(|_| ())
     }
 }

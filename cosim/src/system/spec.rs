@@ -10,6 +10,9 @@ pub struct Component {
     pub name: String,
     /// The `.fmu` archive, or a directory holding an unpacked FMU.
     pub source: PathBuf,
+    /// The interface to run it as (`None`: Co-Simulation where the FMU offers it, else Model
+    /// Exchange).
+    pub interface: Option<fmi2::import::Interface>,
 }
 
 /// A variable of a component.

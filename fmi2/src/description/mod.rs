@@ -382,6 +382,61 @@ impl CoSimulationFlags {
     };
 }
 
+/// A continuous state of a Model Exchange FMU and its derivative, by value reference (Real).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ContinuousState {
+    pub state: u32,
+    pub derivative: u32,
+}
+
+/// `<ModelExchange>`: what an importer that integrates the FMU needs besides the variables.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ModelExchange {
+    /// The binary's name for this interface (may differ from Co-Simulation's).
+    pub model_identifier: String,
+    /// `fmi2CompletedIntegratorStep` / `fmi3CompletedIntegratorStep` must be called after every
+    /// accepted integrator step (FMI 2.0: `completedIntegratorStepNotNeeded = false`).
+    pub needs_completed_integrator_step: bool,
+    pub can_get_and_set_fmu_state: bool,
+    pub can_serialize_fmu_state: bool,
+    pub provides_directional_derivative: bool,
+    /// The continuous states in the order of the state vector (FMI 2.0: `<Derivatives>`;
+    /// FMI 3.0: `<ContinuousStateDerivative>`).
+    pub states: Vec<ContinuousState>,
+    /// The number of event indicators.
+    pub event_indicators: usize,
+    /// The Real variables that are the event indicators, in order (FMI 3.0 names them,
+    /// `<EventIndicator>`; FMI 2.0 gives only their number, and this is empty when read).
+    pub event_indicator_variables: Vec<u32>,
+}
+
+impl ModelExchange {
+    /// An exported model's interface with the layer's capabilities: get/set/serialize FMU state,
+    /// completed integrator steps not needed.
+    pub fn exported(model_identifier: &str, states: Vec<ContinuousState>, event_indicators: Vec<u32>) -> ModelExchange {
+        ModelExchange {
+            model_identifier: model_identifier.to_owned(),
+            needs_completed_integrator_step: false,
+            can_get_and_set_fmu_state: true,
+            can_serialize_fmu_state: true,
+            provides_directional_derivative: false,
+            states,
+            event_indicators: event_indicators.len(),
+            event_indicator_variables: event_indicators,
+        }
+    }
+
+    /// The capabilities as the importer's flags of the interface in use.
+    pub fn flags(&self) -> CoSimulationFlags {
+        CoSimulationFlags {
+            can_get_and_set_fmu_state: self.can_get_and_set_fmu_state,
+            can_serialize_fmu_state: self.can_serialize_fmu_state,
+            provides_directional_derivative: self.provides_directional_derivative,
+            ..CoSimulationFlags::default()
+        }
+    }
+}
+
 /// Everything this workspace reads from or writes to `modelDescription.xml`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModelDescription {
@@ -392,9 +447,16 @@ pub struct ModelDescription {
     pub guid: String,
     pub description: String,
     pub version: String,
-    /// C identifier: the name of the shared library and of `CoSimulation@modelIdentifier`.
+    /// C identifier: the name of the shared library and of `CoSimulation@modelIdentifier` (of
+    /// `ModelExchange@modelIdentifier` for an FMU without Co-Simulation, or one an importer
+    /// loaded as Model Exchange).
     pub model_identifier: String,
+    /// The capabilities of `<CoSimulation>` (of the interface in use, for an importer).
     pub flags: CoSimulationFlags,
+    /// The FMU offers Co-Simulation (`<CoSimulation>`).
+    pub co_simulation: bool,
+    /// `<ModelExchange>`, if the FMU offers it.
+    pub model_exchange: Option<ModelExchange>,
     /// `<UnitDefinitions>`.
     pub units: Vec<Unit>,
     pub default_experiment: Option<DefaultExperiment>,
@@ -426,6 +488,8 @@ impl ModelDescription {
             version: version.into(),
             model_identifier: identifier.into(),
             flags,
+            co_simulation: true,
+            model_exchange: None,
             units,
             default_experiment: Some(DefaultExperiment {
                 start_time: Some(0.0),

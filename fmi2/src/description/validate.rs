@@ -117,7 +117,11 @@ impl ModelInfo {
         if d.guid.trim().is_empty() {
             return err("`guid` is empty".into());
         }
-        if layer_flags(&d.flags) != CoSimulationFlags::EXPORTED {
+        // a Model Exchange only description has no <CoSimulation> flags: none are written
+        if !d.co_simulation && d.flags != CoSimulationFlags::default() {
+            return err("a description without Co-Simulation has no <CoSimulation> flags: leave them default".into());
+        }
+        if d.co_simulation && layer_flags(&d.flags) != CoSimulationFlags::EXPORTED {
             return err(format!(
                 "the <CoSimulation> flags {:?} are not what the export layer implements; start from \
                  `CoSimulationFlags::EXPORTED` and set only canInterpolateInputs, providesDirectionalDerivative \
@@ -183,6 +187,32 @@ impl ModelInfo {
                     "{kind} value reference {} is used by both `{}` and `{}` (aliases are not supported)",
                     w[0].0, d.variables[w[0].1].name, d.variables[w[1].1].name
                 ));
+            }
+        }
+        if let Some(me) = &d.model_exchange {
+            if !is_c_identifier(&me.model_identifier) {
+                return err(format!("ModelExchange modelIdentifier `{}` is not a C identifier", me.model_identifier));
+            }
+            let real =
+                |vr: u32| by_vr[0].binary_search_by_key(&vr, |&(r, _)| r).ok().map(|i| &d.variables[by_vr[0][i].1]);
+            for s in &me.states {
+                let (Some(x), Some(dx)) = (real(s.state), real(s.derivative)) else {
+                    return err(format!(
+                        "continuous state {} / derivative {}: no Real variable has that value reference",
+                        s.state, s.derivative
+                    ));
+                };
+                if dx.variability != Variability::Continuous || x.variability != Variability::Continuous {
+                    return err(format!(
+                        "continuous state `{}` and its derivative `{}` must be continuous",
+                        x.name, dx.name
+                    ));
+                }
+            }
+            if me.event_indicator_variables.len() != me.event_indicators
+                || me.event_indicator_variables.iter().any(|&vr| real(vr).is_none())
+            {
+                return err("every event indicator must be a Real variable, named once".into());
             }
         }
         // Dependencies: names → 1-based indices, and the names put in index order. In step mode

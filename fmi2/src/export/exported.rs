@@ -18,14 +18,18 @@ use crate::description::{Causality, DescriptionError, ModelInfo, VarType};
 use crate::ffi::*;
 use Phase::*;
 
-pub(crate) const ALL_BUT_FATAL: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, Error];
-pub(crate) const GETTABLE: &[Phase] = &[InitializationMode, StepMode, StepFailed, Terminated, Error];
-pub(crate) const SETTABLE: &[Phase] = &[Instantiated, InitializationMode, StepMode];
-pub(crate) const STATE_OK: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated];
+pub(crate) const ALL_BUT_FATAL: &[Phase] =
+    &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, Error, EventMode, ContinuousTime];
+pub(crate) const GETTABLE: &[Phase] =
+    &[InitializationMode, StepMode, StepFailed, Terminated, Error, EventMode, ContinuousTime];
+pub(crate) const SETTABLE: &[Phase] = &[Instantiated, InitializationMode, StepMode, EventMode, ContinuousTime];
+pub(crate) const STATE_OK: &[Phase] =
+    &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, EventMode, ContinuousTime];
 /// Where the `fmi2Get*Status` functions may be called.
 const STATUS_OK: &[Phase] = &[StepMode, StepFailed, Terminated, Error];
 /// Freeing a saved state touches no model data: allowed even after a fatal error.
-pub(crate) const ANY: &[Phase] = &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, Error, Fatal];
+pub(crate) const ANY: &[Phase] =
+    &[Instantiated, InitializationMode, StepMode, StepFailed, Terminated, Error, Fatal, EventMode, ContinuousTime];
 
 /// Relative tolerance for matching the importer's communication point with the instance's time.
 pub(crate) const TIME_RTOL: f64 = 1e-9;
@@ -170,9 +174,19 @@ pub unsafe fn instantiate<M: Model>(
             if name.is_none() {
                 return Err("instanceName is a null pointer".into());
             }
-            if fmu_type != fmi2CoSimulation {
-                return Err(format!("fmuType = {fmu_type}: this FMU supports Co-Simulation (1) only"));
-            }
+            let (cs, me) = (info.description.co_simulation, info.description.model_exchange.is_some());
+            let me = match fmu_type {
+                t if t == fmi2CoSimulation && cs => false,
+                t if t == fmi2ModelExchange && me => true,
+                _ => {
+                    let offered = match (me, cs) {
+                        (true, true) => "Model Exchange (0) and Co-Simulation (1)",
+                        (true, false) => "Model Exchange (0) only",
+                        _ => "Co-Simulation (1) only",
+                    };
+                    return Err(format!("fmuType = {fmu_type}: this FMU supports {offered}"));
+                }
+            };
             // SAFETY: non-null strings are NUL-terminated (the contract).
             let [guid, location] = [guid, resource_location].map(|s| unsafe { string(s) });
             let guid = guid.ok_or("fmuGUID is a null pointer")?;
@@ -185,7 +199,8 @@ pub unsafe fn instantiate<M: Model>(
             let resources = crate::uri::resource_dir(location.as_deref().unwrap_or(""))?;
             let model = M::instantiate(resources.as_deref()).msg()?;
             let logger = Logger::Fmi2(cb.logger, cb.componentEnvironment);
-            let inst = Instance::new(info, name_c.clone(), resources, logger, None, logging_on != fmi2False, model);
+            let mut inst = Instance::new(info, name_c.clone(), resources, logger, None, logging_on != fmi2False, model);
+            inst.me = if me { super::instance::MeInstance::of(info) } else { None };
             Ok(Box::into_raw(Box::new(inst)).cast())
         },
         |panic| Err(format!("internal error (panic): {panic}")),
@@ -304,8 +319,9 @@ pub unsafe fn exit_initialization_mode_as<M: Model>(func: &'static str, c: fmi2C
     unsafe {
         call::<M>(c, func, &[InitializationMode], |inst| {
             inst.model.exit_initialization(inst.start_time).msg()?;
-            (inst.phase, inst.time) = (StepMode, inst.start_time);
-            inst.log(fmi2OK, &format!("entered step mode at t = {}", inst.time));
+            let next = if inst.me.is_some() { EventMode } else { StepMode };
+            (inst.phase, inst.time) = (next, inst.start_time);
+            inst.log(fmi2OK, &format!("entered {} at t = {}", next.name(), inst.time));
             match inst.model.initialization_warning() {
                 Some(warning) => {
                     inst.log(fmi2Warning, &format!("{func}: {warning}"));
@@ -329,7 +345,7 @@ pub unsafe fn exit_initialization_mode<M: Model>(c: fmi2Component) -> fmi2Status
 pub unsafe fn terminate_as<M: Model>(func: &'static str, c: fmi2Component) -> fmi2Status {
     // SAFETY: `c` as the contract says.
     unsafe {
-        call::<M>(c, func, &[StepMode, StepFailed], |inst| {
+        call::<M>(c, func, &[StepMode, StepFailed, EventMode, ContinuousTime], |inst| {
             inst.phase = Terminated;
             Ok(fmi2OK)
         })

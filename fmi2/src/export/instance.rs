@@ -24,6 +24,9 @@ pub(crate) enum Phase {
     /// `fmi2DoStep` returned `fmi2Discard` (the model stopped early): values and statuses can be
     /// read, the state can be set back; no further step.
     StepFailed,
+    /// Model Exchange: at an event (discrete states updated) and between events.
+    EventMode,
+    ContinuousTime,
 }
 
 impl Phase {
@@ -36,6 +39,8 @@ impl Phase {
             Phase::Error => "error",
             Phase::Fatal => "fatal",
             Phase::StepFailed => "step failed (discarded)",
+            Phase::EventMode => "event mode",
+            Phase::ContinuousTime => "continuous-time mode",
         }
     }
 
@@ -70,6 +75,25 @@ pub(crate) struct V3 {
     pub(crate) reals: Vec<f64>,
 }
 
+/// What an instance of Model Exchange holds besides: the value references of its states and
+/// their derivatives, in state order, and reused buffers.
+pub(crate) struct MeInstance {
+    pub(crate) states: Vec<u32>,
+    pub(crate) derivatives: Vec<u32>,
+    pub(crate) event_indicators: usize,
+}
+
+impl MeInstance {
+    pub(crate) fn of(info: &ModelInfo) -> Option<MeInstance> {
+        let me = info.description.model_exchange.as_ref()?;
+        Some(MeInstance {
+            states: me.states.iter().map(|s| s.state).collect(),
+            derivatives: me.states.iter().map(|s| s.derivative).collect(),
+            event_indicators: me.event_indicators,
+        })
+    }
+}
+
 /// One FMU instance.
 pub(crate) struct Instance<M: Model> {
     pub(crate) info: &'static ModelInfo,
@@ -78,6 +102,8 @@ pub(crate) struct Instance<M: Model> {
     pub(crate) logger: Logger,
     /// `Some` for an instance of the FMI 3.0 export.
     pub(crate) v3: Option<V3>,
+    /// `Some` for an instance of Model Exchange.
+    pub(crate) me: Option<MeInstance>,
     pub(crate) log_errors: bool,
     /// On unless the importer switches `logWarning` off: a warning is meant to be seen.
     pub(crate) log_warnings: bool,
@@ -114,6 +140,7 @@ impl<M: Model> Instance<M> {
             resources,
             logger,
             v3,
+            me: None,
             log_errors: true,
             log_warnings: true,
             log_info,

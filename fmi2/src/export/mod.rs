@@ -13,6 +13,8 @@
 #[doc(hidden)]
 pub mod exported;
 pub(crate) mod instance;
+#[doc(hidden)]
+pub mod me;
 mod state;
 
 use std::path::Path;
@@ -50,6 +52,19 @@ pub enum StepOutcome {
     /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)` answers `time`; the getters show the state
     /// at `time`.
     Terminated { time: f64, reason: String },
+}
+
+/// What an update of a Model Exchange model's discrete states at an event did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DiscreteUpdate {
+    /// Another update is needed at the same instant.
+    pub again: bool,
+    /// The model ends the simulation, and why.
+    pub terminate: Option<String>,
+    /// The continuous states jumped.
+    pub states_changed: bool,
+    /// The next time event.
+    pub next_event_time: Option<f64>,
 }
 
 /// Which derivative [`Model::derivative`] is asked for.
@@ -164,6 +179,36 @@ pub trait Model: Sized + Send + 'static {
     /// description's flags announce.
     fn derivative(&mut self, _kind: Derivative, _at: Seeds<'_>, _out: &mut [f64]) -> Result<(), ModelError> {
         Err("directional derivatives are not provided".into())
+    }
+
+    /// Model Exchange (a model whose description has `model_exchange`): sets the continuous
+    /// states, in the order of `ModelExchange::states` (the layer has checked their number and
+    /// that they are finite). Their values and the derivatives are read through
+    /// [`Model::get_real`] of the states' and derivatives' value references.
+    fn set_continuous_states(&mut self, _x: &[f64]) -> Result<(), ModelError> {
+        Err("the model has no Model Exchange interface".into())
+    }
+
+    /// Model Exchange: the time the continuous states and inputs belong to.
+    fn set_time(&mut self, _t: f64) -> Result<(), ModelError> {
+        Ok(())
+    }
+
+    /// Model Exchange: the event indicators now (as many as the description declares).
+    fn event_indicators(&mut self, _z: &mut [f64]) -> Result<(), ModelError> {
+        Err("the model has no event indicators".into())
+    }
+
+    /// Model Exchange: the discrete states updated at an event at `t` (after initialization, a
+    /// time event, a state event or a step event).
+    fn update_discrete_states(&mut self, _t: f64) -> Result<DiscreteUpdate, ModelError> {
+        Ok(DiscreteUpdate::default())
+    }
+
+    /// Model Exchange in FMI 3.0: the number of continuous states the model reports now, given
+    /// the declared one (which a model that keeps to the standard answers).
+    fn reported_state_count(&self, declared: usize) -> usize {
+        declared
     }
 
     /// The complete model state now (see [`Model::State`]).
@@ -611,6 +656,113 @@ macro_rules! export_fmu {
             ) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_string_status::<M>(c, s, v) }
+            }
+
+            // Model Exchange (refused unless the description offers it and the instance is of it)
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi2EnterEventMode(c: fmi2Component) -> fmi2Status {
+                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::enter_event_mode::<M>(c, "fmi2EnterEventMode") }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi2NewDiscreteStates(c: fmi2Component, info: *mut fmi2EventInfo) -> fmi2Status {
+                let report = |u: &$crate::export::DiscreteUpdate| -> Result<(), String> {
+                    if info.is_null() {
+                        return Err("`fmi2eventInfo` is a null pointer".into());
+                    }
+                    let flag = |b: bool| if b { fmi2True } else { fmi2False };
+                    let out = fmi2EventInfo {
+                        newDiscreteStatesNeeded: flag(u.again),
+                        terminateSimulation: flag(u.terminate.is_some()),
+                        nominalsOfContinuousStatesChanged: fmi2False,
+                        valuesOfContinuousStatesChanged: flag(u.states_changed),
+                        nextEventTimeDefined: flag(u.next_event_time.is_some()),
+                        nextEventTime: u.next_event_time.unwrap_or(0.0),
+                    };
+                    // SAFETY: non-null and writable (the importer's obligation).
+                    unsafe { info.write(out) };
+                    Ok(())
+                };
+                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::update_discrete_states::<M>(c, "fmi2NewDiscreteStates", report) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status {
+                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::enter_continuous_time_mode::<M>(c, "fmi2EnterContinuousTimeMode") }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi2CompletedIntegratorStep(
+                c: fmi2Component,
+                _no_prior: fmi2Boolean,
+                enter_event_mode: *mut fmi2Boolean,
+                terminate: *mut fmi2Boolean,
+            ) -> fmi2Status {
+                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
+                unsafe {
+                    $crate::export::me::completed_integrator_step::<M, fmi2Boolean>(
+                        c,
+                        "fmi2CompletedIntegratorStep",
+                        enter_event_mode,
+                        terminate,
+                    )
+                }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi2SetTime(c: fmi2Component, t: f64) -> fmi2Status {
+                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::set_time::<M>(c, "fmi2SetTime", t) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi2SetContinuousStates(c: fmi2Component, x: *const f64, n: usize) -> fmi2Status {
+                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::set_continuous_states::<M>(c, "fmi2SetContinuousStates", x, n) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi2GetDerivatives(c: fmi2Component, x: *mut f64, n: usize) -> fmi2Status {
+                let which = $crate::export::me::Which::Derivatives;
+                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::get_reals::<M>(c, "fmi2GetDerivatives", which, x, n) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi2GetEventIndicators(c: fmi2Component, z: *mut f64, n: usize) -> fmi2Status {
+                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::event_indicators::<M>(c, "fmi2GetEventIndicators", z, n) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi2GetContinuousStates(c: fmi2Component, x: *mut f64, n: usize) -> fmi2Status {
+                let which = $crate::export::me::Which::States;
+                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::get_reals::<M>(c, "fmi2GetContinuousStates", which, x, n) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(
+                c: fmi2Component,
+                x: *mut f64,
+                n: usize,
+            ) -> fmi2Status {
+                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::nominals::<M>(c, "fmi2GetNominalsOfContinuousStates", x, n) }
             }
         };
     };

@@ -70,6 +70,57 @@ pub unsafe fn instantiate_co_simulation<M: Model>(
     env: fmi3InstanceEnvironment,
     log: fmi3LogMessageCallback,
 ) -> fmi3Instance {
+    let interface = Instance3::CoSimulation { event_mode_used, early_return_allowed };
+    // SAFETY: the same contract.
+    unsafe { instantiate::<M>(cell, interface, instance_name, token, resource_path_text, logging_on, env, log) }
+}
+
+/// # Safety
+/// Strings as in the module's contract; `log` callable with `env` while the instance lives.
+pub unsafe fn instantiate_model_exchange<M: Model>(
+    cell: &'static InfoCell3,
+    instance_name: fmi3String,
+    token: fmi3String,
+    resource_path_text: fmi3String,
+    logging_on: fmi3Boolean,
+    env: fmi3InstanceEnvironment,
+    log: fmi3LogMessageCallback,
+) -> fmi3Instance {
+    // SAFETY: the same contract.
+    unsafe {
+        instantiate::<M>(cell, Instance3::ModelExchange, instance_name, token, resource_path_text, logging_on, env, log)
+    }
+}
+
+/// Which interface an instance is made for.
+#[derive(Clone, Copy)]
+enum Instance3 {
+    CoSimulation { event_mode_used: fmi3Boolean, early_return_allowed: fmi3Boolean },
+    ModelExchange,
+}
+
+/// # Safety
+/// Strings as in the module's contract; `log` callable with `env` while the instance lives.
+#[allow(clippy::too_many_arguments)]
+unsafe fn instantiate<M: Model>(
+    cell: &'static InfoCell3,
+    interface: Instance3,
+    instance_name: fmi3String,
+    token: fmi3String,
+    resource_path_text: fmi3String,
+    logging_on: fmi3Boolean,
+    env: fmi3InstanceEnvironment,
+    log: fmi3LogMessageCallback,
+) -> fmi3Instance {
+    let func = match interface {
+        Instance3::CoSimulation { .. } => "fmi3InstantiateCoSimulation",
+        Instance3::ModelExchange => "fmi3InstantiateModelExchange",
+    };
+    let (event_mode_used, early_return_allowed) = match interface {
+        Instance3::CoSimulation { event_mode_used, early_return_allowed } => (event_mode_used, early_return_allowed),
+        Instance3::ModelExchange => (fmi3False, fmi3False),
+    };
+    let me = matches!(interface, Instance3::ModelExchange);
     let logger = Logger::Fmi3(log, env);
     // SAFETY: a non-null instance name is NUL-terminated (the contract).
     let name = contain(|| unsafe { string(instance_name) }, |_| None);
@@ -79,6 +130,12 @@ pub unsafe fn instantiate_co_simulation<M: Model>(
             let (info, layout) = cell.get_or_init(info3::<M>).as_ref().map_err(|e| e.to_string())?;
             if name.is_none() {
                 return Err("instanceName is a null pointer".into());
+            }
+            if me && info.description.model_exchange.is_none() {
+                return Err("this FMU implements Co-Simulation only (no <ModelExchange>)".into());
+            }
+            if !me && !info.description.co_simulation {
+                return Err("this FMU implements Model Exchange only (no <CoSimulation>)".into());
             }
             if event_mode_used != fmi3False {
                 return Err("eventModeUsed = true, but this FMU has no event mode (hasEventMode = false)".into());
@@ -101,13 +158,15 @@ pub unsafe fn instantiate_co_simulation<M: Model>(
                 knowns: Vec::new(),
                 reals: Vec::new(),
             };
-            let inst = Instance::new(info, name_c.clone(), resources, logger, Some(v3), logging_on != fmi3False, model);
+            let mut inst =
+                Instance::new(info, name_c.clone(), resources, logger, Some(v3), logging_on != fmi3False, model);
+            inst.me = if me { crate::export::instance::MeInstance::of(info) } else { None };
             Ok(Box::into_raw(Box::new(inst)).cast())
         },
         |panic| Err(format!("internal error (panic): {panic}")),
     );
     result.unwrap_or_else(|msg| {
-        let message = format!("fmi3InstantiateCoSimulation: {msg}");
+        let message = format!("{func}: {msg}");
         contain(|| log_to(logger, &name_c, fmi2Error, "logError", &message), drop);
         std::ptr::null_mut()
     })

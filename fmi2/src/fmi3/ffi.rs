@@ -102,6 +102,38 @@ pub(crate) type fmi3DoStepTYPE = unsafe extern "C" fn(
     *mut fmi3Float64,
 ) -> fmi3Status;
 
+pub(crate) type fmi3InstantiateModelExchangeTYPE = unsafe extern "C" fn(
+    fmi3String,
+    fmi3String,
+    fmi3String,
+    fmi3Boolean,
+    fmi3Boolean,
+    fmi3InstanceEnvironment,
+    fmi3LogMessageCallback,
+) -> fmi3Instance;
+/// `fmi3UpdateDiscreteStates(instance, &discreteStatesNeedUpdate, &terminateSimulation,
+/// &nominalsOfContinuousStatesChanged, &valuesOfContinuousStatesChanged, &nextEventTimeDefined,
+/// &nextEventTime)`.
+pub(crate) type fmi3UpdateDiscreteStatesTYPE = unsafe extern "C" fn(
+    fmi3Instance,
+    *mut fmi3Boolean,
+    *mut fmi3Boolean,
+    *mut fmi3Boolean,
+    *mut fmi3Boolean,
+    *mut fmi3Boolean,
+    *mut fmi3Float64,
+) -> fmi3Status;
+pub(crate) type fmi3CompletedIntegratorStepTYPE =
+    unsafe extern "C" fn(fmi3Instance, fmi3Boolean, *mut fmi3Boolean, *mut fmi3Boolean) -> fmi3Status;
+pub(crate) type fmi3SetTimeTYPE = unsafe extern "C" fn(fmi3Instance, fmi3Float64) -> fmi3Status;
+pub(crate) type fmi3SetContinuousStatesTYPE =
+    unsafe extern "C" fn(fmi3Instance, *const fmi3Float64, usize) -> fmi3Status;
+/// `fmi3GetContinuousStateDerivatives`, `fmi3GetEventIndicators`, `fmi3GetContinuousStates`,
+/// `fmi3GetNominalsOfContinuousStates`.
+pub(crate) type fmi3GetRealArrayTYPE = unsafe extern "C" fn(fmi3Instance, *mut fmi3Float64, usize) -> fmi3Status;
+/// `fmi3GetNumberOfEventIndicators`, `fmi3GetNumberOfContinuousStates`.
+pub(crate) type fmi3GetCountTYPE = unsafe extern "C" fn(fmi3Instance, *mut usize) -> fmi3Status;
+
 /// The standard's spelling of a status, e.g. `fmi3Discard`.
 pub fn status_name(status: fmi3Status) -> String {
     match status {

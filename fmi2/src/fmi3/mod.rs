@@ -109,12 +109,15 @@ macro_rules! export_fmu3 {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::set_debug_logging::<M>(c, on, n, cats) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
             #[unsafe(no_mangle)]
-            pub extern "C" fn fmi3InstantiateModelExchange(
-                _name: fmi3String, _token: fmi3String, _resources: fmi3String, _visible: fmi3Boolean,
-                _logging_on: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback,
+            pub unsafe extern "C" fn fmi3InstantiateModelExchange(
+                name: fmi3String, token: fmi3String, resources: fmi3String, _visible: fmi3Boolean,
+                logging_on: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback,
             ) -> I {
-                e3::instantiate_other("fmi3InstantiateModelExchange", env, log)
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { e3::instantiate_model_exchange::<M>(&INFO, name, token, resources, logging_on, env, log) }
             }
             /// # Safety
             /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
@@ -343,11 +346,118 @@ macro_rules! export_fmu3 {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::do_step::<M>(c, t, h, no_prior, event, terminate, early, last) }
             }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3EnterEventMode(c: I) -> fmi3Status {
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::enter_event_mode::<M>(c, "fmi3EnterEventMode") }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3UpdateDiscreteStates(
+                c: I, again: *mut fmi3Boolean, terminate: *mut fmi3Boolean, nominals: *mut fmi3Boolean,
+                values: *mut fmi3Boolean, next_defined: *mut fmi3Boolean, next: *mut f64,
+            ) -> fmi3Status {
+                let report = |u: &$crate::export::DiscreteUpdate| -> Result<(), String> {
+                    let outs = [again, terminate, nominals, values, next_defined];
+                    if outs.iter().any(|p| p.is_null()) || next.is_null() {
+                        return Err("an output argument is a null pointer".into());
+                    }
+                    let flags = [u.again, u.terminate.is_some(), false, u.states_changed, u.next_event_time.is_some()];
+                    for (p, f) in outs.into_iter().zip(flags) {
+                        // SAFETY: non-null and writable (the importer's obligation).
+                        unsafe { p.write(u8::from(f)) };
+                    }
+                    // SAFETY: as above.
+                    unsafe { next.write(u.next_event_time.unwrap_or(0.0)) };
+                    Ok(())
+                };
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::update_discrete_states::<M>(c, "fmi3UpdateDiscreteStates", report) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3EnterContinuousTimeMode(c: I) -> fmi3Status {
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::enter_continuous_time_mode::<M>(c, "fmi3EnterContinuousTimeMode") }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3CompletedIntegratorStep(
+                c: I, _no_prior: fmi3Boolean, event: *mut fmi3Boolean, terminate: *mut fmi3Boolean,
+            ) -> fmi3Status {
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe {
+                    $crate::export::me::completed_integrator_step::<M, fmi3Boolean>(
+                        c, "fmi3CompletedIntegratorStep", event, terminate,
+                    )
+                }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3SetTime(c: I, t: f64) -> fmi3Status {
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::set_time::<M>(c, "fmi3SetTime", t) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3SetContinuousStates(c: I, x: *const f64, n: usize) -> fmi3Status {
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::set_continuous_states::<M>(c, "fmi3SetContinuousStates", x, n) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3GetContinuousStateDerivatives(c: I, x: *mut f64, n: usize) -> fmi3Status {
+                let which = $crate::export::me::Which::Derivatives;
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::get_reals::<M>(c, "fmi3GetContinuousStateDerivatives", which, x, n) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3GetEventIndicators(c: I, z: *mut f64, n: usize) -> fmi3Status {
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::event_indicators::<M>(c, "fmi3GetEventIndicators", z, n) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3GetContinuousStates(c: I, x: *mut f64, n: usize) -> fmi3Status {
+                let which = $crate::export::me::Which::States;
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::get_reals::<M>(c, "fmi3GetContinuousStates", which, x, n) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3GetNominalsOfContinuousStates(c: I, x: *mut f64, n: usize) -> fmi3Status {
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::nominals::<M>(c, "fmi3GetNominalsOfContinuousStates", x, n) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3GetNumberOfEventIndicators(c: I, n: *mut usize) -> fmi3Status {
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::number_of_event_indicators::<M>(c, "fmi3GetNumberOfEventIndicators", n) }
+            }
+            /// # Safety
+            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            #[unsafe(no_mangle)]
+            pub unsafe extern "C" fn fmi3GetNumberOfContinuousStates(c: I, n: *mut usize) -> fmi3Status {
+                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
+                unsafe { $crate::export::me::number_of_states::<M>(c, "fmi3GetNumberOfContinuousStates", n) }
+            }
             $crate::fmi3_unsupported! {
-                "this FMU has no event mode (hasEventMode = false)" => {
-                    fmi3EnterEventMode(), fmi3EnterStepMode(), fmi3EvaluateDiscreteStates(),
-                    fmi3UpdateDiscreteStates(_a: *mut fmi3Boolean, _b: *mut fmi3Boolean, _x: *mut fmi3Boolean,
-                        _d: *mut fmi3Boolean, _e: *mut fmi3Boolean, _f: *mut f64),
+                "this FMU has no event mode in Co-Simulation (hasEventMode = false)" => {
+                    fmi3EnterStepMode(), fmi3EvaluateDiscreteStates(),
                 }
                 "per-element dependencies are not provided (providesPerElementDependencies = false)" => {
                     fmi3GetNumberOfVariableDependencies(_vr: fmi3ValueReference, _n: *mut usize),
@@ -370,18 +480,6 @@ macro_rules! export_fmu3 {
                     fmi3SetIntervalFraction(_vr: VR, _n: usize, _counters: *const u64, _r: *const u64),
                     fmi3SetShiftDecimal(_vr: VR, _n: usize, _s: *const f64),
                     fmi3SetShiftFraction(_vr: VR, _n: usize, _counters: *const u64, _r: *const u64),
-                }
-                "this FMU implements Co-Simulation only (no Model Exchange)" => {
-                    fmi3EnterContinuousTimeMode(),
-                    fmi3CompletedIntegratorStep(_np: fmi3Boolean, _e: *mut fmi3Boolean, _t: *mut fmi3Boolean),
-                    fmi3SetTime(_t: f64),
-                    fmi3SetContinuousStates(_x: *const f64, _n: usize),
-                    fmi3GetContinuousStateDerivatives(_x: *mut f64, _n: usize),
-                    fmi3GetEventIndicators(_x: *mut f64, _n: usize),
-                    fmi3GetContinuousStates(_x: *mut f64, _n: usize),
-                    fmi3GetNominalsOfContinuousStates(_x: *mut f64, _n: usize),
-                    fmi3GetNumberOfEventIndicators(_n: *mut usize),
-                    fmi3GetNumberOfContinuousStates(_n: *mut usize),
                 }
                 "output derivatives are not provided (maxOutputDerivativeOrder = 0)" => {
                     fmi3GetOutputDerivatives(_vr: VR, _n: usize, _o: *const i32, _v: *mut f64, _nv: usize),

@@ -8,7 +8,8 @@ use roxmltree::{Document, Node};
 
 use super::layout::{Layout3, Var3};
 use crate::description::{
-    Causality, CoSimulationFlags, Initial, ModelDescription, Value, VarType, Variability, Variable,
+    Causality, CoSimulationFlags, ContinuousState, Initial, ModelDescription, ModelExchange, Value, VarType,
+    Variability, Variable,
 };
 use crate::xml::read::{
     ReadError, at, attr, boolean, fail, parse_default_experiment, parse_document, parse_units, real, required,
@@ -45,34 +46,67 @@ pub fn model_description_xml3(d: &ModelDescription, layout: &Layout3) -> String 
         env!("CARGO_PKG_VERSION"),
     );
     let f = &d.flags;
-    let _ = writeln!(
-        x,
-        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="{}" canBeInstantiatedOnlyOncePerProcess="{}" canGetAndSetFMUState="{}" canSerializeFMUState="{}" providesDirectionalDerivatives="{}" canHandleVariableCommunicationStepSize="{}" maxOutputDerivativeOrder="0" hasEventMode="false"/>"#,
-        escape(&d.model_identifier),
-        bool_attr(f.needs_execution_tool),
-        bool_attr(f.can_be_instantiated_only_once_per_process),
-        bool_attr(f.can_get_and_set_fmu_state),
-        bool_attr(f.can_serialize_fmu_state),
-        bool_attr(f.provides_directional_derivative),
-        bool_attr(f.can_handle_variable_communication_step_size),
-    );
+    if let Some(me) = &d.model_exchange {
+        let _ = writeln!(
+            x,
+            r#"  <ModelExchange modelIdentifier="{}" needsCompletedIntegratorStep="{}" canGetAndSetFMUState="{}" canSerializeFMUState="{}" providesDirectionalDerivatives="{}"/>"#,
+            escape(&me.model_identifier),
+            bool_attr(me.needs_completed_integrator_step),
+            bool_attr(me.can_get_and_set_fmu_state),
+            bool_attr(me.can_serialize_fmu_state),
+            bool_attr(me.provides_directional_derivative),
+        );
+    }
+    if d.co_simulation {
+        let _ = writeln!(
+            x,
+            r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="{}" canBeInstantiatedOnlyOncePerProcess="{}" canGetAndSetFMUState="{}" canSerializeFMUState="{}" providesDirectionalDerivatives="{}" canHandleVariableCommunicationStepSize="{}" maxOutputDerivativeOrder="0" hasEventMode="false"/>"#,
+            escape(&d.model_identifier),
+            bool_attr(f.needs_execution_tool),
+            bool_attr(f.can_be_instantiated_only_once_per_process),
+            bool_attr(f.can_get_and_set_fmu_state),
+            bool_attr(f.can_serialize_fmu_state),
+            bool_attr(f.provides_directional_derivative),
+            bool_attr(f.can_handle_variable_communication_step_size),
+        );
+    }
     units(&mut x, d);
     log_categories(&mut x);
     default_experiment(&mut x, d);
     x.push_str("  <ModelVariables>\n");
+    let states = d.model_exchange.as_ref().map_or(&[][..], |m| &m.states[..]);
+    // the FMI 3.0 variable holding exactly the model's Real scalar `vr`
+    let scalar = |vr: u32| {
+        layout.variables.iter().find(|v| v.var_type == VarType::Real && v.dimension.is_none() && v.elements == [vr])
+    };
     for v in &layout.variables {
-        variable(&mut x, v);
+        let of = states.iter().find(|s| v.var_type == VarType::Real && v.elements == [s.derivative]);
+        variable(&mut x, v, of.and_then(|s| scalar(s.state)).map(|s| s.vr));
     }
     x.push_str("  </ModelVariables>\n  <ModelStructure>\n");
     for v in layout.variables.iter().filter(|v| v.causality == Causality::Output) {
         unknown(&mut x, "Output", v.vr, v.depends_on.as_deref());
     }
-    // the outputs with initial approx/calculated and the calculated parameters
+    for s in states {
+        if let Some(v) = scalar(s.derivative) {
+            unknown(&mut x, "ContinuousStateDerivative", v.vr, None);
+        }
+    }
+    // the outputs with initial approx/calculated and the calculated parameters, and the
+    // continuous states and their derivatives with initial approx/calculated
+    let is_state = |v: &Var3| states.iter().any(|s| v.elements == [s.state] || v.elements == [s.derivative]);
     for v in layout.variables.iter().filter(|v| {
-        (v.causality == Causality::Output && matches!(v.initial, Some(Initial::Approx | Initial::Calculated)))
+        let calculated = matches!(v.initial, Some(Initial::Approx | Initial::Calculated));
+        (calculated && (v.causality == Causality::Output || (v.var_type == VarType::Real && is_state(v))))
             || v.causality == Causality::CalculatedParameter
     }) {
         unknown(&mut x, "InitialUnknown", v.vr, v.initial_depends_on.as_deref());
+    }
+    // the schema's order: outputs, derivatives, (clocked states,) initial unknowns, indicators
+    for &z in d.model_exchange.iter().flat_map(|m| &m.event_indicator_variables) {
+        if let Some(v) = scalar(z) {
+            unknown(&mut x, "EventIndicator", v.vr, None);
+        }
     }
     x.push_str("  </ModelStructure>\n");
     if f.provides_step_map_derivative {
@@ -85,7 +119,7 @@ pub fn model_description_xml3(d: &ModelDescription, layout: &Layout3) -> String 
     x
 }
 
-fn variable(x: &mut String, v: &Var3) {
+fn variable(x: &mut String, v: &Var3, derivative_of: Option<u32>) {
     let _ = write!(x, r#"    <{} name="{}" valueReference="{}""#, element(v.var_type), escape(&v.name), v.vr);
     if !v.description.is_empty() {
         let _ = write!(x, r#" description="{}""#, escape(&v.description));
@@ -96,6 +130,9 @@ fn variable(x: &mut String, v: &Var3) {
     }
     if let Some(u) = v.unit.as_deref().filter(|_| !v.is_time()) {
         let _ = write!(x, r#" unit="{}""#, escape(u));
+    }
+    if let Some(state) = derivative_of {
+        let _ = write!(x, r#" derivative="{state}""#);
     }
     for (name, bound) in [("min", v.min), ("max", v.max)] {
         if let Some(b) = bound {
@@ -175,8 +212,9 @@ pub(crate) fn read_model_description3(doc: &Document<'_>) -> Result<Description3
     let model_name = required(root, "modelName")?;
     let guid = required(root, "instantiationToken")?;
     let child = |name: &str| root.children().find(|c| c.has_tag_name(name));
-    let Some(cs) = child("CoSimulation") else {
-        return fail("no <CoSimulation> element; only Co-Simulation FMUs are supported".into());
+    let (cs_node, me_node) = (child("CoSimulation"), child("ModelExchange"));
+    let Some(cs) = cs_node.or(me_node) else {
+        return fail("neither <CoSimulation> nor <ModelExchange>: the FMU offers no interface".into());
     };
     let model_identifier = required(cs, "modelIdentifier")?;
     let flag = |name: &str| attr(cs, name, "a boolean", boolean).map(|b| b.unwrap_or(false));
@@ -187,19 +225,23 @@ pub(crate) fn read_model_description3(doc: &Document<'_>) -> Result<Description3
                 && a.children().any(|c| c.has_tag_name(STEP_MAP_ANNOTATION))
         })
     };
-    let flags = CoSimulationFlags {
-        needs_execution_tool: flag("needsExecutionTool")?,
-        can_handle_variable_communication_step_size: flag("canHandleVariableCommunicationStepSize")?,
-        can_interpolate_inputs: false,
-        max_output_derivative_order: attr(cs, "maxOutputDerivativeOrder", "an integer", |v| v.parse().ok())?
-            .unwrap_or(0),
-        can_run_asynchronuously: false,
-        can_be_instantiated_only_once_per_process: flag("canBeInstantiatedOnlyOncePerProcess")?,
-        can_not_use_memory_management_functions: true,
-        can_get_and_set_fmu_state: flag("canGetAndSetFMUState")?,
-        can_serialize_fmu_state: flag("canSerializeFMUState")?,
-        provides_directional_derivative: flag("providesDirectionalDerivatives")?,
-        provides_step_map_derivative: annotated(root) || annotated(cs),
+    let flags = if cs_node.is_none() {
+        CoSimulationFlags::default()
+    } else {
+        CoSimulationFlags {
+            needs_execution_tool: flag("needsExecutionTool")?,
+            can_handle_variable_communication_step_size: flag("canHandleVariableCommunicationStepSize")?,
+            can_interpolate_inputs: false,
+            max_output_derivative_order: attr(cs, "maxOutputDerivativeOrder", "an integer", |v| v.parse().ok())?
+                .unwrap_or(0),
+            can_run_asynchronuously: false,
+            can_be_instantiated_only_once_per_process: flag("canBeInstantiatedOnlyOncePerProcess")?,
+            can_not_use_memory_management_functions: true,
+            can_get_and_set_fmu_state: flag("canGetAndSetFMUState")?,
+            can_serialize_fmu_state: flag("canSerializeFMUState")?,
+            provides_directional_derivative: flag("providesDirectionalDerivatives")?,
+            provides_step_map_derivative: annotated(root) || annotated(cs),
+        }
     };
     let (units, default_experiment) = (parse_units(root)?, parse_default_experiment(root)?);
     let Some(mv) = child("ModelVariables") else {
@@ -208,18 +250,63 @@ pub(crate) fn read_model_description3(doc: &Document<'_>) -> Result<Description3
     let (mut variables, mut elements, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
     // each FMI 3.0 variable's scalars in the view: value reference → (first, count)
     let mut scalars: std::collections::HashMap<u32, (usize, usize)> = std::collections::HashMap::new();
+    // the `derivative` attribute of each variable that has one: its state's value reference
+    let mut derivative_of: std::collections::HashMap<u32, (u32, Node)> = std::collections::HashMap::new();
     for node in mv.children().filter(Node::is_element) {
+        if let Some(vr) = attr(node, "valueReference", "an unsigned integer", |v| v.parse::<u32>().ok())?
+            && let Some(of) = attr(node, "derivative", "a value reference", |v| v.parse::<u32>().ok())?
+        {
+            derivative_of.insert(vr, (of, node));
+        }
         let first = variables.len();
         let vr = parse_variable(node, &mut variables, &mut elements, &mut skipped)?;
         if scalars.insert(vr, (first, variables.len() - first)).is_some() {
             return fail(format!("<{}> at {}: value reference {vr} is used twice", node.tag_name().name(), at(node)));
         }
     }
+    let (mut states, mut indicators) = (Vec::new(), Vec::new());
     if let Some(ms) = child("ModelStructure") {
         for u in ms.children().filter(Node::is_element) {
             let initial = match u.tag_name().name() {
                 "Output" => false,
                 "InitialUnknown" => true,
+                "ContinuousStateDerivative" | "EventIndicator" => {
+                    let vr = attr(u, "valueReference", "a value reference", |v| v.parse::<u32>().ok())?;
+                    let Some((vr, &(first, n))) = vr.and_then(|vr| Some((vr, scalars.get(&vr)?))) else {
+                        return fail(format!(
+                            "<{}> at {}: no variable has this valueReference",
+                            u.tag_name().name(),
+                            at(u)
+                        ));
+                    };
+                    if u.tag_name().name() == "EventIndicator" {
+                        indicators.extend(first..first + n);
+                        continue;
+                    }
+                    let Some(&(of, node)) = derivative_of.get(&vr) else {
+                        return fail(format!(
+                            "<ContinuousStateDerivative> at {}: its variable has no `derivative` attribute",
+                            at(u)
+                        ));
+                    };
+                    let Some(&(s, _)) = scalars.get(&of).filter(|&&(_, m)| m == n) else {
+                        return fail(format!(
+                            "variable at {}: `derivative` = {of} names no variable of as many elements",
+                            at(node)
+                        ));
+                    };
+                    for k in 0..n {
+                        if variables[s + k].var_type != VarType::Real || variables[first + k].var_type != VarType::Real
+                        {
+                            return fail(format!(
+                                "<ContinuousStateDerivative> at {}: state and derivative must be Float64",
+                                at(u)
+                            ));
+                        }
+                        states.push(ContinuousState { state: (s + k) as u32, derivative: (first + k) as u32 });
+                    }
+                    continue;
+                }
                 _ => continue,
             };
             let vr = attr(u, "valueReference", "a value reference", |v| v.parse::<u32>().ok())?;
@@ -248,6 +335,22 @@ pub(crate) fn read_model_description3(doc: &Document<'_>) -> Result<Description3
             }
         }
     }
+    let model_exchange = match me_node {
+        None => None,
+        Some(me) => {
+            let flag = |name: &str| attr(me, name, "a boolean", boolean).map(|b| b.unwrap_or(false));
+            Some(ModelExchange {
+                model_identifier: required(me, "modelIdentifier")?,
+                needs_completed_integrator_step: flag("needsCompletedIntegratorStep")?,
+                can_get_and_set_fmu_state: flag("canGetAndSetFMUState")?,
+                can_serialize_fmu_state: flag("canSerializeFMUState")?,
+                provides_directional_derivative: flag("providesDirectionalDerivatives")?,
+                states,
+                event_indicators: indicators.len(),
+                event_indicator_variables: indicators.iter().map(|&i| i as u32).collect(),
+            })
+        }
+    };
     let view = ModelDescription {
         fmi_version,
         model_name,
@@ -256,6 +359,8 @@ pub(crate) fn read_model_description3(doc: &Document<'_>) -> Result<Description3
         version: root.attribute("version").unwrap_or("").to_owned(),
         model_identifier,
         flags,
+        co_simulation: cs_node.is_some(),
+        model_exchange,
         units,
         default_experiment,
         variables,

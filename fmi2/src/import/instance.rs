@@ -77,11 +77,26 @@ impl Instance {
         self.sink.take()
     }
 
-    fn api(&self) -> &Api {
+    pub(super) fn api(&self) -> &Api {
         match &self.fmu.inner.api {
             Binary::V2(api) => api,
             Binary::V3(_) => unreachable!("an FMI 2.0 call on an FMI 3.0 instance"),
         }
+    }
+
+    /// The Co-Simulation functions; an instance loaded as Model Exchange has none.
+    fn cs(&self) -> Result<&super::api::Cs, Error> {
+        self.api().cs.as_ref().ok_or_else(|| self.wrong_interface())
+    }
+
+    /// The error for a call of the other interface than the one loaded.
+    pub(super) fn wrong_interface(&self) -> Error {
+        Error::Usage(format!(
+            "FMU `{}` (instance `{}`) is loaded as {}: that function belongs to the other interface",
+            self.fmu.name(),
+            self.name,
+            self.fmu.interface().name()
+        ))
     }
 
     pub(super) fn check(&self, function: &'static str, status: fmi2Status) -> Result<(), Error> {
@@ -272,7 +287,7 @@ impl Instance {
             return self.do_step3(t, h);
         }
         // SAFETY: a live component and its loaded function (the invariants of `Instance`).
-        let s = unsafe { (self.api().do_step)(self.component, t, h, fmi2False) };
+        let s = unsafe { (self.cs()?.do_step)(self.component, t, h, fmi2False) };
         self.check("fmi2DoStep", s)
     }
 
@@ -281,7 +296,7 @@ impl Instance {
         if self.v3.is_some() {
             return Err(Error::Usage("FMI 3.0 has no fmi3CancelStep (no asynchronous steps)".into()));
         }
-        self.call_plain(self.api().cancel_step, "fmi2CancelStep")
+        self.call_plain(self.cs()?.cancel_step, "fmi2CancelStep")
     }
 
     /// A function of this FMU that takes only the component.
@@ -299,7 +314,7 @@ impl Instance {
         let mut t = f64::NAN;
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the answer goes to a
         // local.
-        let s = unsafe { (self.api().get_real_status)(self.component, fmi2LastSuccessfulTime, &mut t) };
+        let s = unsafe { (self.cs()?.get_real_status)(self.component, fmi2LastSuccessfulTime, &mut t) };
         self.check("fmi2GetRealStatus", s)?;
         Ok(t)
     }
@@ -312,7 +327,7 @@ impl Instance {
         let mut b = fmi2False;
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); the answer goes to a
         // local.
-        let s = unsafe { (self.api().get_boolean_status)(self.component, fmi2Terminated, &mut b) };
+        let s = unsafe { (self.cs()?.get_boolean_status)(self.component, fmi2Terminated, &mut b) };
         self.check("fmi2GetBooleanStatus", s)?;
         Ok(b != fmi2False)
     }
@@ -505,7 +520,7 @@ impl Instance {
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); every array holds the
         // length passed with it (checked above).
         let s = unsafe {
-            (self.api().set_real_input_derivatives)(
+            (self.cs()?.set_real_input_derivatives)(
                 self.component,
                 vrs.as_ptr(),
                 vrs.len(),
@@ -527,7 +542,7 @@ impl Instance {
         // SAFETY: a live component and its loaded function (the invariants of `Instance`); every array holds the
         // length passed with it (checked above).
         let s = unsafe {
-            (self.api().get_real_output_derivatives)(
+            (self.cs()?.get_real_output_derivatives)(
                 self.component,
                 vrs.as_ptr(),
                 vrs.len(),

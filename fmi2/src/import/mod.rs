@@ -30,6 +30,7 @@ mod api;
 mod api3;
 mod instance;
 mod log;
+mod me;
 mod v3;
 
 /// The description types under the names an importer meets them by (`<ScalarVariable>`, the
@@ -40,6 +41,7 @@ pub use crate::description::{
 pub use crate::xml::parse_model_description;
 pub use instance::{FmuState, Instance};
 pub use log::LogMessage;
+pub use me::EventUpdate;
 
 use std::ffi::{CStr, CString, c_int};
 use std::fmt;
@@ -145,6 +147,23 @@ impl Capability {
     }
 }
 
+/// The FMI interface an FMU is loaded as.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Interface {
+    CoSimulation,
+    ModelExchange,
+}
+
+impl Interface {
+    /// As the command line and the XML say it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Interface::CoSimulation => "Co-Simulation",
+            Interface::ModelExchange => "Model Exchange",
+        }
+    }
+}
+
 /// A directory removed (recursively) on drop.
 #[derive(Debug)]
 struct TempDir(PathBuf);
@@ -177,6 +196,7 @@ impl Drop for TempDir {
 /// Field order matters: the library is unloaded before the directory is removed.
 struct Loaded {
     api: Binary,
+    interface: Interface,
     description: FmuDescription,
     /// FMI 3.0: where each scalar of the view lives, and the variables left out of it.
     v3: Option<View3>,
@@ -221,9 +241,30 @@ impl Described {
         if self.v3.is_some() { crate::fmi3::PLATFORM } else { crate::package::PLATFORM }
     }
 
-    /// The binary the description names: `binaries/<platform>/<identifier>.so`.
-    fn binary_entry(&self) -> String {
-        format!("binaries/{}/{}.so", self.platform(), self.view.model_identifier)
+    /// The interface to load: the one asked for, else Co-Simulation where the FMU offers it,
+    /// else Model Exchange.
+    fn interface(&self, asked: Option<Interface>) -> Result<Interface, String> {
+        let (cs, me) = (self.view.co_simulation, self.view.model_exchange.is_some());
+        match asked {
+            Some(Interface::CoSimulation) if !cs => {
+                Err("the FMU offers no Co-Simulation (no <CoSimulation> in modelDescription.xml)".into())
+            }
+            Some(Interface::ModelExchange) if !me => {
+                Err("the FMU offers no Model Exchange (no <ModelExchange> in modelDescription.xml)".into())
+            }
+            Some(i) => Ok(i),
+            None if cs => Ok(Interface::CoSimulation),
+            None => Ok(Interface::ModelExchange),
+        }
+    }
+
+    /// The binary the description names for `interface`: `binaries/<platform>/<identifier>.so`.
+    fn binary_entry(&self, interface: Interface) -> String {
+        let identifier = match (&self.view.model_exchange, interface) {
+            (Some(me), Interface::ModelExchange) => &me.model_identifier,
+            _ => &self.view.model_identifier,
+        };
+        format!("binaries/{}/{identifier}.so", self.platform())
     }
 }
 
@@ -245,6 +286,12 @@ impl Fmu {
     /// platform's binary, `resources/` — at most [`MAX_UNPACKED_BYTES`] of it; documentation,
     /// sources and other platforms' binaries stay packed.
     pub fn load(archive: &Path) -> Result<Fmu, Error> {
+        Self::load_as(archive, None)
+    }
+
+    /// [`Fmu::load`] as the interface asked for (`None`: Co-Simulation where the FMU offers it,
+    /// else Model Exchange).
+    pub fn load_as(archive: &Path, interface: Option<Interface>) -> Result<Fmu, Error> {
         let err = |message: String| Error::Load { path: archive.to_owned(), message };
         let file = std::fs::File::open(archive).map_err(|e| err(format!("cannot open: {e}")))?;
         let mut zip = zip::ZipArchive::new(std::io::BufReader::new(file))
@@ -266,7 +313,7 @@ impl Fmu {
         // the binary's name comes from the description (open() reports a missing or bad one)
         let described =
             std::fs::read_to_string(dir.0.join(MODEL_DESCRIPTION)).ok().and_then(|text| Described::read(&text).ok());
-        let binary = described.as_ref().map(Described::binary_entry);
+        let binary = described.as_ref().and_then(|d| Some(d.binary_entry(d.interface(interface).ok()?)));
         let needed: Vec<String> = zip
             .file_names()
             .filter_map(Result::ok)
@@ -277,7 +324,7 @@ impl Fmu {
             unpack(&mut zip, &name)?;
         }
         let root = dir.0.clone();
-        Self::open(&root, Some(dir), described).map_err(|e| match e {
+        Self::open(&root, Some(dir), described, interface).map_err(|e| match e {
             Error::Load { message, .. } => err(message),
             other => other,
         })
@@ -285,11 +332,21 @@ impl Fmu {
 
     /// Load an FMU that is already unpacked in `dir` (it must stay there while in use).
     pub fn load_unpacked(dir: &Path) -> Result<Fmu, Error> {
-        Self::open(dir, None, None)
+        Self::open(dir, None, None, None)
+    }
+
+    /// [`Fmu::load_unpacked`] as the interface asked for.
+    pub fn load_unpacked_as(dir: &Path, interface: Option<Interface>) -> Result<Fmu, Error> {
+        Self::open(dir, None, None, interface)
     }
 
     /// Loads the FMU in `root`, its description read there unless `described` holds it already.
-    fn open(root: &Path, unpacked: Option<TempDir>, described: Option<Described>) -> Result<Fmu, Error> {
+    fn open(
+        root: &Path,
+        unpacked: Option<TempDir>,
+        described: Option<Described>,
+        asked: Option<Interface>,
+    ) -> Result<Fmu, Error> {
         let md_path = root.join("modelDescription.xml");
         let err = |path: &Path, message: String| Error::Load { path: path.to_owned(), message };
         let described = match described {
@@ -303,7 +360,8 @@ impl Fmu {
                 Described::read(&text).map_err(|m| err(&md_path, format!("modelDescription.xml: {m}")))?
             }
         };
-        let (platform, binary) = (described.platform(), root.join(described.binary_entry()));
+        let interface = described.interface(asked).map_err(|m| err(&md_path, m))?;
+        let (platform, binary) = (described.platform(), root.join(described.binary_entry(interface)));
         let Described { view: description, v3 } = described;
         if !binary.is_file() {
             let platforms: Vec<String> = std::fs::read_dir(root.join("binaries"))
@@ -317,12 +375,16 @@ impl Fmu {
             if p.is_null() { "(null)".to_owned() } else { unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned() }
         };
         let mut description = description;
+        if let (Interface::ModelExchange, Some(me)) = (interface, &description.model_exchange) {
+            // the identity and capabilities an importer acts on are those of the interface in use
+            (description.model_identifier, description.flags) = (me.model_identifier.clone(), me.flags());
+        }
         let api = if v3.is_some() {
             // SAFETY: the binary named by an FMU's description is, by the FMI 3.0 contract an
             // importer accepts when it loads an FMU, code of that FMU with the standard's
             // functions; running its initializers and trusting its signatures is what loading
             // an FMU means.
-            let api = unsafe { Api3::load(&binary) }.map_err(|m| err(&binary, m))?;
+            let api = unsafe { Api3::load(&binary, interface) }.map_err(|m| err(&binary, m))?;
             // SAFETY: a loaded function of the standard's type without arguments.
             let version = text(unsafe { (api.get_version)() });
             if !version.starts_with("3.") {
@@ -332,7 +394,7 @@ impl Fmu {
             Binary::V3(api)
         } else {
             // SAFETY: as above, under the FMI 2.0 contract.
-            let api = unsafe { Api::load(&binary) }.map_err(|m| err(&binary, m))?;
+            let api = unsafe { Api::load(&binary, interface) }.map_err(|m| err(&binary, m))?;
             // SAFETY: loaded functions of the standard's types without arguments.
             let (version, platform) = unsafe { (text((api.get_version)()), text((api.get_types_platform)())) };
             if !version.starts_with("2.") {
@@ -345,7 +407,14 @@ impl Fmu {
             description.flags.provides_step_map_derivative &= api.step_map_derivative.is_some();
             Binary::V2(api)
         };
-        Ok(Fmu { inner: Arc::new(Loaded { api, description, v3, root: root.to_owned(), _unpacked: unpacked }) })
+        Ok(Fmu {
+            inner: Arc::new(Loaded { api, interface, description, v3, root: root.to_owned(), _unpacked: unpacked }),
+        })
+    }
+
+    /// The interface the FMU is loaded as.
+    pub fn interface(&self) -> Interface {
+        self.inner.interface
     }
 
     /// The FMI version's major number: 2 or 3.
@@ -397,8 +466,9 @@ impl Fmu {
         if has { Ok(()) } else { Err(Error::Capability { fmu: self.name().to_owned(), capability }) }
     }
 
-    /// A new instance (`fmi2Instantiate` or `fmi3InstantiateCoSimulation`, resources from the
-    /// unpacked directory; FMI 3.0 without event mode and without early return).
+    /// A new instance (`fmi2Instantiate`, `fmi3InstantiateCoSimulation` or
+    /// `fmi3InstantiateModelExchange` as the interface loaded; resources from the unpacked
+    /// directory; FMI 3.0 Co-Simulation without event mode and without early return).
     pub fn instantiate(&self, instance_name: &str, logging_on: bool) -> Result<Instance, Error> {
         let d = &self.inner.description;
         let fail = |m: String| Error::Usage(format!("FMU `{}`: {m}", d.model_identifier));
@@ -406,6 +476,7 @@ impl Fmu {
         let guid = CString::new(d.guid.as_str()).map_err(|_| fail("GUID contains a NUL byte".into()))?;
         let resources = self.inner.root.join("resources");
         let sink = LogSink::new();
+        let me = self.inner.interface == Interface::ModelExchange;
         let (component, callbacks, function) = match &self.inner.api {
             Binary::V2(api) => {
                 let uri = crate::uri::file_uri(&resources);
@@ -417,7 +488,7 @@ impl Fmu {
                 let component = unsafe {
                     (api.instantiate)(
                         name.as_ptr(),
-                        fmi2CoSimulation,
+                        if me { fmi2ModelExchange } else { fmi2CoSimulation },
                         guid.as_ptr(),
                         location.as_ptr(),
                         &*callbacks,
@@ -427,16 +498,30 @@ impl Fmu {
                 };
                 (component, Some(callbacks), "fmi2Instantiate")
             }
+            Binary::V3(api) if me => {
+                let path = format!("{}/", resources.display());
+                let location = CString::new(path).map_err(|_| fail("path contains NUL".into()))?;
+                let (env, logger) = sink.fmi3_logger();
+                let instantiate = api.me.as_ref().expect("loaded as Model Exchange").instantiate;
+                // SAFETY: a loaded function (`self` keeps the binary); the strings are
+                // NUL-terminated and live for the call; the sink (`env`) is boxed and moved into
+                // the instance, so it stays where it is until the instance is freed.
+                let component = unsafe {
+                    instantiate(name.as_ptr(), guid.as_ptr(), location.as_ptr(), 0, u8::from(logging_on), env, logger)
+                };
+                (component, None, "fmi3InstantiateModelExchange")
+            }
             Binary::V3(api) => {
                 // FMI 3.0: a native path ending with a separator
                 let path = format!("{}/", resources.display());
                 let location = CString::new(path).map_err(|_| fail("path contains NUL".into()))?;
                 let (env, logger) = sink.fmi3_logger();
+                let instantiate = api.cs.as_ref().expect("loaded as Co-Simulation").instantiate;
                 // SAFETY: a loaded function (`self` keeps the binary); the strings are
                 // NUL-terminated and live for the call; the sink (`env`) is boxed and moved into
                 // the instance, so it stays where it is until the instance is freed.
                 let component = unsafe {
-                    (api.instantiate)(
+                    instantiate(
                         name.as_ptr(),
                         guid.as_ptr(),
                         location.as_ptr(),

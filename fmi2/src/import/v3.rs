@@ -51,14 +51,14 @@ pub(crate) struct Calls3 {
 }
 
 impl Instance {
-    fn api3(&self) -> &Api3 {
+    pub(super) fn api3(&self) -> &Api3 {
         match &self.fmu.inner.api {
             Binary::V3(api) => api,
             Binary::V2(_) => unreachable!("an FMI 3.0 call on an FMI 2.0 instance"),
         }
     }
 
-    fn calls3(&mut self) -> &mut Calls3 {
+    pub(super) fn calls3(&mut self) -> &mut Calls3 {
         self.v3.as_mut().expect("an FMI 3.0 instance")
     }
 
@@ -312,7 +312,8 @@ impl Instance {
         // SAFETY: a live instance and its loaded function (the invariants of `Instance`).
         let s = unsafe { (self.api3().exit_initialization_mode)(self.component) };
         self.check("fmi3ExitInitializationMode", s)?;
-        self.calls3().step_mode = true;
+        // Model Exchange has no steps: values are read after values are set at any time
+        self.calls3().step_mode = self.fmu.interface() == super::Interface::CoSimulation;
         Ok(())
     }
 
@@ -347,11 +348,10 @@ impl Instance {
     /// `fmi3DoStep`; the FMU's end (`terminateSimulation`, an early return) is [`Error::Ended`].
     pub(super) fn do_step3(&mut self, t: f64, h: f64) -> Result<(), Error> {
         let (mut event, mut terminate, mut early, mut last) = (fmi3False, fmi3False, fmi3False, t);
+        let do_step = self.api3().cs.as_ref().ok_or_else(|| self.wrong_interface())?.do_step;
         // SAFETY: a live instance and its loaded function (the invariants of `Instance`); the
         // out-parameters are locals.
-        let s = unsafe {
-            (self.api3().do_step)(self.component, t, h, fmi3False, &mut event, &mut terminate, &mut early, &mut last)
-        };
+        let s = unsafe { do_step(self.component, t, h, fmi3False, &mut event, &mut terminate, &mut early, &mut last) };
         let calls = self.calls3();
         calls.set_since_step = false;
         calls.last_successful_time = if s == fmi3Discard || !last.is_finite() { t } else { last };

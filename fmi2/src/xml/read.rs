@@ -5,8 +5,8 @@ use roxmltree::{Document, Node};
 
 use super::{STEP_MAP_ANNOTATION, VENDOR_TOOL};
 use crate::description::{
-    BASE_UNIT_NAMES, BaseUnit, Causality, CoSimulationFlags, DefaultExperiment, Initial, ModelDescription, Unit, Value,
-    VarType, Variability, Variable,
+    BASE_UNIT_NAMES, BaseUnit, Causality, CoSimulationFlags, ContinuousState, DefaultExperiment, Initial,
+    ModelDescription, ModelExchange, Unit, Value, VarType, Variability, Variable,
 };
 
 /// What is wrong with a `modelDescription.xml`, and where.
@@ -85,29 +85,35 @@ pub(crate) fn read_model_description(doc: &Document<'_>) -> Result<ModelDescript
     let model_name = required(root, "modelName")?;
     let guid = required(root, "guid")?;
     let child = |name: &str| root.children().find(|c| c.has_tag_name(name));
-    let Some(cs) = child("CoSimulation") else {
-        let me = if child("ModelExchange").is_some() { " (it is a Model Exchange FMU)" } else { "" };
-        return fail(format!("no <CoSimulation> element{me}; only Co-Simulation FMUs are supported"));
+    let me_node = child("ModelExchange");
+    let cs_node = child("CoSimulation");
+    let Some(interface) = cs_node.or(me_node) else {
+        return fail("neither <CoSimulation> nor <ModelExchange>: the FMU offers no interface".into());
     };
+    let cs = interface;
     let model_identifier = required(cs, "modelIdentifier")?;
     let flag = |name: &str| attr(cs, name, "a boolean", boolean).map(|b| b.unwrap_or(false));
-    let flags = CoSimulationFlags {
-        needs_execution_tool: flag("needsExecutionTool")?,
-        can_handle_variable_communication_step_size: flag("canHandleVariableCommunicationStepSize")?,
-        can_interpolate_inputs: flag("canInterpolateInputs")?,
-        max_output_derivative_order: attr(cs, "maxOutputDerivativeOrder", "an integer", |v| v.parse().ok())?
-            .unwrap_or(0),
-        can_run_asynchronuously: flag("canRunAsynchronuously")?,
-        can_be_instantiated_only_once_per_process: flag("canBeInstantiatedOnlyOncePerProcess")?,
-        can_not_use_memory_management_functions: flag("canNotUseMemoryManagementFunctions")?,
-        can_get_and_set_fmu_state: flag("canGetAndSetFMUstate")?,
-        can_serialize_fmu_state: flag("canSerializeFMUstate")?,
-        provides_directional_derivative: flag("providesDirectionalDerivative")?,
-        provides_step_map_derivative: child("VendorAnnotations").is_some_and(|va| {
-            va.children()
-                .filter(|t| t.has_tag_name("Tool") && t.attribute("name") == Some(VENDOR_TOOL))
-                .any(|t| t.children().any(|c| c.has_tag_name(STEP_MAP_ANNOTATION)))
-        }),
+    let flags = if cs_node.is_none() {
+        CoSimulationFlags::default()
+    } else {
+        CoSimulationFlags {
+            needs_execution_tool: flag("needsExecutionTool")?,
+            can_handle_variable_communication_step_size: flag("canHandleVariableCommunicationStepSize")?,
+            can_interpolate_inputs: flag("canInterpolateInputs")?,
+            max_output_derivative_order: attr(cs, "maxOutputDerivativeOrder", "an integer", |v| v.parse().ok())?
+                .unwrap_or(0),
+            can_run_asynchronuously: flag("canRunAsynchronuously")?,
+            can_be_instantiated_only_once_per_process: flag("canBeInstantiatedOnlyOncePerProcess")?,
+            can_not_use_memory_management_functions: flag("canNotUseMemoryManagementFunctions")?,
+            can_get_and_set_fmu_state: flag("canGetAndSetFMUstate")?,
+            can_serialize_fmu_state: flag("canSerializeFMUstate")?,
+            provides_directional_derivative: flag("providesDirectionalDerivative")?,
+            provides_step_map_derivative: child("VendorAnnotations").is_some_and(|va| {
+                va.children()
+                    .filter(|t| t.has_tag_name("Tool") && t.attribute("name") == Some(VENDOR_TOOL))
+                    .any(|t| t.children().any(|c| c.has_tag_name(STEP_MAP_ANNOTATION)))
+            }),
+        }
     };
     let (units, default_experiment) = (parse_units(root)?, parse_default_experiment(root)?);
     let Some(mv) = child("ModelVariables") else {
@@ -137,6 +143,10 @@ pub(crate) fn read_model_description(doc: &Document<'_>) -> Result<ModelDescript
             }
         }
     }
+    let model_exchange = match me_node {
+        None => None,
+        Some(me) => Some(read_model_exchange(root, me, &variables)?),
+    };
     Ok(ModelDescription {
         fmi_version,
         model_name,
@@ -145,9 +155,59 @@ pub(crate) fn read_model_description(doc: &Document<'_>) -> Result<ModelDescript
         version: root.attribute("version").unwrap_or("").to_owned(),
         model_identifier,
         flags,
+        co_simulation: cs_node.is_some(),
+        model_exchange,
         units,
         default_experiment,
         variables,
+    })
+}
+
+/// `<ModelExchange>` of an FMI 2.0 description: its capabilities, the number of event
+/// indicators, and the continuous states — the variables whose derivatives `<Derivatives>`
+/// lists (each derivative's `derivative` attribute: the 1-based index of its state).
+fn read_model_exchange(root: Node, me: Node, variables: &[Variable]) -> Result<ModelExchange, ReadError> {
+    let flag = |name: &str| attr(me, name, "a boolean", boolean).map(|b| b.unwrap_or(false));
+    let event_indicators =
+        attr(root, "numberOfEventIndicators", "an unsigned integer", |v| v.parse::<usize>().ok())?.unwrap_or(0);
+    if event_indicators > crate::fmi3::xml::MAX_VIEW_SCALARS {
+        return fail(format!("numberOfEventIndicators = {event_indicators}: more than this importer takes"));
+    }
+    // the `derivative` attribute of every <Real>, by variable position
+    let mv = root.children().find(|c| c.has_tag_name("ModelVariables"));
+    let nodes: Vec<Node> =
+        mv.map(|mv| mv.children().filter(|c| c.has_tag_name("ScalarVariable")).collect()).unwrap_or_default();
+    let mut states = Vec::new();
+    let structure = root.children().find(|c| c.has_tag_name("ModelStructure"));
+    let derivatives = structure
+        .into_iter()
+        .flat_map(|ms| ms.children().filter(|c| c.has_tag_name("Derivatives")))
+        .flat_map(|d| d.children().filter(|u| u.has_tag_name("Unknown")));
+    for u in derivatives {
+        let d = parse_index(u, &required(u, "index")?, variables.len())?;
+        let real = nodes.get(d).and_then(|n| n.children().find(|c| c.has_tag_name("Real")));
+        let Some(of) = real.and_then(|r| r.attribute("derivative")) else {
+            return fail(format!(
+                "<Derivatives> at {}: variable `{}` has no `derivative` attribute naming its state",
+                at(u),
+                variables[d].name
+            ));
+        };
+        let s = parse_index(u, of, variables.len())?;
+        if variables[s].var_type != VarType::Real || variables[d].var_type != VarType::Real {
+            return fail(format!("<Derivatives> at {}: state and derivative must be Real", at(u)));
+        }
+        states.push(ContinuousState { state: variables[s].value_reference, derivative: variables[d].value_reference });
+    }
+    Ok(ModelExchange {
+        model_identifier: required(me, "modelIdentifier")?,
+        needs_completed_integrator_step: !flag("completedIntegratorStepNotNeeded")?,
+        can_get_and_set_fmu_state: flag("canGetAndSetFMUstate")?,
+        can_serialize_fmu_state: flag("canSerializeFMUstate")?,
+        provides_directional_derivative: flag("providesDirectionalDerivative")?,
+        states,
+        event_indicators,
+        event_indicator_variables: Vec::new(),
     })
 }
 
@@ -329,10 +389,7 @@ mod tests {
             (r#"<x fmiVersion="2.0"/>"#, "expected <fmiModelDescription>"),
             (r#"<fmiModelDescription fmiVersion="3.0" modelName="m" guid="g"/>"#, "only FMI 2.0"),
             (r#"<fmiModelDescription fmiVersion="2.0" guid="g"/>"#, "no `modelName`"),
-            (
-                r#"<fmiModelDescription fmiVersion="2.0" modelName="m" guid="g"><ModelExchange modelIdentifier="m"/></fmiModelDescription>"#,
-                "Model Exchange",
-            ),
+            (r#"<fmiModelDescription fmiVersion="2.0" modelName="m" guid="g"/>"#, "no interface"),
         ];
         for (xml, fragment) in cases {
             let e = parse_model_description(xml).unwrap_err().to_string();

@@ -44,30 +44,44 @@ pub(crate) fn write(d: &ModelDescription) -> String {
     let _ = writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = writeln!(
         x,
-        r#"<fmiModelDescription fmiVersion="{}" modelName="{}" guid="{}" description="{}" version="{}" generationTool="feedsim fmi2 {}" variableNamingConvention="structured" numberOfEventIndicators="0">"#,
+        r#"<fmiModelDescription fmiVersion="{}" modelName="{}" guid="{}" description="{}" version="{}" generationTool="feedsim fmi2 {}" variableNamingConvention="structured" numberOfEventIndicators="{}">"#,
         escape(&d.fmi_version),
         escape(&d.model_name),
         escape(&d.guid),
         escape(&d.description),
         escape(&d.version),
         env!("CARGO_PKG_VERSION"),
+        d.model_exchange.as_ref().map_or(0, |m| m.event_indicators),
     );
+    if let Some(me) = &d.model_exchange {
+        let _ = writeln!(
+            x,
+            r#"  <ModelExchange modelIdentifier="{}" completedIntegratorStepNotNeeded="{}" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="{}"/>"#,
+            escape(&me.model_identifier),
+            bool_attr(!me.needs_completed_integrator_step),
+            bool_attr(me.can_get_and_set_fmu_state),
+            bool_attr(me.can_serialize_fmu_state),
+            bool_attr(me.provides_directional_derivative),
+        );
+    }
     let f = &d.flags;
-    let _ = writeln!(
-        x,
-        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="{}" canHandleVariableCommunicationStepSize="{}" canInterpolateInputs="{}" maxOutputDerivativeOrder="{}" canRunAsynchronuously="{}" canBeInstantiatedOnlyOncePerProcess="{}" canNotUseMemoryManagementFunctions="{}" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="{}"/>"#,
-        escape(&d.model_identifier),
-        bool_attr(f.needs_execution_tool),
-        bool_attr(f.can_handle_variable_communication_step_size),
-        bool_attr(f.can_interpolate_inputs),
-        f.max_output_derivative_order,
-        bool_attr(f.can_run_asynchronuously),
-        bool_attr(f.can_be_instantiated_only_once_per_process),
-        bool_attr(f.can_not_use_memory_management_functions),
-        bool_attr(f.can_get_and_set_fmu_state),
-        bool_attr(f.can_serialize_fmu_state),
-        bool_attr(f.provides_directional_derivative),
-    );
+    if d.co_simulation {
+        let _ = writeln!(
+            x,
+            r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="{}" canHandleVariableCommunicationStepSize="{}" canInterpolateInputs="{}" maxOutputDerivativeOrder="{}" canRunAsynchronuously="{}" canBeInstantiatedOnlyOncePerProcess="{}" canNotUseMemoryManagementFunctions="{}" canGetAndSetFMUstate="{}" canSerializeFMUstate="{}" providesDirectionalDerivative="{}"/>"#,
+            escape(&d.model_identifier),
+            bool_attr(f.needs_execution_tool),
+            bool_attr(f.can_handle_variable_communication_step_size),
+            bool_attr(f.can_interpolate_inputs),
+            f.max_output_derivative_order,
+            bool_attr(f.can_run_asynchronuously),
+            bool_attr(f.can_be_instantiated_only_once_per_process),
+            bool_attr(f.can_not_use_memory_management_functions),
+            bool_attr(f.can_get_and_set_fmu_state),
+            bool_attr(f.can_serialize_fmu_state),
+            bool_attr(f.provides_directional_derivative),
+        );
+    }
     units(&mut x, d);
     log_categories(&mut x);
     default_experiment(&mut x, d);
@@ -78,6 +92,10 @@ pub(crate) fn write(d: &ModelDescription) -> String {
         x.push_str("  </VendorAnnotations>\n");
     }
     x.push_str("  <ModelVariables>\n");
+    let states = d.model_exchange.as_ref().map_or(&[][..], |m| &m.states[..]);
+    let real_index = |vr: u32| {
+        d.variables.iter().position(|v| v.value_reference == vr && v.var_type == crate::VarType::Real).map(|i| i + 1)
+    };
     for (i, var) in d.variables.iter().enumerate() {
         let _ = writeln!(x, "    <!-- index {} -->", i + 1);
         let _ =
@@ -101,6 +119,11 @@ pub(crate) fn write(d: &ModelDescription) -> String {
         if let Some(s) = &var.start {
             let _ = write!(x, r#" start="{}""#, escape(&s.to_string()));
         }
+        let real = var.var_type == crate::VarType::Real;
+        let derivative_of = states.iter().find(|s| real && s.derivative == var.value_reference);
+        if let Some(index) = derivative_of.and_then(|s| real_index(s.state)) {
+            let _ = write!(x, r#" derivative="{index}""#);
+        }
         x.push_str("/>\n    </ScalarVariable>\n");
     }
     x.push_str("  </ModelVariables>\n  <ModelStructure>\n");
@@ -113,12 +136,26 @@ pub(crate) fn write(d: &ModelDescription) -> String {
         }
         x.push_str("    </Outputs>\n");
     }
-    // Exactly the outputs with initial approx/calculated and the calculated parameters
-    // (Co-Simulation has no continuous states), with their initialization-mode dependencies.
+    if !states.is_empty() {
+        x.push_str("    <Derivatives>\n");
+        for s in states {
+            let i = real_index(s.derivative).expect("validated");
+            unknown(&mut x, i, d.variables[i - 1].depends_on.as_deref(), &index);
+        }
+        x.push_str("    </Derivatives>\n");
+    }
+    // Exactly the outputs with initial approx/calculated and the calculated parameters, and of
+    // Model Exchange the states and derivatives with initial approx/calculated, with their
+    // initialization-mode dependencies.
+    let is_state = |v: &crate::Variable| {
+        v.var_type == crate::VarType::Real
+            && states.iter().any(|s| s.state == v.value_reference || s.derivative == v.value_reference)
+    };
     let initial_unknowns: Vec<_> = (1..)
         .zip(&d.variables)
         .filter(|(_, v)| {
-            (v.causality == Causality::Output && matches!(v.initial, Some(Initial::Approx | Initial::Calculated)))
+            let calculated = matches!(v.initial, Some(Initial::Approx | Initial::Calculated));
+            (calculated && (v.causality == Causality::Output || is_state(v)))
                 || v.causality == Causality::CalculatedParameter
         })
         .collect();

@@ -20,8 +20,9 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
         bail!("--compensation applies to a --scene with [control]; a --system runs its FMUs as they are");
     }
     let method = args.options.method(args.scheme)?;
-    let system =
-        SystemFile::prepare(file, method, args.dt, args.t_end, &args.system_files.files().limits(), &caps().run)?;
+    let files = args.system_files.files();
+    let system = SystemFile::prepare(file, method, args.dt, args.t_end, &files.limits(), &caps().run)?
+        .with_model_exchange(&files.model_exchange())?;
     let (dt, t_end, adaptive) = (system.dt, system.t_end, system.adaptive());
     let mut outputs = Outputs::new(system.inputs());
     let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
@@ -70,6 +71,20 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
             out,
             "adaptive step: {} tries rejected, h from {:.3e} to {:.3e} s",
             outcome.rejected_steps, outcome.h_min_used, outcome.h_max_used
+        )?;
+    }
+    for (component, solver, s) in &outcome.model_exchange {
+        writeln!(
+            out,
+            "component `{component}` (Model Exchange, {solver}): {} integrator steps, {} rejected, {} events \
+             ({} state, {} time, {} step), {} derivative evaluations",
+            s.steps,
+            s.rejected,
+            s.state_events + s.time_events + s.step_events,
+            s.state_events,
+            s.time_events,
+            s.step_events,
+            s.evaluations
         )?;
     }
     if let Some(p) = &args.out {

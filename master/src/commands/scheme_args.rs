@@ -5,9 +5,10 @@
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use cosim::error_estimate::Kind;
 use cosim::{Extrapolation, JacobianUpdate, Relaxation};
+use fmi2::import::Interface;
 use studies::options::{self as lib, MEMORY_MB, Named, UNPACKED_MB};
 pub(crate) use studies::options::{
-    Compensation, SchemeName, below_one, factor, max_iter, megabytes, positive, relaxation, tolerance, whole,
+    Compensation, SchemeName, below_one, factor, interface, max_iter, megabytes, positive, relaxation, tolerance, whole,
 };
 use studies::simulate::Method;
 
@@ -135,6 +136,20 @@ pub(crate) struct SystemFileArgs {
     /// description, the FMUs, the parameter files; nothing else is unpacked) [default: 1024].
     #[arg(long, value_parser = |t: &str| megabytes(t, UNPACKED_MB))]
     pub(crate) max_unpacked_mb: Option<u64>,
+    /// Run FMUs that offer both interfaces as Model Exchange (`me`) or Co-Simulation (`cs`, the
+    /// default), all of them, or one component: `COMPONENT=me` (comma-separated). An FMU with
+    /// one interface runs as that one.
+    #[arg(long, value_delimiter = ',', value_name = "[COMPONENT=]me|cs", value_parser = interface)]
+    pub(crate) interface: Vec<(Option<String>, Interface)>,
+    /// The integrator of Model Exchange components.
+    #[arg(long, default_value = "dopri5", value_parser = named::<cosim::me::Method>())]
+    pub(crate) me_solver: cosim::me::Method,
+    /// Relative tolerance of the Model Exchange integrator, in (0, 1).
+    #[arg(long, default_value = "1e-6", value_parser = tolerance, allow_negative_numbers = true)]
+    pub(crate) me_rtol: f64,
+    /// Absolute tolerance of the Model Exchange integrator (in the states' units).
+    #[arg(long, default_value = "1e-8", value_parser = positive, allow_negative_numbers = true)]
+    pub(crate) me_atol: f64,
 }
 
 impl SystemFileArgs {
@@ -143,6 +158,10 @@ impl SystemFileArgs {
             allow_external_fmus: self.allow_external_fmus,
             max_archive_entries: self.max_archive_entries,
             max_unpacked_mb: self.max_unpacked_mb,
+            interface: self.interface.clone(),
+            me_solver: self.me_solver,
+            me_rtol: self.me_rtol,
+            me_atol: self.me_atol,
         }
     }
 }

@@ -14,6 +14,7 @@
 //! * `step_map`: IJCSA with the FMUs' step-map extension against finite differences;
 //! * `ssp_system`: SSP systems of FMUs that know nothing of the project's physics;
 //! * `fmi3`: the LT50m system of FMI 3.0 FMUs, and of both versions, against FMI 2.0;
+//! * `model_exchange`: hostile Model Exchange FMUs, and the rollback of units the master integrates;
 //! * `sweep`: sweeps and their shards against the library, point by point;
 //! * `calibrate`: model updating against modes of scenes with known keys;
 //! * `resume`: long commands killed halfway and continued with --resume;
@@ -30,6 +31,7 @@ mod cosim;
 mod feed;
 mod fmi3;
 mod misuse;
+mod model_exchange;
 mod mutants;
 mod net;
 mod package;

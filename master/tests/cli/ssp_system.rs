@@ -158,9 +158,12 @@ fn ssp_pair_runs_like_a_hand_written_loop() {
     // the implicit schemes converge to one solution
     let run = |scheme| {
         let o = Options { scheme, tol: 1e-12, ..Options::default() };
-        let mut c =
-            Coupled::new(FmuSystem::load(&loaded.spec, &Needs { what: "test".into(), rollback: true }).unwrap(), o)
-                .unwrap();
+        let mut c = Coupled::new(
+            FmuSystem::load(&loaded.spec, &Needs { what: "test".into(), rollback: true, ..Default::default() })
+                .unwrap(),
+            o,
+        )
+        .unwrap();
         for _ in 0..steps {
             c.step(h).unwrap();
         }
@@ -217,7 +220,7 @@ fn a_scheme_an_fmu_cannot_support_is_refused_up_front() {
     std::fs::write(&ssd, text.replace(r#"name="b" source="oscillator.fmu""#, r#"name="b" source="stateless""#))
         .unwrap();
     let loaded = studies::cosim::ssp::read::load(&ssd).unwrap();
-    let needs = Needs { what: "scheme iqn-ils".into(), rollback: true };
+    let needs = Needs { what: "scheme iqn-ils".into(), rollback: true, ..Default::default() };
     match FmuSystem::load(&loaded.spec, &needs) {
         Err(e @ SetupError::Capability { .. }) => {
             let m = e.to_string();

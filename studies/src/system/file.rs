@@ -23,6 +23,7 @@ pub struct SystemFile {
     pub dt: f64,
     pub t_end: f64,
     limits: Limits,
+    model_exchange: cosim::me::MeOptions,
 }
 
 impl SystemFile {
@@ -74,7 +75,24 @@ impl SystemFile {
                 None => format!("{}: h = {} s, end time {} s from {from}", file.display(), num(dt), num(t_end)),
             }
         })?;
-        Ok(SystemFile { file: file.to_owned(), loaded, options, adaptive, dt, t_end, limits: *limits })
+        Ok(SystemFile {
+            file: file.to_owned(),
+            loaded,
+            options,
+            adaptive,
+            dt,
+            t_end,
+            limits: *limits,
+            model_exchange: Default::default(),
+        })
+    }
+
+    /// Runs the components `choice` names as the interface it names, Model Exchange ones with
+    /// its integrator.
+    pub fn with_model_exchange(mut self, choice: &super::ModelExchangeChoice) -> anyhow::Result<SystemFile> {
+        choice.apply(&mut self.loaded.spec).map_err(|e| anyhow::anyhow!("{}: {e}", self.file.display()))?;
+        self.model_exchange = choice.options;
+        Ok(self)
     }
 
     /// The files the run reads: the system file and its FMUs.
@@ -100,6 +118,7 @@ impl SystemFile {
             self.t_end,
             &self.limits,
         )?;
+        let run = SystemRun { model_exchange: self.model_exchange, ..run };
         run.execute(watch, sinks)
     }
 
@@ -122,6 +141,16 @@ impl SystemFile {
             "stopped_early": outcome.stopped_early.is_some(),
             "stopped_at": outcome.stopped_early.as_ref().map(|s| s.0),
             "note": outcome.stopped_early.as_ref().map(|s| s.1.clone()),
+            "model_exchange": outcome.model_exchange.iter().map(|(c, solver, s)| json!({
+                "component": c,
+                "solver": solver,
+                "steps": s.steps,
+                "rejected_steps": s.rejected,
+                "state_events": s.state_events,
+                "time_events": s.time_events,
+                "step_events": s.step_events,
+                "evaluations": s.evaluations,
+            })).collect::<Vec<_>>(),
         })
     }
 }
