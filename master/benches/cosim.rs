@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use feedcore::benchkit::{bench, human};
 use feedcore::scene::Scene;
-use fmi2::import::Fmu;
+use fmi::import::Fmu;
 use studies::cosim::{Coupled, FmuSystem, JacobianUpdate, Options, Scheme};
 use studies::monolithic::Monolithic;
 
@@ -30,9 +30,8 @@ fn main() {
         let _ = std::fs::remove_dir_all(&dir);
         return;
     }
-    let cable = fmi2::package::package_model::<cable_fmu::CableFmu>(&dir, &library("cable_fmu_cdylib")).unwrap();
-    let stewart =
-        fmi2::package::package_model::<stewart_fmu::StewartFmu>(&dir, &library("stewart_fmu_cdylib")).unwrap();
+    let cable = fmi::package::package_model::<cable_fmu::CableFmu>(&dir, &library("cable_fmu_cdylib")).unwrap();
+    let stewart = fmi::package::package_model::<stewart_fmu::StewartFmu>(&dir, &library("stewart_fmu_cdylib")).unwrap();
     let scene_file = PathBuf::from(format!("{}/../scenes/lt50m_C.toml", env!("CARGO_MANIFEST_DIR")));
     let mut scene = Scene::load(&scene_file).unwrap().to_scene();
     for f in &mut scene.system.as_mut().unwrap().fmus {
@@ -64,8 +63,8 @@ fn main() {
             inst.update_state(&state).unwrap();
             inst.set_state(&state).unwrap();
         });
-        let outputs = inst.value_references(fmi2::Causality::Output, fmi2::VarType::Real);
-        let inputs = inst.value_references(fmi2::Causality::Input, fmi2::VarType::Real);
+        let outputs = inst.value_references(fmi::Causality::Output, fmi::VarType::Real);
+        let inputs = inst.value_references(fmi::Causality::Input, fmi::VarType::Real);
         let mut col = vec![0.0; outputs.len()];
         bench(&format!("{name}: directional derivative, one input, all outputs"), 1.0, || {
             inst.directional_derivative(&outputs, &inputs[..1], &[1.0], &mut col).unwrap()
@@ -130,18 +129,18 @@ fn main() {
 fn model_exchange(dir: &std::path::Path) {
     use studies::cosim::system::spec::{Component, Endpoint, Parameter, Value};
     let fmu =
-        fmi2::package::package_model::<zoo_fmus::dahlquist::DahlquistFmu>(&dir.join("zoo"), &library("zoo_dahlquist"))
+        fmi::package::package_model::<zoo_fmus::dahlquist::DahlquistFmu>(&dir.join("zoo"), &library("zoo_dahlquist"))
             .unwrap();
     let real = |v: &str, x: f64| Parameter {
         target: Endpoint { component: "d".into(), variable: v.into() },
-        value: Value::Typed(fmi2::Value::Real(x)),
+        value: Value::Typed(fmi::Value::Real(x)),
     };
     let spec = studies::cosim::SystemSpec {
         origin: "dahlquist as Model Exchange".into(),
         components: vec![Component {
             name: "d".into(),
             source: fmu,
-            interface: Some(fmi2::import::Interface::ModelExchange),
+            interface: Some(fmi::import::Interface::ModelExchange),
         }],
         connections: Vec::new(),
         parameters: vec![real("x0", 0.0), real("u", 1.0)],

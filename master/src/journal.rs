@@ -207,7 +207,7 @@ fn line(index: usize, key: &str, cells: &[String]) -> String {
         text.push_str(&quoted(c));
     }
     text.push(',');
-    let digest = fmi2::digest::digest(text.as_bytes());
+    let digest = fmi::digest::digest(text.as_bytes());
     text.push_str(&format!("{digest:016x},{END}\n"));
     text
 }
@@ -217,7 +217,7 @@ fn parse(bytes: &[u8]) -> Option<(usize, Point)> {
     let text = std::str::from_utf8(bytes).ok()?.strip_suffix('\n')?.strip_suffix(END)?.strip_suffix(',')?;
     let (body, digest) = text.rsplit_once(',')?;
     let body_with_comma = &text[..body.len() + 1];
-    if u64::from_str_radix(digest, 16).ok()? != fmi2::digest::digest(body_with_comma.as_bytes()) || digest.len() != 16 {
+    if u64::from_str_radix(digest, 16).ok()? != fmi::digest::digest(body_with_comma.as_bytes()) || digest.len() != 16 {
         return None;
     }
     let mut cells = split(body).ok()?;

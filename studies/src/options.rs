@@ -10,7 +10,7 @@ use crate::system::Adaptive;
 use anyhow::bail;
 use cosim::ssp::read::ReadLimits;
 use feedcore::scene::{Control, ValidScene};
-use fmi2::import::Interface;
+use fmi::import::Interface;
 
 /// A choice among named values, as a user gives it (a flag's value, a keyword's string): the
 /// names, a line of help for each, and parsing.

@@ -11,7 +11,7 @@ use cosim::step_control::{Controller, Limits, REFACTORIZING_HOLD, Tolerances};
 use cosim::system::spec::{Component, Connection, Endpoint, Matching, Parameter, Value};
 use cosim::{Coupled, FmuSystem, Needs, Options, SetupError, SystemSpec};
 use feedcore::scene::{Start, ValidScene};
-use fmi2::{Causality, VarType};
+use fmi::{Causality, VarType};
 
 use crate::limits::{Limits as StepLimits, Plan, Schedule};
 use crate::simulate::RunError;
@@ -37,7 +37,7 @@ pub fn scene_spec(scene: &ValidScene, scene_file: &Path) -> Result<SystemSpec, S
         .as_ref()
         .ok_or_else(|| file_error("the scene has no [system] section (FMUs and their connections)".into()))?;
     let file_name = scene_file.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let scene_text = fmi2::uri::data_uri("application/toml", &file_name, &scene.to_toml());
+    let scene_text = fmi::uri::data_uri("application/toml", &file_name, &scene.to_toml());
     let endpoint = |text: &str| {
         let (component, variable) =
             text.split_once('.').expect("a ValidScene's connection ends and parameters are `fmu.name`");
@@ -113,7 +113,7 @@ impl Adaptive {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ModelExchangeChoice {
     /// (component, or every component, interface), in order: a later entry overrides.
-    pub interfaces: Vec<(Option<String>, fmi2::import::Interface)>,
+    pub interfaces: Vec<(Option<String>, fmi::import::Interface)>,
     pub options: cosim::me::MeOptions,
 }
 
@@ -310,7 +310,7 @@ impl<'a> SystemRun<'a> {
             let mut column = 0;
             for o in &outputs {
                 let inst = c.units_mut().instances().nth(o.component).expect("a component").1;
-                let failed = |e: fmi2::import::Error| RunError::Stopped { method, time: t, reason: e.to_string() };
+                let failed = |e: fmi::import::Error| RunError::Stopped { method, time: t, reason: e.to_string() };
                 buf.0.resize(o.real.len(), 0.0);
                 buf.1.resize(o.integer.len(), 0);
                 buf.2.resize(o.boolean.len(), false);

@@ -6,8 +6,8 @@
 
 pub mod solver;
 
-use fmi2::import::Instance;
-use fmi2::{VarType, Variability};
+use fmi::import::Instance;
+use fmi::{VarType, Variability};
 use solver::{Integrator, Rhs};
 pub use solver::{Method, Tolerances};
 

@@ -15,7 +15,7 @@
 
 use std::path::{Path, PathBuf};
 
-use fmi2::VarType;
+use fmi::VarType;
 use roxmltree::{Document, Node};
 
 use crate::error::SetupError;
@@ -126,8 +126,8 @@ fn unpack_referenced<R: std::io::Read + std::io::Seek>(
     }
     let mut budget = limits.max_unpacked_bytes;
     let mut unpack = |name: &str, budget: &mut u64| -> Result<(), SetupError> {
-        fmi2::archive::unpack_entry(zip, name, dir, budget, limits.max_unpacked_bytes).map_err(|e| match e {
-            fmi2::archive::UnpackError::TooLarge { .. } => invalid(
+        fmi::archive::unpack_entry(zip, name, dir, budget, limits.max_unpacked_bytes).map_err(|e| match e {
+            fmi::archive::UnpackError::TooLarge { .. } => invalid(
                 archive,
                 format!(
                     "unpacking `{name}` exceeds the {} MB the system's entries may take together \
@@ -217,8 +217,8 @@ fn child<'a, 'i>(n: Node<'a, 'i>, name: &'static str) -> Option<Node<'a, 'i>> {
 /// implementation="…"/>`, which other tools skip). Both, differing, is a contradiction.
 fn component_interface<'a, 'i>(
     component: Node<'a, 'i>,
-) -> Result<Option<fmi2::import::Interface>, (Node<'a, 'i>, String)> {
-    use fmi2::import::Interface;
+) -> Result<Option<fmi::import::Interface>, (Node<'a, 'i>, String)> {
+    use fmi::import::Interface;
     let parse = |n: Node<'a, 'i>| match n.attribute("implementation") {
         None | Some("any") => Ok(None),
         Some("ModelExchange") => Ok(Some(Interface::ModelExchange)),
@@ -501,14 +501,14 @@ fn read_parameter_set(
         let text = v.attribute("value").ok_or_else(|| fail(v, format!("parameter `{target}`: no `value`")))?;
         let bad = |what: &str| fail(v, format!("parameter `{target}`: `{text}` is not {what}"));
         let value = Value::Typed(match v.tag_name().name() {
-            "Real" => fmi2::Value::Real(text.trim().parse().map_err(|_| bad("a Real"))?),
-            "Integer" => fmi2::Value::Integer(text.trim().parse().map_err(|_| bad("an Integer"))?),
-            "Boolean" => fmi2::Value::Boolean(match text.trim() {
+            "Real" => fmi::Value::Real(text.trim().parse().map_err(|_| bad("a Real"))?),
+            "Integer" => fmi::Value::Integer(text.trim().parse().map_err(|_| bad("an Integer"))?),
+            "Boolean" => fmi::Value::Boolean(match text.trim() {
                 "true" | "1" => true,
                 "false" | "0" => false,
                 _ => return Err(bad("a Boolean")),
             }),
-            "String" => fmi2::Value::String(text.to_owned()),
+            "String" => fmi::Value::String(text.to_owned()),
             other => return Err(fail(v, format!("parameter `{target}`: type <{other}> is not supported"))),
         });
         out.push(Parameter { target, value });
@@ -581,7 +581,7 @@ mod tests {
     /// contradiction or a value SSP does not define is refused naming the line.
     #[test]
     fn a_components_interface_is_read_from_its_attribute_or_our_annotation() {
-        use fmi2::import::Interface::{CoSimulation, ModelExchange};
+        use fmi::import::Interface::{CoSimulation, ModelExchange};
         let dir = TempDir::new("interface").unwrap();
         let ssd = dir.path().join("s.ssd");
         let annotated = |kind: &str| {

@@ -6,8 +6,8 @@
 //! pass over the (algebraic) loop until nothing changes any more, and only then calls
 //! fmi2ExitInitializationMode — so every FMU starts from inputs consistent with the others.
 
-use fmi2::import::{Capability, Fmu, FmuState, Instance, ScalarVariable};
-use fmi2::{Causality, VarType};
+use fmi::import::{Capability, Fmu, FmuState, Instance, ScalarVariable};
+use fmi::{Causality, VarType};
 
 use super::spec::{Connection, Endpoint, Linear, Matching, Parameter, SystemSpec, Value, prefix_rest};
 use super::{Capabilities, Layout, Slot, UnitError, UnitLayout, Units};
@@ -82,7 +82,7 @@ fn step_map_derivative(
     knowns: &[u32],
     seed: &[f64],
     out: &mut [f64],
-) -> Result<(), fmi2::import::Error> {
+) -> Result<(), fmi::import::Error> {
     inst.step_map_derivative(unknowns, knowns, seed, out)
 }
 
@@ -111,7 +111,7 @@ impl FmuSystem {
         let index = |name: &str, what: &str| component_index(spec, name, what);
         let fmu_err = |k: usize| {
             let component = spec.components[k].name.clone();
-            move |e: fmi2::import::Error| SetupError::Fmu { component: component.clone(), source: e }
+            move |e: fmi::import::Error| SetupError::Fmu { component: component.clone(), source: e }
         };
         let links = match_links(spec, &fmus)?;
 
@@ -121,7 +121,7 @@ impl FmuSystem {
             let mut inst = fmu.instantiate(&c.name, false).map_err(fmu_err(k))?;
             inst.setup_experiment(None, 0.0, None).map_err(fmu_err(k))?;
             let flags = &fmu.description().flags;
-            let me = fmu.interface() == fmi2::import::Interface::ModelExchange;
+            let me = fmu.interface() == fmi::import::Interface::ModelExchange;
             units.push(FmuUnit {
                 name: c.name.clone(),
                 caps: Capabilities {
@@ -188,7 +188,7 @@ impl FmuSystem {
                 }
             }
             unit.ones = vec![1; unit.inputs.len()];
-            if unit.inst.fmu().interface() == fmi2::import::Interface::ModelExchange {
+            if unit.inst.fmu().interface() == fmi::import::Interface::ModelExchange {
                 unit.me = Some(Box::new(MeUnit::new(&unit.inst, &unit.inputs, needs.model_exchange)));
             }
             layout.units.push(UnitLayout {
@@ -245,7 +245,7 @@ impl FmuSystem {
                     component: u.name.clone(),
                     source: match e {
                         UnitError::Fmi(e) => e,
-                        other => fmi2::import::Error::Usage(other.to_string()),
+                        other => fmi::import::Error::Usage(other.to_string()),
                     },
                 })?;
             }
@@ -258,7 +258,7 @@ impl FmuSystem {
                 component: system.units[k].name.clone(),
                 source: match e {
                     UnitError::Fmi(e) => e,
-                    other => fmi2::import::Error::Usage(other.to_string()),
+                    other => fmi::import::Error::Usage(other.to_string()),
                 },
             })?;
         }
@@ -297,7 +297,7 @@ impl FmuSystem {
             component: units[k].name.clone(),
             source: match e {
                 UnitError::Fmi(e) => e,
-                other => fmi2::import::Error::Usage(other.to_string()),
+                other => fmi::import::Error::Usage(other.to_string()),
             },
         };
         let read_y = |s: &mut FmuSystem, y: &mut [f64]| -> Result<(), SetupError> {
@@ -358,7 +358,7 @@ impl FmuSystem {
         let mut changed = false;
         for l in &self.discrete {
             let (a, b) = (l.from.0, l.to.0);
-            let e = |k: usize| move |e: fmi2::import::Error| (k, UnitError::Fmi(e));
+            let e = |k: usize| move |e: fmi::import::Error| (k, UnitError::Fmi(e));
             // a Model Exchange unit's input is read to set it only if it changes
             let me = self.units[b].me.is_some();
             let look = compare || me;
@@ -432,7 +432,7 @@ impl FmuSystem {
     }
 
     /// Serialized states of every FMU (for checks of bit-exact rollback).
-    pub fn serialized_states(&mut self) -> Result<Vec<Vec<u8>>, fmi2::import::Error> {
+    pub fn serialized_states(&mut self) -> Result<Vec<Vec<u8>>, fmi::import::Error> {
         let mut out = Vec::new();
         for u in &mut self.units {
             let s = u.inst.get_state()?;
@@ -456,7 +456,7 @@ impl FmuSystem {
 fn observed_outputs<'a>(
     observed: &'a [String],
     component: &'a str,
-    description: &'a fmi2::ModelDescription,
+    description: &'a fmi::ModelDescription,
 ) -> impl Iterator<Item = &'a ScalarVariable> + 'a {
     description.variables.iter().filter(move |v| {
         v.var_type == VarType::Real
@@ -684,7 +684,7 @@ fn check_link(origin: &str, from: &str, to: &str, l: &Link, c: &Connection) -> R
 
 enum SetValueError {
     Value(String),
-    Fmu(fmi2::import::Error),
+    Fmu(fmi::import::Error),
 }
 
 fn set_value(inst: &mut Instance, v: &ScalarVariable, value: &Value) -> Result<(), SetValueError> {
@@ -699,24 +699,24 @@ fn set_value(inst: &mut Instance, v: &ScalarVariable, value: &Value) -> Result<(
         }
     };
     let r = match (v.var_type, value) {
-        (VarType::Real, fmi2::Value::Real(x)) => inst.set_real(&vr, &[*x]),
-        (VarType::Real, fmi2::Value::Integer(x)) => inst.set_real(&vr, &[f64::from(*x)]),
-        (VarType::Integer, fmi2::Value::Integer(x)) => inst.set_integer(&vr, &[*x]),
-        (VarType::Boolean, fmi2::Value::Boolean(x)) => inst.set_boolean(&vr, &[*x]),
-        (VarType::String, fmi2::Value::String(x)) => inst.set_string(&vr, &[x.as_str()]),
+        (VarType::Real, fmi::Value::Real(x)) => inst.set_real(&vr, &[*x]),
+        (VarType::Real, fmi::Value::Integer(x)) => inst.set_real(&vr, &[f64::from(*x)]),
+        (VarType::Integer, fmi::Value::Integer(x)) => inst.set_integer(&vr, &[*x]),
+        (VarType::Boolean, fmi::Value::Boolean(x)) => inst.set_boolean(&vr, &[*x]),
+        (VarType::String, fmi::Value::String(x)) => inst.set_string(&vr, &[x.as_str()]),
         _ => return Err(mismatch()),
     };
     r.map_err(SetValueError::Fmu)
 }
 
 /// A parameter's text as a value of the variable's type.
-fn typed(text: &str, var_type: VarType) -> Result<fmi2::Value, String> {
+fn typed(text: &str, var_type: VarType) -> Result<fmi::Value, String> {
     let bad = |e: &dyn std::fmt::Display| format!("not {}: {e}", article(var_type));
     Ok(match var_type {
-        VarType::Real => fmi2::Value::Real(text.trim().parse().map_err(|e| bad(&e))?),
-        VarType::Integer => fmi2::Value::Integer(text.trim().parse().map_err(|e| bad(&e))?),
-        VarType::Boolean => fmi2::Value::Boolean(text.trim().parse().map_err(|e| bad(&e))?),
-        VarType::String => fmi2::Value::String(text.to_owned()),
+        VarType::Real => fmi::Value::Real(text.trim().parse().map_err(|e| bad(&e))?),
+        VarType::Integer => fmi::Value::Integer(text.trim().parse().map_err(|e| bad(&e))?),
+        VarType::Boolean => fmi::Value::Boolean(text.trim().parse().map_err(|e| bad(&e))?),
+        VarType::String => fmi::Value::String(text.to_owned()),
     })
 }
 
@@ -728,12 +728,12 @@ fn article(t: VarType) -> String {
 
 /// The FMU's end ends the run (FMI 2.0: fmi2Discard from doStep; FMI 3.0: terminateSimulation
 /// or an early return); anything else is a failure.
-fn step_error(inst: &mut Instance, e: fmi2::import::Error) -> UnitError {
-    if let fmi2::import::Error::Ended { time, terminated, .. } = e {
+fn step_error(inst: &mut Instance, e: fmi::import::Error) -> UnitError {
+    if let fmi::import::Error::Ended { time, terminated, .. } = e {
         let signal = if terminated { "fmi3DoStep: terminateSimulation" } else { "fmi3DoStep: earlyReturn" };
         return UnitError::Ended { last_successful_time: Some(time).filter(|t| t.is_finite()), terminated, signal };
     }
-    if e.status() == Some(fmi2::ffi::Status::Discard) {
+    if e.status() == Some(fmi::ffi::Status::Discard) {
         let terminated = inst.terminated().unwrap_or(false);
         let last_successful_time = inst.last_successful_time().ok().filter(|t| t.is_finite());
         let signal = if terminated { "fmi2Discard, fmi2Terminated" } else { "fmi2Discard" };

@@ -188,7 +188,7 @@ pub enum UnitError {
         .last_successful_time.map_or(String::new(), |t| format!(" at its last successful time {t} s")))]
     Ended { last_successful_time: Option<f64>, terminated: bool, signal: &'static str },
     #[error(transparent)]
-    Fmi(#[from] fmi2::import::Error),
+    Fmi(#[from] fmi::import::Error),
     /// Any other failure of an in-process unit.
     #[error("{0}")]
     Other(String),

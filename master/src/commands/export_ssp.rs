@@ -96,7 +96,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             add(&p.target.variable, "parameter", *var_type);
             let key = format!("{}.{}", c.name, p.target.variable);
             let value = if sys.parameters.get(&key).is_some_and(|v| v == "@scene") {
-                Value::Typed(fmi2::Value::String(SCENE_RESOURCE.into()))
+                Value::Typed(fmi::Value::String(SCENE_RESOURCE.into()))
             } else {
                 p.value.clone()
             };

@@ -62,7 +62,7 @@ pub(crate) fn caps() -> Caps {
 /// The digest of a scene as parsed: parts of one sweep, and a journal and the work it belongs
 /// to, must share it.
 pub(crate) fn fingerprint(scene: &ValidScene) -> String {
-    format!("{:016x}", fmi2::digest::digest(scene.to_toml().as_bytes()))
+    format!("{:016x}", fmi::digest::digest(scene.to_toml().as_bytes()))
 }
 
 /// Reads a scene within the size cap; a file over it names the flag that raises it.

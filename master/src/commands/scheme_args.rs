@@ -5,7 +5,7 @@
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use cosim::error_estimate::Kind;
 use cosim::{Extrapolation, JacobianUpdate, Relaxation};
-use fmi2::import::Interface;
+use fmi::import::Interface;
 use studies::options::{self as lib, MEMORY_MB, Named, UNPACKED_MB};
 pub(crate) use studies::options::{
     Compensation, SchemeName, below_one, factor, interface, max_iter, megabytes, positive, relaxation, tolerance, whole,

@@ -300,7 +300,7 @@ fn exported_ssp_runs_bit_for_bit_like_the_scene() {
     let all = |c: &mut Coupled<FmuSystem>| -> Vec<f64> {
         let mut v = Vec::new();
         for (_, inst) in c.units_mut().instances() {
-            let vrs = inst.value_references(fmi2::Causality::Output, fmi2::VarType::Real);
+            let vrs = inst.value_references(fmi::Causality::Output, fmi::VarType::Real);
             let mut y = vec![0.0; vrs.len()];
             inst.get_real(&vrs, &mut y).unwrap();
             v.extend(y);

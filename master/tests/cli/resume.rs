@@ -12,7 +12,7 @@ use crate::{MASTER, common, master};
 /// what a careless edit that also mended the digest would leave.
 fn signed(cells: &[String]) -> String {
     let mut body: String = cells.iter().map(|c| format!("{},", studies::sweep::table::quoted(c))).collect();
-    let digest = fmi2::digest::digest(body.as_bytes());
+    let digest = fmi::digest::digest(body.as_bytes());
     body.push_str(&format!("{digest:016x},\u{1e}\n"));
     body
 }

@@ -1,4 +1,4 @@
-//! SSP 1.0 systems of FMUs that know nothing of this project's physics (the fmi2 test
+//! SSP 1.0 systems of FMUs that know nothing of this project's physics (the fmi test
 //! oscillator): hand-written `.ssd`/`.ssv` files read, checked and run by the master.
 
 use std::path::{Path, PathBuf};
@@ -15,11 +15,11 @@ fn oscillator() -> &'static Path {
         let deps = exe.parent().unwrap();
         let lib = [deps, deps.parent().unwrap()]
             .iter()
-            .map(|d| d.join("libfmi2_testmodel.so"))
+            .map(|d| d.join("libfmi_testmodel.so"))
             .find(|p| p.is_file())
-            .expect("libfmi2_testmodel.so: run `cargo build --release --workspace` first");
+            .expect("libfmi_testmodel.so: run `cargo build --release --workspace` first");
         let dir = std::env::temp_dir().join(format!("master-ssp-tests-{}", std::process::id()));
-        fmi2::package::package_model::<fmi2_testmodel::Oscillator>(&dir, &lib).unwrap()
+        fmi::package::package_model::<fmi_testmodel::Oscillator>(&dir, &lib).unwrap()
     })
 }
 
@@ -117,7 +117,7 @@ fn ssp_pair_runs_like_a_hand_written_loop() {
     let (xa, xb) = (master_x(&mut c, "a"), master_x(&mut c, "b"));
 
     // by hand
-    let fmu = fmi2::import::Fmu::load(oscillator()).unwrap();
+    let fmu = fmi::import::Fmu::load(oscillator()).unwrap();
     let vr = |n: &str| fmu.value_reference(n).unwrap();
     let mut a = fmu.instantiate("a", false).unwrap();
     let mut b = fmu.instantiate("b", false).unwrap();
@@ -132,7 +132,7 @@ fn ssp_pair_runs_like_a_hand_written_loop() {
     for i in [&mut a, &mut b] {
         i.enter_initialization_mode().unwrap();
     }
-    let x = |i: &mut fmi2::import::Instance| {
+    let x = |i: &mut fmi::import::Instance| {
         let mut v = [0.0];
         i.get_real(&[vr("x")], &mut v).unwrap();
         v[0]
@@ -210,7 +210,7 @@ fn a_scheme_an_fmu_cannot_support_is_refused_up_front() {
     let ssd = pair_ssd(&dir, "");
     // an unpacked copy of the oscillator that declares no state access
     let unpacked = dir.join("stateless");
-    let fmu = fmi2::import::Fmu::load(oscillator()).unwrap();
+    let fmu = fmi::import::Fmu::load(oscillator()).unwrap();
     copy_dir(fmu.root(), &unpacked);
     let md = unpacked.join("modelDescription.xml");
     let text = std::fs::read_to_string(&md).unwrap();

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use feedcore::scene::{Scene, ValidScene};
-use fmi2::import::Interface;
+use fmi::import::Interface;
 use studies::cosim::SystemSpec;
 use studies::cosim::system::spec::{Component, Connection, Endpoint, Linear, Matching, Parameter, Value};
 
@@ -30,10 +30,10 @@ pub(crate) fn fmu_dir() -> &'static Path {
     DIR.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("master-tests-{}", std::process::id()));
         let (cable, stewart) = (library("cable_fmu_cdylib"), library("stewart_fmu_cdylib"));
-        fmi2::package::package_model::<cable_fmu::CableFmu>(&dir, &cable).unwrap();
-        fmi2::package::package_model::<stewart_fmu::StewartFmu>(&dir, &stewart).unwrap();
-        fmi2::package::package_model3::<cable_fmu::CableFmu>(&dir.join("fmi3"), &cable).unwrap();
-        fmi2::package::package_model3::<stewart_fmu::StewartFmu>(&dir.join("fmi3"), &stewart).unwrap();
+        fmi::package::package_model::<cable_fmu::CableFmu>(&dir, &cable).unwrap();
+        fmi::package::package_model::<stewart_fmu::StewartFmu>(&dir, &stewart).unwrap();
+        fmi::package::package_model3::<cable_fmu::CableFmu>(&dir.join("fmi3"), &cable).unwrap();
+        fmi::package::package_model3::<stewart_fmu::StewartFmu>(&dir.join("fmi3"), &stewart).unwrap();
         dir
     })
 }
@@ -44,10 +44,10 @@ pub(crate) fn zoo_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("master-tests-zoo-{}", std::process::id()));
-        fn both<M: fmi2::export::Model>(dir: &Path, lib: &str) {
+        fn both<M: fmi::export::Model>(dir: &Path, lib: &str) {
             let lib = library(lib);
-            fmi2::package::package_model::<M>(dir, &lib).unwrap();
-            fmi2::package::package_model3::<M>(&dir.join("fmi3"), &lib).unwrap();
+            fmi::package::package_model::<M>(dir, &lib).unwrap();
+            fmi::package::package_model3::<M>(&dir.join("fmi3"), &lib).unwrap();
         }
         both::<zoo_fmus::dahlquist::DahlquistFmu>(&dir, "zoo_dahlquist");
         both::<zoo_fmus::feedthrough::FeedthroughFmu>(&dir, "zoo_feedthrough");
@@ -74,7 +74,7 @@ pub(crate) fn me_system(which: &str, version: u8) -> SystemSpec {
         matching: Matching::Exact,
         transform: factor.map(|factor| Linear { factor, offset: 0.0 }),
     };
-    let real = |c: &str, v: &str, x: f64| Parameter { target: e(c, v), value: Value::Typed(fmi2::Value::Real(x)) };
+    let real = |c: &str, v: &str, x: f64| Parameter { target: e(c, v), value: Value::Typed(fmi::Value::Real(x)) };
     let (components, connections, parameters) = match which {
         "chain" => (
             vec![

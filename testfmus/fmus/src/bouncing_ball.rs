@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use fmi2::export::{Model, ModelError, StepOutcome};
-use fmi2::{Causality, ModelDescription, VarType, Variability, Variable};
+use fmi::export::{Model, ModelError, StepOutcome};
+use fmi::{Causality, ModelDescription, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 use zoo_models::{Ball, BouncingBall};
 
@@ -103,7 +103,7 @@ impl Model for BouncingBallFmu {
 
     /// At an impact (on or below the ground, moving down) the ball rebounds with `e` times its
     /// speed, or rests for good when the rebound is slower than `v_min`.
-    fn update_discrete_states(&mut self, _t: f64) -> Result<fmi2::export::DiscreteUpdate, ModelError> {
+    fn update_discrete_states(&mut self, _t: f64) -> Result<fmi::export::DiscreteUpdate, ModelError> {
         let b = &mut self.ball;
         let impact = !b.resting && b.h <= 0.0 && b.v < 0.0;
         if impact {
@@ -114,7 +114,7 @@ impl Model for BouncingBallFmu {
                 (b.v, b.resting) = (0.0, true);
             }
         }
-        Ok(fmi2::export::DiscreteUpdate { states_changed: impact, ..Default::default() })
+        Ok(fmi::export::DiscreteUpdate { states_changed: impact, ..Default::default() })
     }
 
     fn instantiate(_resources: Option<&Path>) -> Result<Self, ModelError> {

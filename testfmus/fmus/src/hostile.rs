@@ -13,8 +13,8 @@
 
 use std::path::Path;
 
-use fmi2::export::{DiscreteUpdate, Model, ModelError, StepOutcome};
-use fmi2::{Causality, ModelDescription, VarType, Variability, Variable};
+use fmi::export::{DiscreteUpdate, Model, ModelError, StepOutcome};
+use fmi::{Causality, ModelDescription, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 
 /// Value references, per type.
@@ -105,7 +105,7 @@ impl Model for HostileFmu {
             (2.0, 0.1),
             variables,
         );
-        (d.co_simulation, d.flags) = (false, fmi2::CoSimulationFlags::default());
+        (d.co_simulation, d.flags) = (false, fmi::CoSimulationFlags::default());
         Ok(crate::with_model_exchange(d, &[(vr::X, vr::DER_X)], &[vr::Z]))
     }
 

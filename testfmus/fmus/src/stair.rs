@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
-use fmi2::export::{Model, ModelError, StepOutcome};
-use fmi2::{Causality, ModelDescription, VarType, Variability, Variable};
+use fmi::export::{Model, ModelError, StepOutcome};
+use fmi::{Causality, ModelDescription, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 use zoo_models::{Stair, StairStep};
 
@@ -58,9 +58,9 @@ impl Model for StairFmu {
 
     /// At each multiple of the period (a time event) the counter goes up by one; at the final
     /// count the model ends the simulation.
-    fn update_discrete_states(&mut self, t: f64) -> Result<fmi2::export::DiscreteUpdate, ModelError> {
+    fn update_discrete_states(&mut self, t: f64) -> Result<fmi::export::DiscreteUpdate, ModelError> {
         self.counter = self.model().count_at(t);
-        let mut update = fmi2::export::DiscreteUpdate::default();
+        let mut update = fmi::export::DiscreteUpdate::default();
         if self.counter >= self.final_count {
             update.terminate = Some(format!("the counter reached {}", self.final_count));
         } else {

@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
-use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
-use fmi2::{ModelDescription, Variable};
+use fmi::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
+use fmi::{ModelDescription, Variable};
 use serde::{Deserialize, Serialize};
 use zoo_models::VanDerPol;
 

@@ -183,7 +183,7 @@ impl CosimProbe {
         Ok(self)
     }
 
-    fn read(&self, c: &mut Coupled<FmuSystem>) -> Result<Probe, fmi2::import::Error> {
+    fn read(&self, c: &mut Coupled<FmuSystem>) -> Result<Probe, fmi::import::Error> {
         let (mut r, mut q, mut w) = ([0.0; 3], [0.0; 4], [0.0; 6]);
         let cable = c.units_mut().instance("cable").expect("checked in new");
         cable.get_real(&self.r, &mut r)?;

@@ -1,4 +1,4 @@
-//! Test model of the fmi2 layer: a damped mass–spring oscillator driven by a force input.
+//! Test model of the fmi layer: a damped mass–spring oscillator driven by a force input.
 //!
 //! `m ẍ + c ẋ + k x = F(t) − m g·[gravity]`, integrated with the trapezoidal rule (implicit,
 //! A-stable, second order; for this linear system identical to Newmark β = 1/4, γ = 1/2) in
@@ -12,9 +12,9 @@
 
 use std::path::Path;
 
-use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
-use fmi2::resources::{FileKind, FileParameter, SavedFile};
-use fmi2::{
+use fmi::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
+use fmi::resources::{FileKind, FileParameter, SavedFile};
+use fmi::{
     Causality, CoSimulationFlags, DefaultExperiment, ModelDescription, Resource, VarType, Variability, Variable,
 };
 use serde::{Deserialize, Serialize};
@@ -171,7 +171,7 @@ impl Model for Oscillator {
         let mut d = ModelDescription::co_simulation(
             "oscillator",
             "{6f1c2a8e-3b7d-4c59-9e21-0a4d8b7f5c32}",
-            "Damped mass-spring oscillator, trapezoidal rule; test model of the fmi2 layer",
+            "Damped mass-spring oscillator, trapezoidal rule; test model of the fmi layer",
             env!("CARGO_PKG_VERSION"),
             CoSimulationFlags::EXPORTED_WITH_DERIVATIVES,
             variables,
@@ -358,8 +358,8 @@ impl Model for Oscillator {
     }
 }
 
-fmi2::export_fmu!(Oscillator);
-fmi2::export_fmu3!(Oscillator);
+fmi::export_fmu!(Oscillator);
+fmi::export_fmu3!(Oscillator);
 
 #[cfg(test)]
 mod tests {
@@ -376,10 +376,10 @@ mod tests {
     /// the description declared (validated and normalized).
     #[test]
     fn the_model_description_is_valid_and_reads_back_equal() {
-        let info = fmi2::ModelInfo::new(Oscillator::description().unwrap()).unwrap();
+        let info = fmi::ModelInfo::new(Oscillator::description().unwrap()).unwrap();
         assert_eq!(info.vars.len(), 13);
-        let text = fmi2::xml::model_description_xml(&info.description).unwrap();
-        assert_eq!(fmi2::xml::parse_model_description(&text).unwrap(), info.description);
+        let text = fmi::xml::model_description_xml(&info.description).unwrap();
+        assert_eq!(fmi::xml::parse_model_description(&text).unwrap(), info.description);
     }
 
     #[test]

@@ -22,7 +22,7 @@ pub enum PackageError {
     Model(String),
     #[error("{identifier}: {source}")]
     Description { identifier: String, source: DescriptionError },
-    #[error("{identifier}: modelDescription.xml would not read back as the model declares it ({why}); a bug in fmi2")]
+    #[error("{identifier}: modelDescription.xml would not read back as the model declares it ({why}); a bug in fmi")]
     RoundTrip { identifier: String, why: String },
     #[error("cannot read the shared library {path}: {source}")]
     Library { path: PathBuf, source: std::io::Error },

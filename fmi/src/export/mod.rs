@@ -1,6 +1,6 @@
 //! Exporting a Rust model as an FMI 2.0 Co-Simulation FMU.
 //!
-//! A model implements [`Model`] (physics only); `fmi2::export_fmu!(MyModel);` in a cdylib crate
+//! A model implements [`Model`] (physics only); `fmi::export_fmu!(MyModel);` in a cdylib crate
 //! exports the 34 `fmi2*` functions. The layer owns everything the standard asks of an FMU: the
 //! state machine, value-reference/causality/NaN checks, logging, panic containment, FMU states
 //! and their serialization, and communication-time bookkeeping.
@@ -282,7 +282,7 @@ pub(crate) const LOG_CATEGORIES: [(&str, &str); 4] = [
 
 /// Exports a [`Model`] as the 34 `fmi2*` C functions of an FMI 2.0 Co-Simulation FMU, and the
 /// extension `feedsimGetStepMapDerivative`. Invoke once, in a `cdylib` crate:
-/// `fmi2::export_fmu!(my_crate::MyModel);`.
+/// `fmi::export_fmu!(my_crate::MyModel);`.
 ///
 /// Every function forwards to the layer; its safety contract is the importer's duty under
 /// FMI 2.0 (a component from `fmi2Instantiate` of this binary and not yet freed, used by one
@@ -305,7 +305,7 @@ macro_rules! export_fmu {
                 e::version()
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetDebugLogging(
                 c: fmi2Component,
@@ -317,7 +317,7 @@ macro_rules! export_fmu {
                 unsafe { e::set_debug_logging::<M>(c, on, n, cats) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2Instantiate(
                 name: fmi2String,
@@ -332,14 +332,14 @@ macro_rules! export_fmu {
                 unsafe { e::instantiate::<M>(&INFO, name, kind, guid, resources, functions, visible, logging_on) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::free_instance::<M>(c) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetupExperiment(
                 c: fmi2Component,
@@ -353,35 +353,35 @@ macro_rules! export_fmu {
                 unsafe { e::setup_experiment::<M>(c, tol_defined, tol, start, stop_defined, stop) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::enter_initialization_mode::<M>(c) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::exit_initialization_mode::<M>(c) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::terminate::<M>(c) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::reset::<M>(c) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetReal(
                 c: fmi2Component,
@@ -393,7 +393,7 @@ macro_rules! export_fmu {
                 unsafe { e::get_real::<M>(c, vr, n, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetInteger(
                 c: fmi2Component,
@@ -405,7 +405,7 @@ macro_rules! export_fmu {
                 unsafe { e::get_integer::<M>(c, vr, n, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetBoolean(
                 c: fmi2Component,
@@ -417,7 +417,7 @@ macro_rules! export_fmu {
                 unsafe { e::get_boolean::<M>(c, vr, n, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetString(
                 c: fmi2Component,
@@ -429,7 +429,7 @@ macro_rules! export_fmu {
                 unsafe { e::get_string::<M>(c, vr, n, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetReal(
                 c: fmi2Component,
@@ -441,7 +441,7 @@ macro_rules! export_fmu {
                 unsafe { e::set_real::<M>(c, vr, n, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetInteger(
                 c: fmi2Component,
@@ -453,7 +453,7 @@ macro_rules! export_fmu {
                 unsafe { e::set_integer::<M>(c, vr, n, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetBoolean(
                 c: fmi2Component,
@@ -465,7 +465,7 @@ macro_rules! export_fmu {
                 unsafe { e::set_boolean::<M>(c, vr, n, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetString(
                 c: fmi2Component,
@@ -477,28 +477,28 @@ macro_rules! export_fmu {
                 unsafe { e::set_string::<M>(c, vr, n, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_fmu_state::<M>(c, s) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, s: fmi2FMUstate) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::set_fmu_state::<M>(c, s) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::free_fmu_state::<M>(c, s) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
                 c: fmi2Component,
@@ -509,7 +509,7 @@ macro_rules! export_fmu {
                 unsafe { e::serialized_fmu_state_size::<M>(c, s, size) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SerializeFMUstate(
                 c: fmi2Component,
@@ -521,7 +521,7 @@ macro_rules! export_fmu {
                 unsafe { e::serialize_fmu_state::<M>(c, s, bytes, size) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
                 c: fmi2Component,
@@ -533,7 +533,7 @@ macro_rules! export_fmu {
                 unsafe { e::deserialize_fmu_state::<M>(c, bytes, size, s) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
                 c: fmi2Component,
@@ -547,11 +547,11 @@ macro_rules! export_fmu {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::derivative::<M>(c, $crate::export::Derivative::Instant, vu, nu, vk, nk, dvk, dvu) }
             }
-            /// The opt-in extension of this workspace (see `fmi2::export::Derivative::StepMap`);
+            /// The opt-in extension of this workspace (see `fmi::export::Derivative::StepMap`);
             /// exported always, announced in modelDescription.xml only when the model provides it.
             ///
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn feedsimGetStepMapDerivative(
                 c: fmi2Component,
@@ -567,7 +567,7 @@ macro_rules! export_fmu {
                 unsafe { e::derivative::<M>(c, $crate::export::Derivative::StepMap, vu, nu, vk, nk, dvk, dvu) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
                 c: fmi2Component,
@@ -580,7 +580,7 @@ macro_rules! export_fmu {
                 unsafe { e::set_real_input_derivatives::<M>(c, vr, n, order, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
                 c: fmi2Component,
@@ -593,21 +593,21 @@ macro_rules! export_fmu {
                 unsafe { e::get_real_output_derivatives::<M>(c, vr, n, order, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2DoStep(c: fmi2Component, t: f64, h: f64, no_prior: fmi2Boolean) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::do_step::<M>(c, t, h, no_prior) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::cancel_step::<M>(c) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetStatus(
                 c: fmi2Component,
@@ -618,14 +618,14 @@ macro_rules! export_fmu {
                 unsafe { e::get_status::<M>(c, s, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, s: fmi2StatusKind, v: *mut f64) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_real_status::<M>(c, s, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetIntegerStatus(
                 c: fmi2Component,
@@ -636,7 +636,7 @@ macro_rules! export_fmu {
                 unsafe { e::get_integer_status::<M>(c, s, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetBooleanStatus(
                 c: fmi2Component,
@@ -647,7 +647,7 @@ macro_rules! export_fmu {
                 unsafe { e::get_boolean_status::<M>(c, s, v) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetStringStatus(
                 c: fmi2Component,
@@ -660,14 +660,14 @@ macro_rules! export_fmu {
 
             // Model Exchange (refused unless the description offers it and the instance is of it)
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2EnterEventMode(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::enter_event_mode::<M>(c, "fmi2EnterEventMode") }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2NewDiscreteStates(c: fmi2Component, info: *mut fmi2EventInfo) -> fmi2Status {
                 let report = |u: &$crate::export::DiscreteUpdate| -> Result<(), String> {
@@ -691,14 +691,14 @@ macro_rules! export_fmu {
                 unsafe { $crate::export::me::update_discrete_states::<M>(c, "fmi2NewDiscreteStates", report) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::enter_continuous_time_mode::<M>(c, "fmi2EnterContinuousTimeMode") }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2CompletedIntegratorStep(
                 c: fmi2Component,
@@ -717,21 +717,21 @@ macro_rules! export_fmu {
                 }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetTime(c: fmi2Component, t: f64) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::set_time::<M>(c, "fmi2SetTime", t) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2SetContinuousStates(c: fmi2Component, x: *const f64, n: usize) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::set_continuous_states::<M>(c, "fmi2SetContinuousStates", x, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetDerivatives(c: fmi2Component, x: *mut f64, n: usize) -> fmi2Status {
                 let which = $crate::export::me::Which::Derivatives;
@@ -739,14 +739,14 @@ macro_rules! export_fmu {
                 unsafe { $crate::export::me::get_reals::<M>(c, "fmi2GetDerivatives", which, x, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetEventIndicators(c: fmi2Component, z: *mut f64, n: usize) -> fmi2Status {
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::event_indicators::<M>(c, "fmi2GetEventIndicators", z, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetContinuousStates(c: fmi2Component, x: *mut f64, n: usize) -> fmi2Status {
                 let which = $crate::export::me::Which::States;
@@ -754,7 +754,7 @@ macro_rules! export_fmu {
                 unsafe { $crate::export::me::get_reals::<M>(c, "fmi2GetContinuousStates", which, x, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi2::export_fmu!`]).
+            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(
                 c: fmi2Component,

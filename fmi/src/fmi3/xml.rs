@@ -38,7 +38,7 @@ pub fn model_description_xml3(d: &ModelDescription, layout: &Layout3) -> String 
     let _ = writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = writeln!(
         x,
-        r#"<fmiModelDescription fmiVersion="3.0" modelName="{}" instantiationToken="{}" description="{}" version="{}" generationTool="feedsim fmi2 {}" variableNamingConvention="structured">"#,
+        r#"<fmiModelDescription fmiVersion="3.0" modelName="{}" instantiationToken="{}" description="{}" version="{}" generationTool="feedsim fmi {}" variableNamingConvention="structured">"#,
         escape(&d.model_name),
         escape(&d.guid),
         escape(&d.description),

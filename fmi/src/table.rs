@@ -136,8 +136,8 @@ pub fn variables(table: &[Block], input_start: impl Fn(u32) -> f64) -> Vec<Varia
 /// blocks in that order. Entries may carry doc comments.
 ///
 /// ```
-/// use fmi2::table::Block;
-/// fmi2::variable_table! {
+/// use fmi::table::Block;
+/// fmi::variable_table! {
 ///     R = Block::input("r", 3, "m", "position {k}"),
 ///     Q = Block::output("q", 4, "", "orientation ({k})").labels(&["w", "x", "y", "z"]),
 ///     GAIN = Block::parameter("gain", 1.0, "", "gain"),

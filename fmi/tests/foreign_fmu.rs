@@ -6,9 +6,9 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use fmi2::description::{Causality, VarType};
-use fmi2::ffi::Status;
-use fmi2::import::{Capability, Error, Fmu};
+use fmi::description::{Causality, VarType};
+use fmi::ffi::Status;
+use fmi::import::{Capability, Error, Fmu};
 
 const HERE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/foreign");
 
@@ -40,14 +40,14 @@ fn a_c_fmu_runs_through_the_importer() {
     let mode = fmu.variable("mode").unwrap();
     assert_eq!((mode.var_type, mode.causality), (VarType::Integer, Causality::Local), "defaults and Enumeration");
     assert_eq!(d.variables[1].depends_on, Some(vec![]), "`dependencies=\"\"`: on no input");
-    assert_eq!(d.variables[1].start, Some(fmi2::Value::Real(0.0)));
+    assert_eq!(d.variables[1].start, Some(fmi::Value::Real(0.0)));
 
     let mut i = fmu.instantiate("c1", true).unwrap();
     let log = i.take_messages();
     let expected = format!(
         "instantiated {} (type 1) with resources at {}, 100% ready",
         d.guid,
-        fmi2::uri::file_uri(&dir.join("resources"))
+        fmi::uri::file_uri(&dir.join("resources"))
     );
     assert_eq!(log[0].text, expected, "formatted by the C library's vsnprintf");
     i.setup_experiment(None, 0.0, Some(1.0)).unwrap();

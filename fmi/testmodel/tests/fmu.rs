@@ -1,10 +1,10 @@
-//! The whole layer end to end: package the oscillator, import the archive with the fmi2
+//! The whole layer end to end: package the oscillator, import the archive with the fmi
 //! importer, and run it through the C ABI.
 
-use fmi2::export::Model;
-use fmi2::ffi::{Status, fmi2Error};
-use fmi2::import::{Capability, Error, Fmu, Instance};
-use fmi2_testmodel::{Oscillator, vr};
+use fmi::export::Model;
+use fmi::ffi::{Status, fmi2Error};
+use fmi::import::{Capability, Error, Fmu, Instance};
+use fmi_testmodel::{Oscillator, vr};
 
 mod common;
 
@@ -102,7 +102,7 @@ fn parameters_of_every_type() {
     i.set_string(&[vr::CONFIG], &[abs.to_str().unwrap()]).unwrap();
     i.enter_initialization_mode().unwrap();
     // Calculated output in initialization mode, from the current parameters: a = −g.
-    assert_eq!(outputs(&mut i)[2], -fmi2_testmodel::G);
+    assert_eq!(outputs(&mut i)[2], -fmi_testmodel::G);
     i.exit_initialization_mode().unwrap();
     let mut b = [false];
     i.get_boolean(&[vr::GRAVITY], &mut b).unwrap();
@@ -363,14 +363,14 @@ fn malformed_archives_are_clear_errors() {
     let d = Oscillator::description().unwrap();
     let no_lib = dir.join("no_lib.fmu");
     let missing = dir.join("missing.so");
-    let e = fmi2::package::write_fmu(&no_lib, &d, &missing, &[]).unwrap_err();
+    let e = fmi::package::write_fmu(&no_lib, &d, &missing, &[]).unwrap_err();
     assert!(e.to_string().contains("missing.so"), "{e}");
     let unpacked = dir.join("unpacked");
     std::fs::create_dir_all(unpacked.join("binaries/linux64")).unwrap();
     std::fs::write(unpacked.join("modelDescription.xml"), "<fmiModelDescription fmiVersion=\"2.0\"").unwrap();
     let e = Fmu::load_unpacked(&unpacked).unwrap_err();
     assert!(e.to_string().contains("modelDescription.xml: modelDescription.xml: not well-formed XML"), "{e}");
-    std::fs::write(unpacked.join("modelDescription.xml"), fmi2::xml::model_description_xml(&d).unwrap()).unwrap();
+    std::fs::write(unpacked.join("modelDescription.xml"), fmi::xml::model_description_xml(&d).unwrap()).unwrap();
     let e = Fmu::load_unpacked(&unpacked).unwrap_err();
     assert!(e.to_string().contains("oscillator.so: missing: no linux64 binary"), "{e}");
     std::fs::write(unpacked.join("binaries/linux64/oscillator.so"), b"not an ELF").unwrap();
@@ -388,7 +388,7 @@ fn a_wrong_guid_is_refused_at_instantiation() {
     std::fs::copy(f.root().join("binaries/linux64/oscillator.so"), dir.join("binaries/linux64/oscillator.so")).unwrap();
     let mut d = Oscillator::description().unwrap();
     d.guid = "{another-build}".into();
-    std::fs::write(dir.join("modelDescription.xml"), fmi2::xml::model_description_xml(&d).unwrap()).unwrap();
+    std::fs::write(dir.join("modelDescription.xml"), fmi::xml::model_description_xml(&d).unwrap()).unwrap();
     let g = Fmu::load_unpacked(&dir).unwrap();
     let e = g.instantiate("g", false).unwrap_err();
     assert!(matches!(e, Error::Call { status, .. } if status == fmi2Error));

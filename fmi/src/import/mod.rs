@@ -5,8 +5,8 @@
 //! gathers and scatters the elements of each call into whole arrays.
 //!
 //! ```no_run
-//! # fn main() -> Result<(), fmi2::import::Error> {
-//! use fmi2::import::Fmu;
+//! # fn main() -> Result<(), fmi::import::Error> {
+//! use fmi::import::Fmu;
 //! let fmu = Fmu::load("dist/oscillator.fmu".as_ref())?;
 //! let (force, x) = (fmu.value_reference("F")?, fmu.value_reference("x")?);
 //! let mut inst = fmu.instantiate("osc", false)?;

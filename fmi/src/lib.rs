@@ -1,13 +1,15 @@
-//! FMI 2.0 Co-Simulation for this workspace, in plain Rust.
+//! FMI 2.0 and 3.0, Co-Simulation and Model Exchange, for this workspace, in plain Rust.
 //!
 //! * [`description`]: what `modelDescription.xml` says, as data — one set of types that the
 //!   exporter writes from and the importer reads into — and its validation for export.
 //! * [`xml`]: `modelDescription.xml` generated from a description and parsed back into one.
-//! * [`export`]: a model implements [`export::Model`]; `fmi2::export_fmu!(Model)` in a cdylib
+//! * [`export`]: a model implements [`export::Model`]; `fmi::export_fmu!(Model)` in a cdylib
 //!   crate exports the 34 `fmi2*` C functions with the standard's state machine, checks and
 //!   FMU-state handling.
 //! * [`package`]: writes `.fmu` archives.
-//! * [`import`]: loads any FMI 2.0 Co-Simulation FMU and calls it through a safe API.
+//! * [`import`]: loads any FMI 2.0 or 3.0 FMU, Co-Simulation or Model Exchange, and calls it
+//!   through a safe API.
+//! * [`fmi3`]: the same models exported as FMI 3.0.
 //! * [`resources`]: files a model reads through a String parameter, inside `resources/`.
 //! * [`table`]: a model's Real variables declared once, as a table of blocks.
 //! * [`ffi`]: the C types of the standard; [`uri`]: resource-location URIs.

@@ -80,7 +80,7 @@ pub fn checked_xml3(description: &ModelDescription) -> Result<String, PackageErr
 /// Exports a [`Model`](crate::export::Model) as the C functions of an FMI 3.0 Co-Simulation
 /// FMU (every function `fmi3Functions.h` declares) and the extension
 /// `feedsim3GetStepMapDerivative`. Invoke once, in a `cdylib` crate, beside
-/// [`export_fmu!`](crate::export_fmu): `fmi2::export_fmu3!(my_crate::MyModel);`.
+/// [`export_fmu!`](crate::export_fmu): `fmi::export_fmu3!(my_crate::MyModel);`.
 ///
 /// Every function forwards to the layer; its safety contract is the importer's duty under
 /// FMI 3.0 (an instance from `fmi3InstantiateCoSimulation` of this binary and not yet freed,
@@ -103,14 +103,14 @@ macro_rules! export_fmu3 {
                 e3::version()
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SetDebugLogging(c: I, on: fmi3Boolean, n: usize, cats: *const fmi3String) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::set_debug_logging::<M>(c, on, n, cats) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3InstantiateModelExchange(
                 name: fmi3String, token: fmi3String, resources: fmi3String, _visible: fmi3Boolean,
@@ -120,7 +120,7 @@ macro_rules! export_fmu3 {
                 unsafe { e3::instantiate_model_exchange::<M>(&INFO, name, token, resources, logging_on, env, log) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
                 name: fmi3String, token: fmi3String, resources: fmi3String, _visible: fmi3Boolean,
@@ -145,14 +145,14 @@ macro_rules! export_fmu3 {
                 e3::instantiate_other("fmi3InstantiateScheduledExecution", env, log)
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3FreeInstance(c: I) {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::free_instance::<M>(c) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3EnterInitializationMode(
                 c: I, tol_defined: fmi3Boolean, tol: f64, start: f64, stop_defined: fmi3Boolean, stop: f64,
@@ -161,77 +161,77 @@ macro_rules! export_fmu3 {
                 unsafe { e3::enter_initialization_mode::<M>(c, tol_defined, tol, start, stop_defined, stop) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3ExitInitializationMode(c: I) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::exit_initialization_mode_as::<M>("fmi3ExitInitializationMode", c) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3Terminate(c: I) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::terminate_as::<M>("fmi3Terminate", c) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3Reset(c: I) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::reset_as::<M>("fmi3Reset", c) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetFloat64(c: I, vr: VR, n: usize, v: *mut f64, nv: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::get_float64::<M>(c, vr, n, v, nv) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetInt32(c: I, vr: VR, n: usize, v: *mut i32, nv: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::get_int32::<M>(c, vr, n, v, nv) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetBoolean(c: I, vr: VR, n: usize, v: *mut fmi3Boolean, nv: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::get_boolean::<M>(c, vr, n, v, nv) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetString(c: I, vr: VR, n: usize, v: *mut fmi3String, nv: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::get_string::<M>(c, vr, n, v, nv) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SetFloat64(c: I, vr: VR, n: usize, v: *const f64, nv: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::set_float64::<M>(c, vr, n, v, nv) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SetInt32(c: I, vr: VR, n: usize, v: *const i32, nv: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::set_int32::<M>(c, vr, n, v, nv) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SetBoolean(c: I, vr: VR, n: usize, v: *const fmi3Boolean, nv: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::set_boolean::<M>(c, vr, n, v, nv) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SetString(c: I, vr: VR, n: usize, v: *const fmi3String, nv: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
@@ -244,77 +244,77 @@ macro_rules! export_fmu3 {
                 fmi3SetUInt16(*const u16), fmi3SetUInt32(*const u32), fmi3SetInt64(*const i64), fmi3SetUInt64(*const u64),
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetBinary(c: I, vr: VR, n: usize, _sizes: *mut usize, _v: *mut *const u8, _nv: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::no_variables::<M>(c, "fmi3GetBinary", vr, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SetBinary(c: I, vr: VR, n: usize, _sizes: *const usize, _v: *const *const u8, _nv: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::no_variables::<M>(c, "fmi3SetBinary", vr, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetClock(c: I, vr: VR, n: usize, _v: *mut fmi3Boolean) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::no_variables::<M>(c, "fmi3GetClock", vr, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SetClock(c: I, vr: VR, n: usize, _v: *const fmi3Boolean) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e3::no_variables::<M>(c, "fmi3SetClock", vr, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetFMUState(c: I, s: *mut fmi3FMUState) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::get_fmu_state_as::<M>("fmi3GetFMUState", c, s) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SetFMUState(c: I, s: fmi3FMUState) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::set_fmu_state_as::<M>("fmi3SetFMUState", c, s) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3FreeFMUState(c: I, s: *mut fmi3FMUState) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::free_fmu_state_as::<M>("fmi3FreeFMUState", c, s) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SerializedFMUStateSize(c: I, s: fmi3FMUState, size: *mut usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::serialized_fmu_state_size_as::<M>("fmi3SerializedFMUStateSize", c, s, size) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SerializeFMUState(c: I, s: fmi3FMUState, bytes: *mut fmi3Byte, size: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::serialize_fmu_state_as::<M>("fmi3SerializeFMUState", c, s, bytes.cast(), size) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3DeserializeFMUState(c: I, bytes: *const fmi3Byte, size: usize, s: *mut fmi3FMUState) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { e::deserialize_fmu_state_as::<M>("fmi3DeserializeFMUState", c, bytes.cast(), size, s) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
                 c: I, u: VR, nu: usize, k: VR, nk: usize, seed: *const f64, ns: usize, out: *mut f64, no: usize,
@@ -323,7 +323,7 @@ macro_rules! export_fmu3 {
                 unsafe { e3::derivative::<M>(c, $crate::export::Derivative::Instant, u, nu, k, nk, seed, ns, out, no) }
             }
             /// The opt-in extension of this workspace (the step map's derivative, see
-            /// `fmi2::export::Derivative::StepMap`) with the signature of
+            /// `fmi::export::Derivative::StepMap`) with the signature of
             /// fmi3GetDirectionalDerivative; exported always, announced in modelDescription.xml
             /// only when the model provides it.
             ///
@@ -337,7 +337,7 @@ macro_rules! export_fmu3 {
                 unsafe { e3::derivative::<M>(c, $crate::export::Derivative::StepMap, u, nu, k, nk, seed, ns, out, no) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3DoStep(
                 c: I, t: f64, h: f64, no_prior: fmi3Boolean, event: *mut fmi3Boolean, terminate: *mut fmi3Boolean,
@@ -347,14 +347,14 @@ macro_rules! export_fmu3 {
                 unsafe { e3::do_step::<M>(c, t, h, no_prior, event, terminate, early, last) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3EnterEventMode(c: I) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::enter_event_mode::<M>(c, "fmi3EnterEventMode") }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3UpdateDiscreteStates(
                 c: I, again: *mut fmi3Boolean, terminate: *mut fmi3Boolean, nominals: *mut fmi3Boolean,
@@ -378,14 +378,14 @@ macro_rules! export_fmu3 {
                 unsafe { $crate::export::me::update_discrete_states::<M>(c, "fmi3UpdateDiscreteStates", report) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3EnterContinuousTimeMode(c: I) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::enter_continuous_time_mode::<M>(c, "fmi3EnterContinuousTimeMode") }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3CompletedIntegratorStep(
                 c: I, _no_prior: fmi3Boolean, event: *mut fmi3Boolean, terminate: *mut fmi3Boolean,
@@ -398,21 +398,21 @@ macro_rules! export_fmu3 {
                 }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SetTime(c: I, t: f64) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::set_time::<M>(c, "fmi3SetTime", t) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3SetContinuousStates(c: I, x: *const f64, n: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::set_continuous_states::<M>(c, "fmi3SetContinuousStates", x, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetContinuousStateDerivatives(c: I, x: *mut f64, n: usize) -> fmi3Status {
                 let which = $crate::export::me::Which::Derivatives;
@@ -420,14 +420,14 @@ macro_rules! export_fmu3 {
                 unsafe { $crate::export::me::get_reals::<M>(c, "fmi3GetContinuousStateDerivatives", which, x, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetEventIndicators(c: I, z: *mut f64, n: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::event_indicators::<M>(c, "fmi3GetEventIndicators", z, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetContinuousStates(c: I, x: *mut f64, n: usize) -> fmi3Status {
                 let which = $crate::export::me::Which::States;
@@ -435,21 +435,21 @@ macro_rules! export_fmu3 {
                 unsafe { $crate::export::me::get_reals::<M>(c, "fmi3GetContinuousStates", which, x, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetNominalsOfContinuousStates(c: I, x: *mut f64, n: usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::nominals::<M>(c, "fmi3GetNominalsOfContinuousStates", x, n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetNumberOfEventIndicators(c: I, n: *mut usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::number_of_event_indicators::<M>(c, "fmi3GetNumberOfEventIndicators", n) }
             }
             /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
             #[unsafe(no_mangle)]
             pub unsafe extern "C" fn fmi3GetNumberOfContinuousStates(c: I, n: *mut usize) -> fmi3Status {
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
@@ -498,7 +498,7 @@ macro_rules! export_fmu3 {
 macro_rules! fmi3_no_variables {
     ($($name:ident($values:ty)),* $(,)?) => {$(
         /// # Safety
-        /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+        /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
         #[unsafe(no_mangle)]
         pub unsafe extern "C" fn $name(c: I, vr: VR, n: usize, _v: $values, _nv: usize) -> fmi3Status {
             // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
@@ -514,7 +514,7 @@ macro_rules! fmi3_no_variables {
 macro_rules! fmi3_unsupported {
     ($($why:literal => { $($name:ident($($arg:ident: $ty:ty),* $(,)?)),* $(,)? })*) => {$($(
         /// # Safety
-        /// The importer's obligations under FMI 3.0 (see [`fmi2::export_fmu3!`]).
+        /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
         #[unsafe(no_mangle)]
         pub unsafe extern "C" fn $name(c: I, $($arg: $ty),*) -> fmi3Status {
             // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.

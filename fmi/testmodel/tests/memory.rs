@@ -4,7 +4,7 @@
 mod common;
 
 use common::{fmu, ready};
-use fmi2_testmodel::vr;
+use fmi_testmodel::vr;
 
 fn rss_bytes() -> u64 {
     let statm = std::fs::read_to_string("/proc/self/statm").unwrap();

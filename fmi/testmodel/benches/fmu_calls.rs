@@ -1,23 +1,23 @@
 //! Costs of the FMI layer, measured on the test oscillator (whose physics costs ~10 ns):
 //! loading an FMU, and one `fmi2DoStep` (plus `fmi2SetReal`/`fmi2GetReal`) through the importer
-//! against the same step called in-process. Run: `cargo bench -p fmi2_testmodel`.
+//! against the same step called in-process. Run: `cargo bench -p fmi_testmodel`.
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use fmi2::export::Model;
-use fmi2::import::Fmu;
-use fmi2_testmodel::{Oscillator, vr};
+use fmi::export::Model;
+use fmi::import::Fmu;
+use fmi_testmodel::{Oscillator, vr};
 
 fn library() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
     let deps = exe.parent().unwrap();
     [deps.to_owned(), deps.parent().unwrap().to_owned()]
         .into_iter()
-        .map(|d| d.join("libfmi2_testmodel.so"))
+        .map(|d| d.join("libfmi_testmodel.so"))
         .find(|p| p.is_file())
-        .expect("libfmi2_testmodel.so beside the bench binary")
+        .expect("libfmi_testmodel.so beside the bench binary")
 }
 
 /// Median of `reps` timings of `f`, each divided by `per` (calls per timing), in seconds.
@@ -45,7 +45,7 @@ fn copy_unpacked(from: &Path, to: &Path) {
 
 fn main() {
     let dir = std::env::temp_dir().join(format!("fmi2-bench-{}", std::process::id()));
-    let archive = fmi2::package::package_model::<Oscillator>(&dir, &library()).unwrap();
+    let archive = fmi::package::package_model::<Oscillator>(&dir, &library()).unwrap();
     let size = std::fs::metadata(&archive).unwrap().len();
 
     let load = median(21, 1, || drop(black_box(Fmu::load(&archive).unwrap())));

@@ -4,20 +4,20 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use fmi2::import::{Fmu, Instance};
-use fmi2_testmodel::Oscillator;
+use fmi::import::{Fmu, Instance};
+use fmi_testmodel::Oscillator;
 
 /// The cdylib cargo built beside this test binary (`target/<profile>/deps/`).
 pub(crate) fn library() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
     let deps = exe.parent().unwrap();
     for dir in [deps, deps.parent().unwrap()] {
-        let p = dir.join("libfmi2_testmodel.so");
+        let p = dir.join("libfmi_testmodel.so");
         if p.is_file() {
             return p;
         }
     }
-    panic!("libfmi2_testmodel.so not found next to {}", exe.display());
+    panic!("libfmi_testmodel.so not found next to {}", exe.display());
 }
 
 /// Packaged once per test binary into a private directory.
@@ -25,7 +25,7 @@ pub(crate) fn archive() -> &'static Path {
     static FMU: OnceLock<PathBuf> = OnceLock::new();
     FMU.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("fmi2-testmodel-{}", std::process::id()));
-        fmi2::package::package_model::<Oscillator>(&dir, &library()).unwrap()
+        fmi::package::package_model::<Oscillator>(&dir, &library()).unwrap()
     })
 }
 

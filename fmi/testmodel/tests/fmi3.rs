@@ -7,10 +7,10 @@ use std::ffi::{CStr, CString, c_char, c_void};
 use std::path::PathBuf;
 use std::sync::{Mutex, OnceLock};
 
-use fmi2::fmi3::ffi::*;
-use fmi2::fmi3::layout::TIME_VR;
-use fmi2::import::{Error, Fmu, Instance};
-use fmi2_testmodel::{Oscillator, vr};
+use fmi::fmi3::ffi::*;
+use fmi::fmi3::layout::TIME_VR;
+use fmi::import::{Error, Fmu, Instance};
+use fmi_testmodel::{Oscillator, vr};
 
 mod common;
 
@@ -19,7 +19,7 @@ fn archive3() -> &'static PathBuf {
     static FMU: OnceLock<PathBuf> = OnceLock::new();
     FMU.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("fmi3-testmodel-{}", std::process::id()));
-        fmi2::package::package_model3::<Oscillator>(&dir, &common::library()).unwrap()
+        fmi::package::package_model3::<Oscillator>(&dir, &common::library()).unwrap()
     })
 }
 

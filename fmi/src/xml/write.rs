@@ -44,7 +44,7 @@ pub(crate) fn write(d: &ModelDescription) -> String {
     let _ = writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = writeln!(
         x,
-        r#"<fmiModelDescription fmiVersion="{}" modelName="{}" guid="{}" description="{}" version="{}" generationTool="feedsim fmi2 {}" variableNamingConvention="structured" numberOfEventIndicators="{}">"#,
+        r#"<fmiModelDescription fmiVersion="{}" modelName="{}" guid="{}" description="{}" version="{}" generationTool="feedsim fmi {}" variableNamingConvention="structured" numberOfEventIndicators="{}">"#,
         escape(&d.fmi_version),
         escape(&d.model_name),
         escape(&d.guid),
