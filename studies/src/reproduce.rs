@@ -183,7 +183,8 @@ fn static_inertial(scene: &ValidScene) -> anyhow::Result<[f64; 5]> {
     Ok(out)
 }
 
-/// The scenes reproduced: the paper's poses B and C, each with its file.
+/// The paper's poses, each with its file: B (the edge of the workspace, with the nearly slack
+/// cable) and C (its centre).
 #[derive(Clone, Copy)]
 pub struct Scenes<'a> {
     pub b: &'a ValidScene,

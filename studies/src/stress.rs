@@ -11,18 +11,9 @@ use feedcore::scene::{Scene, Start, ValidScene};
 use crate::cosim::{Options, Scheme};
 use crate::limits::Limits;
 use crate::observe::Observer;
+pub use crate::reproduce::Scenes;
 use crate::simulate::{Method, Run, Trace};
 use crate::table::Table;
-
-/// The scenes the cases run: C (the centre of the workspace) and B (the edge, with the nearly
-/// slack cable), each with its file.
-#[derive(Clone, Copy)]
-pub struct Scenes<'a> {
-    pub c: &'a ValidScene,
-    pub c_file: &'a Path,
-    pub b: &'a ValidScene,
-    pub b_file: &'a Path,
-}
 
 /// Every case: its name, and its figures or why it failed.
 pub struct Cases(pub Vec<(String, Result<String, String>)>);
