@@ -141,6 +141,7 @@ fn model_exchange(dir: &std::path::Path) {
             name: "d".into(),
             source: fmu,
             interface: Some(fmi::import::Interface::ModelExchange),
+            step: None,
         }],
         connections: Vec::new(),
         parameters: vec![real("x0", 0.0), real("u", 1.0)],

@@ -333,13 +333,14 @@ fn run_system(py: Python<'_>, path: String, options: Bound<'_, PyDict>) -> PyRes
         me_solver: kwargs.named("me_solver")?.unwrap_or(defaults.me_solver),
         me_rtol: kwargs.take("me_rtol", opt::tolerance)?.unwrap_or(defaults.me_rtol),
         me_atol: kwargs.take("me_atol", positive)?.unwrap_or(defaults.me_atol),
+        rate: kwargs.list("rate")?.iter().map(|t| opt::rate(t).map_err(|r| invalid("rate", t, &r))).collect::<PyResult<_>>()?,
+        python_library: kwargs.take("python_library", |t| Ok::<_, String>(std::path::PathBuf::from(t)))?,
     };
     kwargs.done()?;
     let method = options.method(scheme).map_err(|e| option_value_error(&e))?;
     py.detach(|| {
         let file = Path::new(&path);
-        let system = SystemFile::prepare(file, method, dt, t_end, &files.limits(), &Limits::default())
-            .and_then(|s| s.with_model_exchange(&files.model_exchange()))
+        let system = SystemFile::prepare(file, method, dt, t_end, &files, &Limits::default())
             .map_err(|e| RunError::new_err(format!("{e:#}")))?;
         let mut csv = Vec::new();
         let sinks = studies::system::Sinks { csv: Some(&mut csv), real: None };

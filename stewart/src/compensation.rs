@@ -370,6 +370,30 @@ impl Compensation {
         now.cross(&start).norm().atan2(now.dot(&start))
     }
 
+    /// A command (the platform's pose: centre, z-y-x angles) as the command interface carries it:
+    /// relative to the platform's home pose (centre at rest, attitude the cabin's), the centre's
+    /// displacement (cabin frame, m) and the rotation vector of the attitude (rad).
+    pub fn relative_command(&self, pose: &[f64; 6]) -> [f64; 6] {
+        let [x, y, z, roll, pitch, yaw] = *pose;
+        let r = Vec3::new(x, y, z) - self.rest;
+        let rot = Rotation3::from_euler_angles(roll, pitch, yaw).scaled_axis();
+        [r.x, r.y, r.z, rot.x, rot.y, rot.z]
+    }
+
+    /// The pose (centre, z-y-x angles) of a command relative to home ([`Self::relative_command`]).
+    pub fn pose_of_relative(&self, relative: &[f64; 6]) -> [f64; 6] {
+        let [x, y, z, a, b, c] = *relative;
+        let centre = self.rest + Vec3::new(x, y, z);
+        let angles = zyx_angles(Rotation3::from_scaled_axis(Vec3::new(a, b, c)).matrix());
+        [centre.x, centre.y, centre.z, angles.x, angles.y, angles.z]
+    }
+
+    /// Whether the platform can follow commands: the scene's `[control]` gives its response (the
+    /// filter's stages, `bandwidth_hz`, or the smooth step over half a sample period).
+    pub fn follows_commands(&self) -> bool {
+        self.tau.is_some() || self.command_period.is_finite()
+    }
+
     /// The state of a sampled sensor and its command at the start.
     pub fn start_state(&self) -> CommandState {
         let rest = self.rest_pose().into();
@@ -636,6 +660,24 @@ impl CommandState {
         }
     }
 
+    /// The last command made that applies at or before `t` (the start pose before the first),
+    /// as a pose: what a controller outside the platform hands it at `t`.
+    pub fn command_at(&self, t: f64) -> [f64; 6] {
+        let made = self.pending.iter().take_while(|(time, _)| *time <= t + SAME_INSTANT).last();
+        made.map_or(self.segment.to, |(_, command)| *command)
+    }
+
+    /// At communication point `t`, a command from a controller outside the platform (its command
+    /// input): the platform follows it from `t` as it follows its own controller's, when it
+    /// differs from the last.
+    pub fn follow(&mut self, c: &Compensation, t: f64, command: [f64; 6]) {
+        let due = Self::due(&self.pending, t);
+        Self::apply(&mut self.segment, self.pending.drain(..due), c);
+        if self.command_at(t) != command {
+            self.pending.push_back((t, command));
+        }
+    }
+
     /// The filter's estimate of the cabin at `t` (after the last reading), with an inertial
     /// unit.
     pub fn estimate(&self, c: &Compensation, t: f64) -> Option<Estimate> {
@@ -849,6 +891,50 @@ mod tests {
             assert!((zyx_angles(&m.orientation) - angles(t).fixed_rows::<3>(3)).norm() < 1e-13);
             assert!((m.orientation.transpose() * m.orientation - Mat3::identity()).norm() < 1e-15);
         }
+    }
+
+    /// The second level split in two — a controller that makes the commands and hands each on at
+    /// the communication point where it applies, a platform that follows what it is handed —
+    /// moves the platform as the built-in second level does, with and without the inertial
+    /// unit, through the command interface's pose relative to home.
+    #[test]
+    fn a_controller_outside_moves_the_platform_as_the_built_in_one() {
+        let imu = "\n[control.imu]\nrate_hz = 100.0\naccel_noise_density = 6e-4\ngyro_noise_density = 4.4e-5\nseed = 2\n";
+        for extra in ["delay_s = 0.02\nbandwidth_hz = 4.5\nfilter_stages = 3\nnoise_m = 1e-4\nseed = 3\n", imu] {
+            let text = format!("{SAMPLED}notch_hz = 0.83\nnotch_q = 8.0\n{extra}").replace("sample_rate_hz = 20.0", "sample_rate_hz = 50.0");
+            let c = compensation(&text);
+            let (mut built_in, mut controller, mut platform) = (c.start_state(), c.start_state(), c.start_state());
+            let cabin = |t: f64| {
+                let (s, k) = (1.3 * t).sin_cos();
+                CabinMotion {
+                    position: Vec3::new(0.01 * s, -0.004 * k, 9.8 + 0.002 * s),
+                    velocity: Vec3::new(0.013 * k, 0.0052 * s, 0.0026 * k),
+                    acceleration: Vec3::new(-0.0169 * s, 0.00676 * k, -0.00338 * s),
+                    orientation: Quat::from_scaled_axis(Vec3::new(0.003 * s, 0.001 * k, 0.0)),
+                    angular_velocity: Vec3::new(0.0039 * k, -0.0013 * s, 0.0),
+                    angular_acceleration: Vec3::new(-0.00507 * s, -0.00169 * k, 0.0),
+                }
+            };
+            let h = 0.0025;
+            let mut worst: f64 = 0.0;
+            for n in 0..800 {
+                let t = n as f64 * h;
+                built_in.sample(&c, t, &cabin(t));
+                controller.sample(&c, t, &cabin(t));
+                let handed = c.relative_command(&controller.command_at(t));
+                platform.follow(&c, t, c.pose_of_relative(&handed));
+                let (a, b) = (built_in.at(&c, t + h), platform.at(&c, t + h));
+                worst = worst.max((a.position - b.position).norm()).max((a.orientation - b.orientation).norm());
+            }
+            assert!(worst < 1e-13, "{extra}: {worst:e}");
+            assert!((built_in.at(&c, 2.0).position - c.rest().position).norm() > 1e-3, "the platform moved");
+        }
+        // the interface's pose relative to home and back
+        let c = compensation(SAMPLED);
+        let pose = [0.12, -0.03, -1.75, 0.02, -0.3, 1.1];
+        let back = c.pose_of_relative(&c.relative_command(&pose));
+        assert!(pose.iter().zip(&back).all(|(a, b)| (a - b).abs() < 1e-15), "{back:?}");
+        assert_eq!(c.relative_command(&c.start_state().command_at(0.0)), [0.0; 6]);
     }
 
     #[test]

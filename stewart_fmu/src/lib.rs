@@ -46,9 +46,11 @@ use stewart::{
 /// The scene used unless the `scene` parameter names another one.
 pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
 /// Identifies the variable table: change it whenever the table changes.
-pub const GUID: &str = "{3c1e9f27-84b5-4a6d-9e02-5f7d1b8c6a43}";
-/// Number of Real inputs: the cabin's motion.
-pub const INPUTS: usize = fmi::table::count(vr::TABLE, Causality::Input);
+pub const GUID: &str = "{8e4b2d61-0f37-4c95-a1d8-6b2e9c7f3a15}";
+/// Number of Real inputs of the cabin's motion (the command's follow the outputs in the table).
+pub const INPUTS: usize = vr::FORCE as usize;
+/// Number of Real inputs of the platform's command (with `command_input`).
+pub const COMMAND_INPUTS: usize = (vr::RADIUS - vr::COMMAND_R) as usize;
 
 /// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
 static SCENES: FileKind<ValidScene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
@@ -93,6 +95,14 @@ pub mod vr {
             "cabin position the compensation estimates, world frame ([control.imu]; else the reference pose)"),
         ESTIMATE_Q = Block::output("estimate.q", 4, "",
             "cabin orientation the compensation estimates ({k}), body to world ([control.imu]; else the reference)").labels(WXYZ),
+        /// Real inputs: the platform's command (with `command_input`), its pose relative to its
+        /// home pose (centre at rest, attitude the cabin's).
+        COMMAND_R = Block::input("command.r", 3, "m",
+            "commanded displacement of the moving platform's centre from its home position, cabin frame (with command_input)")
+            .range(-10.0, 10.0),
+        COMMAND_ROT = Block::input("command.rot", 3, "rad",
+            "commanded rotation of the moving platform from its home attitude, rotation vector in the cabin frame (with command_input)")
+            .range(-4.0, 4.0),
         /// Real parameters.
         RADIUS = Block::parameter("radius", -1.0, "m", "radius of the platform's circle; negative: the scene's value")
             .range(-1.0, 10.0),
@@ -103,6 +113,8 @@ pub mod vr {
     }
     /// Integer `start`.
     pub const START: u32 = 0;
+    /// Boolean `command_input`.
+    pub const COMMAND_INPUT: u32 = 0;
     /// String `scene`.
     pub const SCENE: u32 = 0;
 }
@@ -116,6 +128,8 @@ struct Settings {
     ramp_time: f64,
     /// 0: the scene's, 1: abrupt, 2: ramp.
     start: i32,
+    /// The platform follows the command inputs; the built-in controller is off.
+    command_input: bool,
 }
 
 /// Outputs at the current time and inputs, computed when first asked for.
@@ -162,8 +176,11 @@ struct Data {
     /// unit reads (the inputs may meanwhile hold an importer's guess for the end of the next
     /// step).
     accepted: [f64; INPUTS],
-    /// A sampled sensor's state (scene `[control]`, sensor = "sampled").
+    /// A sampled sensor's state (scene `[control]`, sensor = "sampled"), or with `command_input`
+    /// the command followed.
     command: Option<CommandState>,
+    /// The command inputs: held over a step, the platform follows them from its start.
+    commanded: [f64; COMMAND_INPUTS],
 }
 
 impl Clone for Data {
@@ -175,9 +192,10 @@ impl Clone for Data {
 
     /// Reuses the sensor's queues (a state saved at every step allocates nothing).
     fn clone_from(&mut self, source: &Self) {
-        let Data { settings, initialized, time, inputs, rates, accepted, command } = source;
+        let Data { settings, initialized, time, inputs, rates, accepted, command, commanded } = source;
         (self.settings, self.initialized, self.time) = (*settings, *initialized, *time);
         (self.inputs, self.rates, self.accepted) = (*inputs, *rates, *accepted);
+        self.commanded = *commanded;
         self.command.clone_from(command);
     }
 }
@@ -199,7 +217,7 @@ struct InMemory {
 }
 
 /// The scene's static pose at rest, as input values.
-fn rest_inputs(scene: &ValidScene) -> [f64; INPUTS] {
+pub fn rest_inputs(scene: &ValidScene) -> [f64; INPUTS] {
     let mut u = [0.0; INPUTS];
     let (p, q) = (scene.target_position(), scene.target_orientation());
     u[0..3].copy_from_slice(p.as_slice());
@@ -243,9 +261,11 @@ pub fn output_names() -> Vec<String> {
     fmi::table::names(vr::TABLE, Causality::Output)
 }
 
-/// The names of the inputs, in value-reference order from 0.
+/// The names of the cabin inputs, in value-reference order from 0.
 pub fn input_names() -> Vec<String> {
-    fmi::table::names(vr::TABLE, Causality::Input)
+    let mut names = fmi::table::names(vr::TABLE, Causality::Input);
+    names.truncate(INPUTS);
+    names
 }
 
 /// The cabin's motion the input values `u` give (the orientation normalized); refused when
@@ -331,19 +351,20 @@ impl StewartFmu {
     /// Whether the platform's motion follows the current cabin inputs (an ideal sensor, in
     /// step mode): then every output depends on every input and derivatives are differences.
     fn follows_inputs(&mut self) -> Result<bool, ModelError> {
-        let initialized = self.data.initialized;
-        Ok(initialized && self.model()?.compensation().is_some_and(|c| c.sensor() == SensorKind::Ideal))
+        let on = self.data.initialized && !self.data.settings.command_input;
+        Ok(on && self.model()?.compensation().is_some_and(|c| c.sensor() == SensorKind::Ideal))
     }
 
     /// Where the platform centre is commanded (cabin frame) at the current time.
     fn point(&mut self) -> Result<PathPoint, ModelError> {
-        let (t, initialized) = (self.data.time, self.data.initialized);
+        let (t, initialized, commanded) = (self.data.time, self.data.initialized, self.data.settings.command_input);
         let cabin = self.cabin()?;
         // the sensor's state lent out while the model is borrowed (moved, not copied: this runs
         // at every evaluation), and put back whatever happens
         let command = self.data.command.take();
         let point = self.model().map(|model| match model.compensation() {
             Some(c) if initialized => match (c.sensor(), &command) {
+                (_, Some(state)) if commanded => state.at(c, t),
                 (SensorKind::Ideal, _) => c.ideal(&cabin, t),
                 (SensorKind::Sampled, Some(state)) => state.at(c, t),
                 _ => model.path().at(t),
@@ -404,10 +425,12 @@ impl StewartFmu {
     /// else the reference pose.
     fn estimate(&mut self) -> Result<(Vec3, feedcore::Quat), ModelError> {
         let t = self.data.time;
+        // with command_input the filter is the controller's, outside
+        let own = !self.data.settings.command_input;
         let command = self.data.command.take();
         let estimate = self.model().map(|model| {
             let c = model.compensation()?;
-            Some(match command.as_ref().and_then(|state| state.estimate(c, t)) {
+            Some(match command.as_ref().filter(|_| own).and_then(|state| state.estimate(c, t)) {
                 Some(e) => (Vec3::from(e.position), e.attitude()),
                 None => c.reference(),
             })
@@ -431,7 +454,7 @@ impl StewartFmu {
     fn differences(&mut self, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
         let Seeds { unknowns, knowns, seed } = at;
         let mut du = [0.0; INPUTS];
-        for (k, s) in knowns.iter().zip(seed) {
+        for (k, s) in knowns.iter().zip(seed).filter(|(k, _)| !(vr::COMMAND_R..vr::RADIUS).contains(*k)) {
             let slot = du.get_mut(*k as usize).ok_or_else(|| {
                 format!("derivatives with respect to value reference {k} are not provided (only the cabin inputs)")
             })?;
@@ -497,7 +520,7 @@ impl Model for StewartFmu {
     fn description() -> Result<ModelDescription, ModelError> {
         let inputs = input_names();
         let rest = rest_inputs(SCENES.open(None, DEFAULT_SCENE)?.value());
-        let mut variables = fmi::table::variables(vr::TABLE, |v| rest[v as usize]);
+        let mut variables = fmi::table::variables(vr::TABLE, |v| rest.get(v as usize).copied().unwrap_or(0.0));
         // Direct feedthrough, exactly (see the module documentation); in initialization mode
         // the parameters that shape the platform's motion at the start count as well.
         let name = |i: usize| inputs[i].as_str();
@@ -546,7 +569,7 @@ impl Model for StewartFmu {
                     d
                 }
                 // the estimate is made from earlier inputs only (the filter's state)
-                vr::ESTIMATE_R..vr::RADIUS => vec![],
+                vr::ESTIMATE_R..vr::COMMAND_R => vec![],
                 _ => orientation.clone(),
             }
         };
@@ -556,6 +579,10 @@ impl Model for StewartFmu {
             v.depends_on = Some(d.iter().map(|n| n.to_string()).collect());
             v.initial_depends_on = Some(initially.iter().map(|n| n.to_string()).collect());
         }
+        variables.push(Variable::parameter("command_input", vr::COMMAND_INPUT, false, false).describe(
+            "true: the platform follows command.r and command.rot (a controller outside, e.g. control_fmu) through the \
+             scene's [control] filter stages, the built-in second level off; the command held over a step acts from its start",
+        ));
         variables.push(
             Variable::parameter("start", vr::START, 0, false)
                 .describe("0: the scene's start, 1: abrupt (full speed at t = 0), 2: smooth ramp"),
@@ -582,7 +609,7 @@ impl Model for StewartFmu {
         let scene = SCENES.open(resources, DEFAULT_SCENE)?;
         // Inputs start at their declared start values (FMI 2.0): scene C's pose at rest.
         let inputs = rest_inputs(scene.value());
-        let settings = Settings { radius: -1.0, speed: -1.0, ramp_time: -1.0, start: 0 };
+        let settings = Settings { radius: -1.0, speed: -1.0, ramp_time: -1.0, start: 0, command_input: false };
         let accepted = inputs;
         Ok(StewartFmu {
             data: Data {
@@ -593,6 +620,7 @@ impl Model for StewartFmu {
                 rates: [0.0; INPUTS],
                 accepted,
                 command: None,
+                commanded: [0.0; COMMAND_INPUTS],
             },
             scene,
             model: None,
@@ -609,6 +637,11 @@ impl Model for StewartFmu {
                 self.cache = Cache::default();
                 return Ok(());
             }
+            vr::COMMAND_R..vr::RADIUS => {
+                // acts over the next step: nothing computed now changes
+                self.data.commanded[(vr - vr::COMMAND_R) as usize] = value;
+                return Ok(());
+            }
             vr::RADIUS => self.data.settings.radius = value,
             vr::SPEED => self.data.settings.speed = value,
             vr::RAMP_TIME => self.data.settings.ramp_time = value,
@@ -622,7 +655,8 @@ impl Model for StewartFmu {
         match vr {
             0..19 => Ok(self.data.inputs[vr as usize]),
             vr::LEG..vr::FEED_ERR => Ok(self.evaluation()?.leg_lengths[(vr - vr::LEG) as usize]),
-            vr::ESTIMATE_R..vr::RADIUS => {
+            vr::COMMAND_R..vr::RADIUS => Ok(self.data.commanded[(vr - vr::COMMAND_R) as usize]),
+            vr::ESTIMATE_R..vr::COMMAND_R => {
                 let (p, q) = self.estimate()?;
                 let q = q.into_inner();
                 Ok(if vr < vr::ESTIMATE_Q {
@@ -681,10 +715,31 @@ impl Model for StewartFmu {
         Ok(self.scene.name().to_owned())
     }
 
+    /// `command_input`, the only Boolean.
+    fn set_boolean(&mut self, _vr: u32, value: bool) -> Result<(), ModelError> {
+        self.data.settings.command_input = value;
+        self.settings_changed();
+        Ok(())
+    }
+
+    fn get_boolean(&mut self, _vr: u32) -> Result<bool, ModelError> {
+        Ok(self.data.settings.command_input)
+    }
+
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
         self.data.initialized = true;
+        let commanded = self.data.settings.command_input;
         let model = self.model()?;
-        let command = model.compensation().filter(|c| c.sensor() == SensorKind::Sampled).map(|c| c.start_state());
+        let c = model.compensation().ok_or("the platform model has no second level")?;
+        if commanded && !c.follows_commands() {
+            return Err(format!(
+                "command_input: scene `{}` gives the platform no response to follow commands with: its [control] \
+                 needs bandwidth_hz (the filter's stages) or a sampled sensor's sample_rate_hz",
+                self.scene.label()
+            )
+            .into());
+        }
+        let command = (commanded || c.sensor() == SensorKind::Sampled).then(|| c.start_state());
         self.data.command = command;
         self.data.accepted = self.data.inputs;
         self.data.time = start_time;
@@ -699,21 +754,25 @@ impl Model for StewartFmu {
     fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {
         self.model()?;
         if let Some(mut state) = self.data.command.take() {
-            // the sample at the start of the step measures the pose stepped to last
-            let cabin = cabin_motion(&self.data.accepted)?;
             let c = self.model()?.compensation().expect("a command state comes with a compensation");
-            if h > c.max_step() * (1.0 + 1e-9) {
+            let result = if self.data.settings.command_input {
+                // the command held over the step, followed from its start
+                state.follow(c, t, c.pose_of_relative(&self.data.commanded));
+                Ok(())
+            } else if h > c.max_step() * (1.0 + 1e-9) {
                 let ((period, key), most) = (c.step_period(), c.max_step());
-                self.data.command = Some(state);
-                return Err(format!(
+                Err(format!(
                     "communication step {h} s at t = {t} s is longer than a quarter of the sensor's sample period \
                      {period} s ([control] {key}): a sample is taken at the first communication point \
                      after its instant; take steps of at most {most} s or lower the sample rate"
                 )
-                .into());
-            }
-            state.sample(c, t, &cabin);
+                .into())
+            } else {
+                // the sample at the start of the step measures the pose stepped to last
+                cabin_motion(&self.data.accepted).map(|cabin| state.sample(c, t, &cabin))
+            };
             self.data.command = Some(state);
+            result?;
         }
         for k in 0..INPUTS {
             self.data.inputs[k] += self.data.rates[k] * h;
@@ -742,13 +801,24 @@ impl Model for StewartFmu {
 
     /// Every output follows the inputs at the same instant, and after a step the inputs at its
     /// end: the step map's derivative is the instantaneous one at the current time.
-    fn derivative(&mut self, _kind: Derivative, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
+    fn derivative(&mut self, kind: Derivative, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
+        // the command acts over a step, never at once
+        let commanding = at.knowns.iter().zip(at.seed).any(|(k, s)| (vr::COMMAND_R..vr::RADIUS).contains(k) && *s != 0.0);
+        if kind == Derivative::StepMap && commanding {
+            return Err("the step map's derivative with respect to the command inputs is not provided: step the \
+                 controller at a longer period than the platform (its command is then held over the platform's \
+                 steps, not iterated), or couple by iqn-ils"
+                .into());
+        }
         if self.follows_inputs()? {
             return self.differences(at, out);
         }
         let Seeds { unknowns, knowns, seed } = at;
         let mut du = [0.0; INPUTS];
         for (k, s) in knowns.iter().zip(seed) {
+            if (vr::COMMAND_R..vr::RADIUS).contains(k) {
+                continue;
+            }
             if *k as usize >= INPUTS {
                 return Err(format!(
                     "derivatives with respect to value reference {k} are not provided (only the cabin inputs)"
@@ -802,7 +872,7 @@ impl Model for StewartFmu {
                 vr::FEED_ERR..vr::FEED_ROT => df[(*u - vr::FEED_ERR) as usize],
                 vr::FEED_ROT..vr::ESTIMATE_R => dtilt[(*u - vr::FEED_ROT) as usize],
                 // made from earlier inputs only
-                vr::ESTIMATE_R..vr::RADIUS => 0.0,
+                vr::ESTIMATE_R..vr::COMMAND_R => 0.0,
                 other => return Err(format!("value reference {other} is not an output").into()),
             };
         }

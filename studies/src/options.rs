@@ -384,6 +384,12 @@ pub struct SystemFiles {
     pub me_solver: cosim::me::Method,
     pub me_rtol: f64,
     pub me_atol: f64,
+    /// Components stepped at their own period, s ([`rate`]): a whole multiple of the macro step.
+    pub rate: Vec<(String, f64)>,
+    /// The Python library to load before an FMU that leaves the Python C API to its host (one
+    /// written with pythonfmu); `None`: the one of the `python3` on `PATH`, found only when such
+    /// an FMU is loaded.
+    pub python_library: Option<std::path::PathBuf>,
 }
 
 impl Default for SystemFiles {
@@ -396,8 +402,26 @@ impl Default for SystemFiles {
             me_solver: cosim::me::Method::Dopri5,
             me_rtol: 1e-6,
             me_atol: 1e-8,
+            rate: Vec::new(),
+            python_library: None,
         }
     }
+}
+
+/// A component's period as typed: `COMPONENT=H`, H in seconds (positive and finite).
+pub fn rate(text: &str) -> Result<(String, f64), String> {
+    let Some((component, step)) = text.split_once('=') else {
+        return Err(format!("`{text}` is not COMPONENT=H (a component and its period in seconds)"));
+    };
+    let component = component.trim();
+    if component.is_empty() {
+        return Err(format!("`{text}` names no component: COMPONENT=H"));
+    }
+    let h: f64 = step.trim().parse().map_err(|_| format!("`{component}={step}`: `{step}` is not a number of seconds"))?;
+    if !(h.is_finite() && h > 0.0) {
+        return Err(format!("`{component}={step}`: a period must be a positive number of seconds"));
+    }
+    Ok((component.to_owned(), h))
 }
 
 /// An interface choice as typed: `me` or `cs` for every FMU offering both, `COMPONENT=me` for one.
@@ -459,6 +483,8 @@ impl SystemFiles {
             (self.max_archive_entries.is_some(), "max-archive-entries"),
             (self.max_unpacked_mb.is_some(), "max-unpacked-mb"),
             (!self.interface.is_empty(), "interface"),
+            (!self.rate.is_empty(), "rate"),
+            (self.python_library.is_some(), "python-library"),
         ]
         .into_iter()
         .find_map(|(given, name)| given.then_some(name))

@@ -48,7 +48,12 @@ pub fn scene_spec(scene: &ValidScene, scene_file: &Path) -> Result<SystemSpec, S
         components: sys
             .fmus
             .iter()
-            .map(|f| Component { name: f.name.clone(), source: relative_to(scene_file, &f.path), interface: None })
+            .map(|f| Component {
+                name: f.name.clone(),
+                source: relative_to(scene_file, &f.path),
+                interface: None,
+                step: None,
+            })
             .collect(),
         connections: sys
             .connections
@@ -189,12 +194,57 @@ pub struct SystemOutcome {
     pub model_exchange: Vec<(String, &'static str, cosim::me::MeStats)>,
 }
 
+/// Each component's period in macro steps of `dt`: its own step (from `--rate` or the system
+/// file) over `dt`, a whole number; 1 for a component without one. Refused: a step that is no
+/// whole multiple of `dt`, and any own step in an adaptive run.
+pub fn periods(spec: &SystemSpec, adaptive: bool, dt: f64) -> Result<Vec<u32>, String> {
+    let mut periods = Vec::with_capacity(spec.components.len());
+    for c in &spec.components {
+        let Some(step) = c.step else {
+            periods.push(1);
+            continue;
+        };
+        let name = &c.name;
+        if adaptive {
+            return Err(format!(
+                "component `{name}` steps at its own period, {step} s (--rate, or the system file's osp:StepSizeHint): \
+                 the adaptive step does not take a multi-rate system; run it at a fixed --dt that divides every period"
+            ));
+        }
+        let m = (step / dt).round();
+        if !(m >= 1.0 && m <= f64::from(u32::MAX)) || (m * dt - step).abs() > 1e-9 * step {
+            return Err(format!(
+                "component `{name}` steps every {step} s (--rate, or the system file's osp:StepSizeHint), {} macro \
+                 steps of {dt} s: a component's period must be a whole multiple of the macro step (at least one)",
+                step / dt
+            ));
+        }
+        periods.push(m as u32);
+    }
+    Ok(periods)
+}
+
+/// Gives the components named their own periods (`--rate COMPONENT=H`); a name that is no
+/// component of `spec` is refused.
+pub fn apply_rates(spec: &mut SystemSpec, rates: &[(String, f64)]) -> Result<(), String> {
+    for (name, step) in rates {
+        let names = || spec.components.iter().map(|c| format!("`{}`", c.name)).collect::<Vec<_>>().join(", ");
+        let Some(c) = spec.components.iter_mut().find(|c| &c.name == name) else {
+            return Err(format!("--rate {name}={step}: the system has no component `{name}` (it has {})", names()));
+        };
+        c.step = Some(*step);
+    }
+    Ok(())
+}
+
 /// A run of a system checked whole, ready to start (like [`crate::simulate::Run`]).
 pub struct SystemRun<'a> {
     spec: &'a SystemSpec,
     options: Options,
     adaptive: Option<Adaptive>,
     schedule: Schedule,
+    /// Each component's period in macro steps.
+    periods: Vec<u32>,
     /// How Model Exchange components are integrated.
     pub model_exchange: cosim::me::MeOptions,
 }
@@ -225,7 +275,8 @@ impl<'a> SystemRun<'a> {
             }
             None => Schedule::Fixed(Plan::new(dt, t_end, limits).map_err(|e| refused(e.to_string()))?),
         };
-        Ok(SystemRun { spec, options, adaptive, schedule, model_exchange: Default::default() })
+        let periods = periods(spec, adaptive.is_some(), dt).map_err(refused)?;
+        Ok(SystemRun { spec, options, adaptive, schedule, periods, model_exchange: Default::default() })
     }
 
     /// Runs it from 0 to the end time, writing the samples (every step) to `sinks`. Stops on a
@@ -245,6 +296,7 @@ impl<'a> SystemRun<'a> {
         let needs = Needs { model_exchange: self.model_exchange, ..needs(&self.options, self.adaptive.is_some()) };
         let system = FmuSystem::load(spec.as_ref().unwrap_or(self.spec), &needs).map_err(|e| setup(&e))?;
         let mut c = Coupled::new(system, self.options).map_err(|e| setup(&e))?;
+        c.set_periods(&self.periods).map_err(|e| setup(&e))?;
         if let (Some(a), Some(watch)) = (&self.adaptive, watch) {
             let from =
                 if a.watch.is_empty() { format!("{} (its annotation)", self.spec.origin) } else { "--watch".into() };

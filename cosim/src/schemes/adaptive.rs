@@ -27,6 +27,8 @@ pub(super) enum Watched {
 /// values and the extrapolation history.
 pub(super) struct Restorable {
     time: f64,
+    /// Base steps completed (a multi-rate system's schedule).
+    done: u64,
     y: Vec<f64>,
     y_prev: Vec<f64>,
     prev_step: Option<f64>,
@@ -34,7 +36,7 @@ pub(super) struct Restorable {
 
 impl Restorable {
     fn new(ny: usize) -> Restorable {
-        Restorable { time: 0.0, y: vec![0.0; ny], y_prev: vec![0.0; ny], prev_step: None }
+        Restorable { time: 0.0, done: 0, y: vec![0.0; ny], y_prev: vec![0.0; ny], prev_step: None }
     }
 }
 
@@ -160,6 +162,13 @@ impl<S: Units> Coupled<S> {
                 ),
             ));
         }
+        if self.core.rates.is_multi() {
+            return Err(self.core.failed(
+                self.core.time,
+                "the adaptive step does not take a multi-rate system (a unit stepping at a multiple of the macro step \
+                 above 1): its units' periods are whole multiples of one fixed step; run it at a fixed step",
+            ));
+        }
         // the estimate lives beside the units it judges; lent to the step for its duration
         let mut estimate = std::mem::replace(&mut self.adaptive.estimate, ErrorEstimate::new(0));
         let t = self.core.time;
@@ -178,6 +187,7 @@ impl<S: Units> Coupled<S> {
             Slot::Checkpoint => &mut adaptive.checkpoint,
         };
         r.time = core.time;
+        r.done = core.rates.done;
         r.y.copy_from_slice(&core.y);
         r.y_prev.copy_from_slice(&core.y_prev);
         r.prev_step = core.prev_step;
@@ -193,8 +203,9 @@ impl<S: Units> Coupled<S> {
             Slot::Checkpoint => &adaptive.checkpoint,
         };
         core.restore_states(r.time, slot)?;
-        let Core { time, y, y_prev, prev_step, .. } = core;
+        let Core { time, y, y_prev, prev_step, rates, .. } = core;
         *time = r.time;
+        rates.done = r.done;
         y.copy_from_slice(&r.y);
         y_prev.copy_from_slice(&r.y_prev);
         *prev_step = r.prev_step;

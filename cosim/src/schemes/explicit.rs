@@ -14,7 +14,9 @@ impl<S: Units> CouplingScheme<S> for Jacobi {
             let slope = core.predict();
             core.keep_history(h);
             for k in 0..core.units.layout().units.len() {
-                core.advance(k, slope, t, h)?;
+                if core.rates.stepping[k] {
+                    core.advance(k, slope, t, h)?;
+                }
             }
             core.read_outputs(t + h)?;
             let residual = core.residual(&core.work.guess).0;
@@ -50,6 +52,9 @@ impl GaussSeidel {
         let slope = core.predict();
         core.keep_history(h);
         for &k in &self.order {
+            if !core.rates.stepping[k] {
+                continue;
+            }
             core.advance(k, slope, t, h)?;
             // the inputs this unit stepped with, for the residual (`guess` moves on below)
             let r = core.units.layout().units[k].inputs.clone();
@@ -60,10 +65,11 @@ impl GaussSeidel {
             if let Err(e) = core.units.get_outputs(k, &mut core.y[o.clone()]) {
                 return Err(core.unit_err(t + h, k, e));
             }
-            let Core { units, y, work, .. } = core;
+            let Core { units, y, work, rates, .. } = core;
             let l = units.layout();
             for (i, &src) in l.source.iter().enumerate() {
-                if o.contains(&src) {
+                // a slower unit's outputs reach the others from its communication point on
+                if o.contains(&src) && !rates.from_slower[i] {
                     work.guess[i] = l.coupled(i, y); // already an end-of-step value: no extrapolation
                     work.slope[i] = 0.0;
                 }

@@ -99,7 +99,7 @@ impl<S: Units> CouplingScheme<S> for Ijcsa {
                 fresh_jacobian = true;
             } else if reuse && it == 1 {
                 for k in 0..self.jacobian.volatile.len() {
-                    if self.jacobian.volatile[k] > 0 {
+                    if self.jacobian.volatile[k] > 0 && core.rates.stepping[k] {
                         self.jacobian.volatile[k] -= 1;
                         unit_jacobian(core, &mut self.jacobian.dydu, t, h, k)?;
                     }
@@ -111,11 +111,13 @@ impl<S: Units> CouplingScheme<S> for Ijcsa {
                 self.y_it.copy_from_slice(&core.y);
             }
             // Newton: (I − C ∂Y/∂U) ΔU = C Y − U, in place
-            let Core { work, units, .. } = core;
+            let Core { work, units, rates, .. } = core;
             let l = units.layout();
             let n = work.r.len();
             let dydu = &self.jacobian.dydu;
-            let row = |i: usize| (l.gain[i], &dydu[l.source[i] * n..(l.source[i] + 1) * n]);
+            // an input this step does not iterate keeps its value: its row is the identity's
+            let gain = |i: usize| if rates.iterated[i] { l.gain[i] } else { 0.0 };
+            let row = |i: usize| (gain(i), &dydu[l.source[i] * n..(l.source[i] + 1) * n]);
             if !self.interface.solve_by_rows(row, &mut work.r) {
                 return Err(core.failed(t + h, "the interface Jacobian is singular"));
             }
@@ -162,13 +164,13 @@ impl Ijcsa {
     /// (each scaled) and by more than the tolerance is volatile: its block is recomputed at the
     /// first iteration of the next [`VOLATILE_STEPS`] steps.
     fn secant_update<S: Units>(&mut self, core: &mut Core<S>) {
-        let Core { units, work, y, options, .. } = core;
+        let Core { units, work, y, options, rates, .. } = core;
         let Jacobian { dydu, volatile, .. } = &mut self.jacobian;
         let (u_it, y_it) = (&self.u_it, &self.y_it);
         let tol = options.tol;
         let l = units.layout();
         let nu = work.r.len();
-        for (k, u) in l.units.iter().enumerate() {
+        for (k, u) in l.units.iter().enumerate().filter(|(k, _)| rates.stepping[*k]) {
             let (ir, or) = (u.inputs.clone(), u.outputs.clone());
             let (ds, w) = (&mut work.seed[..ir.len()], &mut work.end[..ir.len()]);
             let mut norm = 0.0;
@@ -187,7 +189,7 @@ impl Ijcsa {
             // the miss and the change in the inputs this unit feeds, each in its scale
             let (mut miss, mut change) = (0.0f64, 0.0f64);
             for (i, &r) in l.source.iter().enumerate() {
-                if or.contains(&r) {
+                if or.contains(&r) && rates.iterated[i] {
                     miss = miss.max((l.gain[i] * work.col[r] / l.scale[i]).abs());
                     change = change.max((l.gain[i] * (y[r] - y_it[r]) / l.scale[i]).abs());
                 }
@@ -209,7 +211,9 @@ impl Ijcsa {
     /// unit provides them, central differences with rollback otherwise.
     fn interface_jacobian<S: Units>(&mut self, core: &mut Core<S>, t: f64, h: f64) -> Result<(), StepError> {
         for k in 0..core.units.layout().units.len() {
-            unit_jacobian(core, &mut self.jacobian.dydu, t, h, k)?;
+            if core.rates.stepping[k] {
+                unit_jacobian(core, &mut self.jacobian.dydu, t, h, k)?;
+            }
         }
         self.jacobian.step = Some(h);
         Ok(())
@@ -219,6 +223,7 @@ impl Ijcsa {
 /// Unit `k`'s block of ∂Y/∂U into `dydu` (see [`Ijcsa::interface_jacobian`]).
 fn unit_jacobian<S: Units>(core: &mut Core<S>, dydu: &mut [f64], t: f64, h: f64, k: usize) -> Result<(), StepError> {
     let nu = core.work.r.len();
+    let (t_k, h_k) = core.rates.window(k, t, h);
     let Core { units, work, .. } = core;
     let (ir, or) = (units.layout().units[k].inputs.clone(), units.layout().units[k].outputs.clone());
     let (io, ni, oo, no) = (ir.start, ir.len(), or.start, or.len());
@@ -246,7 +251,7 @@ fn unit_jacobian<S: Units>(core: &mut Core<S>, dydu: &mut [f64], t: f64, h: f64,
                 work.end[c] += sign * delta;
                 units.restore_state(k, Slot::Step)?;
                 units.set_inputs(k, &work.end[..ni])?;
-                units.do_step(k, t, h)?;
+                units.do_step(k, t_k, h_k)?;
                 units.get_outputs(k, col)?;
                 for r in 0..no {
                     dydu[(oo + r) * nu + io + c] += sign * col[r] / (2.0 * delta);
@@ -255,7 +260,7 @@ fn unit_jacobian<S: Units>(core: &mut Core<S>, dydu: &mut [f64], t: f64, h: f64,
         }
         units.restore_state(k, Slot::Step)?;
         units.set_inputs(k, &work.guess[ir.clone()])?;
-        units.do_step(k, t, h)
+        units.do_step(k, t_k, h_k)
     })();
     res.map_err(|e| core.unit_err(t + h, k, e))
 }

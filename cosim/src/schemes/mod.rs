@@ -13,12 +13,15 @@
 //! Inputs are values at the end of the macro step (the FMUs of this workspace evaluate their
 //! inputs there). With `linear` extrapolation the first guess extrapolates the last two
 //! communication points, and non-iterating schemes hand the slope to units that interpolate.
+//! A unit may step at a multiple of the macro step ([`Coupled::set_periods`]; what that couples:
+//! [`rates`]).
 
 mod adaptive;
 mod explicit;
 mod fixed_point;
 mod ijcsa;
 mod iqn;
+mod rates;
 
 pub use adaptive::AdaptiveStep;
 
@@ -153,6 +156,8 @@ struct Core<S: Units> {
     y_prev: Vec<f64>,
     /// The time from `y_prev` to `y` (the last step's size), once there is a last step.
     prev_step: Option<f64>,
+    /// Which units step in the base step being taken, and which inputs it iterates.
+    rates: rates::Rates,
     work: Work,
 }
 
@@ -220,6 +225,7 @@ impl<S: Units> Coupled<S> {
             adaptive: adaptive::History::new(units.layout()),
             scheme: scheme_for(&options, units.layout()),
             core: Core {
+                rates: rates::Rates::single(units.layout()),
                 units,
                 options,
                 time: 0.0,
@@ -229,6 +235,22 @@ impl<S: Units> Coupled<S> {
                 work: Work::new(nu, ny),
             },
         })
+    }
+
+    /// Each unit's period as a multiple of the macro step (one per unit, each at least 1; all 1
+    /// by default): a unit of multiple m steps at every m-th macro step, over m of them, and its
+    /// outputs hold in between ([`rates`]). Call before the first step; the adaptive step
+    /// refuses a system with a multiple above 1.
+    pub fn set_periods(&mut self, multiples: &[u32]) -> Result<(), StepError> {
+        if self.core.rates.done > 0 || self.core.time != 0.0 {
+            return Err(self.core.failed(self.core.time, "the units' periods are set before the first step"));
+        }
+        self.core.rates.set(multiples).map_err(|reason| self.core.failed(0.0, reason))
+    }
+
+    /// Whether some unit steps at a multiple of the macro step above 1.
+    pub fn is_multi_rate(&self) -> bool {
+        self.core.rates.is_multi()
     }
 
     pub fn time(&self) -> f64 {
@@ -255,8 +277,15 @@ impl<S: Units> Coupled<S> {
 
     /// One macro step of size `h`.
     pub fn step(&mut self, h: f64) -> Result<StepReport, StepError> {
+        self.step_part(h, true)
+    }
+
+    /// A macro step of size `h`, or (`completes` false) a part of one: the units that step in
+    /// it step over the part.
+    fn step_part(&mut self, h: f64, completes: bool) -> Result<StepReport, StepError> {
         let t = self.core.time;
         let t1 = t + h;
+        self.core.rates.begin();
         // what `undo_step` restores besides the units
         self.keep(Slot::Step);
         let core = &mut self.core;
@@ -272,6 +301,9 @@ impl<S: Units> Coupled<S> {
             return Err(core.unstable(e));
         }
         core.time = t1;
+        if completes {
+            core.rates.done += 1;
+        }
         Ok(report)
     }
 
@@ -297,7 +329,7 @@ impl<S: Units> Coupled<S> {
         for j in 0..=START_SUBSTEPS {
             // the pieces add up to h / 2 exactly (each partial sum is h over a power of two)
             let step = if j == START_SUBSTEPS { end - self.core.time } else { piece };
-            report = report.then(self.step(step)?);
+            report = report.then(self.step_part(step, j == START_SUBSTEPS)?);
             if j > 0 {
                 piece *= 2.0;
             }
@@ -333,7 +365,7 @@ impl<S: Units> Core<S> {
     fn residual(&self, u: &[f64]) -> (f64, usize) {
         let l = self.units.layout();
         let mut worst = (0.0, 0);
-        for (i, &ui) in u.iter().enumerate() {
+        for (i, &ui) in u.iter().enumerate().filter(|(i, _)| self.rates.iterated[*i]) {
             let r = (ui - l.coupled(i, &self.y)).abs() / l.scale[i];
             if !(r <= worst.0) {
                 worst = (r, i);
@@ -407,6 +439,7 @@ impl<S: Units> Core<S> {
     /// Sets unit `k`'s inputs from `work.guess` (with `slope`: a unit that interpolates inputs
     /// gets it as an input derivative, another the extrapolated end value), then steps it.
     fn advance(&mut self, k: usize, slope: bool, t: f64, h: f64) -> Result<(), StepError> {
+        let (t_k, h_k) = self.rates.window(k, t, h);
         let Core { units, work, .. } = self;
         let r = units.layout().units[k].inputs.clone();
         let n = r.len();
@@ -417,20 +450,20 @@ impl<S: Units> Core<S> {
                 units.set_input_slopes(k, &work.slope[r.clone()])?;
             } else if slope {
                 for (j, i) in r.clone().enumerate() {
-                    work.end[j] = work.guess[i] + work.slope[i] * h;
+                    work.end[j] = work.guess[i] + work.slope[i] * h_k;
                 }
                 units.set_inputs(k, &work.end[..n])?;
             } else {
                 units.set_inputs(k, &work.guess[r.clone()])?;
             }
-            units.do_step(k, t, h)
+            units.do_step(k, t_k, h_k)
         })();
         res.map_err(|e| self.unit_err(t + h, k, e))
     }
 
-    /// Reads every unit's coupled outputs into `self.y`.
+    /// Reads the coupled outputs of every unit that stepped into `self.y`.
     fn read_outputs(&mut self, t: f64) -> Result<(), StepError> {
-        for k in 0..self.units.layout().units.len() {
+        for k in (0..self.units.layout().units.len()).filter(|&k| self.rates.stepping[k]) {
             let r = self.units.layout().units[k].outputs.clone();
             if let Err(e) = self.units.get_outputs(k, &mut self.y[r]) {
                 return Err(self.unit_err(t, k, e));
@@ -462,10 +495,15 @@ impl<S: Units> Core<S> {
     /// tolerance, and fails at the iteration limit; otherwise leaves the fixed-point residual
     /// C·Y − U in `work.r`.
     fn evaluate(&mut self, it: usize, t: f64, h: f64) -> Result<Option<StepReport>, StepError> {
-        if it > 1 {
-            self.restore_states(t, Slot::Step)?;
-        }
         for k in 0..self.units.layout().units.len() {
+            if !self.rates.stepping[k] {
+                continue;
+            }
+            if it > 1
+                && let Err(e) = self.units.restore_state(k, Slot::Step)
+            {
+                return Err(self.unit_err(t, k, e));
+            }
             self.advance(k, false, t, h)?;
         }
         self.read_outputs(t + h)?;
@@ -483,10 +521,11 @@ impl<S: Units> Core<S> {
                 tol: self.options.tol,
             });
         }
-        let Core { work, units, y, .. } = self;
+        let Core { work, units, y, rates, .. } = self;
         let l = units.layout();
         for (i, r) in work.r.iter_mut().enumerate() {
-            *r = l.coupled(i, y) - work.guess[i];
+            // an input this step does not iterate keeps its value
+            *r = if rates.iterated[i] { l.coupled(i, y) - work.guess[i] } else { 0.0 };
         }
         Ok(None)
     }

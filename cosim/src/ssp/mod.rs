@@ -23,6 +23,17 @@ pub const START_ANNOTATION: &str = "org.feedsim.start";
 /// is a preference the tools that do not know it skip: the system still runs in those.
 pub const INTERFACE_ANNOTATION: &str = "org.feedsim.interface";
 
+/// The annotation type of a component's communication step, as libcosim (the Open Simulation
+/// Platform's engine) reads it from an SSP system: `<ssc:Annotation
+/// type="com.opensimulationplatform"><osp:StepSizeHint value="0.01"/></ssc:Annotation>` in the
+/// `<ssd:Component>`'s `<ssd:Annotations>`, the step in seconds. This master steps the component at
+/// that period, which must be a whole multiple of the run's macro step; tools that do not know the
+/// annotation step it at their own.
+pub const STEP_ANNOTATION: &str = "com.opensimulationplatform";
+
+/// The namespace of the `osp:` elements of [`STEP_ANNOTATION`].
+pub const OSP_NAMESPACE: &str = "http://opensimulationplatform.com/SSP/OSPAnnotations";
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 

@@ -244,6 +244,23 @@ fn component_interface<'a, 'i>(
     Ok(standard.or(ours))
 }
 
+/// A component's communication step from libcosim's annotation [`super::STEP_ANNOTATION`]
+/// (`<osp:StepSizeHint value="…"/>`, s): a positive, finite number.
+fn component_step<'a, 'i>(component: Node<'a, 'i>) -> Result<Option<f64>, (Node<'a, 'i>, String)> {
+    let mut step = None;
+    let annotations = child(component, "Annotations").into_iter().flat_map(|a| children(a, "Annotation"));
+    for a in annotations.filter(|a| a.attribute("type") == Some(super::STEP_ANNOTATION)) {
+        for hint in children(a, "StepSizeHint") {
+            let text = hint.attribute("value").ok_or_else(|| (hint, "<StepSizeHint> without `value`".to_string()))?;
+            match text.trim().parse::<f64>() {
+                Ok(v) if v.is_finite() && v > 0.0 => step = Some(v),
+                _ => return Err((hint, format!("<StepSizeHint value=\"{text}\">: a step must be a positive number of seconds"))),
+            }
+        }
+    }
+    Ok(step)
+}
+
 fn read_ssd(ssd: &Path, origin: &str, limits: &ReadLimits) -> Result<LoadedSsp, SetupError> {
     let text = std::fs::read_to_string(ssd).map_err(|e| invalid(ssd, format!("cannot read: {e}")))?;
     let doc = Document::parse(&text).map_err(|e| invalid(ssd, format!("not well-formed XML: {e}")))?;
@@ -299,7 +316,8 @@ fn read_ssd(ssd: &Path, origin: &str, limits: &ReadLimits) -> Result<LoadedSsp, 
                 return Err(fail(e, format!("a second component named `{name}`: component names must be unique")));
             }
             let interface = component_interface(e).map_err(|(n, m)| fail(n, format!("component `{name}`: {m}")))?;
-            spec.components.push(Component { name: name.to_owned(), source: resolve(e, source)?, interface });
+            let step = component_step(e).map_err(|(n, m)| fail(n, format!("component `{name}`: {m}")))?;
+            spec.components.push(Component { name: name.to_owned(), source: resolve(e, source)?, interface, step });
             if let Some(connectors) = child(e, "Connectors") {
                 for c in children(connectors, "Connector") {
                     let cname = c.attribute("name").ok_or_else(|| fail(c, "a connector without `name`".into()))?;

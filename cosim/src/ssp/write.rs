@@ -33,6 +33,9 @@ pub struct SspComponent {
     pub connectors: Vec<SspConnector>,
     /// Parameter values by variable name, in the order to apply them.
     pub parameters: Vec<(String, Value)>,
+    /// Its communication step, s (written as libcosim's [`super::STEP_ANNOTATION`]); `None`:
+    /// the run's macro step.
+    pub step: Option<f64>,
 }
 
 /// A system to write.
@@ -116,6 +119,14 @@ pub fn ssd_text(s: &SspSystem) -> String {
             let _ = writeln!(x, "            </ssd:ParameterValues>");
             let _ = writeln!(x, "          </ssd:ParameterBinding>");
             let _ = writeln!(x, "        </ssd:ParameterBindings>");
+        }
+        if let Some(step) = c.step {
+            // the schema: <ssd:Annotations> last in the component
+            let _ = writeln!(x, "        <ssd:Annotations>");
+            let _ = writeln!(x, r#"          <ssc:Annotation type="{}">"#, super::STEP_ANNOTATION);
+            let _ = writeln!(x, r#"            <osp:StepSizeHint xmlns:osp="{}" value="{step:?}"/>"#, super::OSP_NAMESPACE);
+            let _ = writeln!(x, "          </ssc:Annotation>");
+            let _ = writeln!(x, "        </ssd:Annotations>");
         }
         let _ = writeln!(x, "      </ssd:Component>");
     }

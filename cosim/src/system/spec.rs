@@ -13,6 +13,9 @@ pub struct Component {
     /// The interface to run it as (`None`: Co-Simulation where the FMU offers it, else Model
     /// Exchange).
     pub interface: Option<fmi::import::Interface>,
+    /// Its communication step, s, where the description gives one (SSP: libcosim's annotation
+    /// [`crate::ssp::STEP_ANNOTATION`]); `None`: the run's macro step.
+    pub step: Option<f64>,
 }
 
 /// A variable of a component.

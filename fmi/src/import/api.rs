@@ -24,7 +24,7 @@ macro_rules! table {
                 $(
                     // SAFETY: the caller's promise on the symbol's type and the library's life.
                     let $field = *unsafe { lib.get::<$ty>($sym) }
-                        .map_err(|e| format!("the binary does not export `{}`: {e}", $sym))?;
+                        .map_err(|e| format!("the binary does not export `{}`: {}", $sym, super::host::reason(&e)))?;
                 )*
                 Ok($name { $($field,)* })
             }
@@ -124,7 +124,7 @@ impl Api {
     /// the file can prove.
     pub(super) unsafe fn load(path: &Path, interface: Interface) -> Result<Api, String> {
         // SAFETY: running the initializers of an FMU binary is what the caller accepts.
-        let lib = unsafe { Library::new(path) }.map_err(|e| format!("cannot load the binary: {e}"))?;
+        let lib = unsafe { super::host::load(path) }?;
         // SAFETY: the caller's promise; the tables are kept beside `lib` in the same `Api`.
         let common = unsafe { Common::resolve(&lib) }?;
         let (cs, me) = match interface {

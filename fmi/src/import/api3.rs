@@ -91,7 +91,7 @@ impl Api3 {
     /// the file can prove.
     pub(super) unsafe fn load(path: &Path, interface: Interface) -> Result<Api3, String> {
         // SAFETY: running the initializers of an FMU binary is what the caller accepts.
-        let lib = unsafe { Library::new(path) }.map_err(|e| format!("cannot load the binary: {e}"))?;
+        let lib = unsafe { super::host::load(path) }?;
         // SAFETY: the caller's promise; the tables are kept beside `lib` in the same `Api3`.
         let common = unsafe { Common3::resolve(&lib) }?;
         let (cs, me) = match interface {

@@ -28,6 +28,7 @@
 
 mod api;
 mod api3;
+mod host;
 mod instance;
 mod log;
 mod me;
@@ -39,6 +40,7 @@ pub use crate::description::{
     CoSimulationFlags, DefaultExperiment as Experiment, ModelDescription as FmuDescription, Variable as ScalarVariable,
 };
 pub use crate::xml::parse_model_description;
+pub use host::name_python_library;
 pub use instance::{FmuState, Instance};
 pub use log::LogMessage;
 pub use me::EventUpdate;

@@ -5,6 +5,12 @@
 //! `--fmi 3` packs the FMI 3.0 twins of the scene's FMUs (`fmi3/<name>.fmu` beside each, as
 //! `master package` writes them) instead.
 //!
+//! `--controller fmu` takes the second level out of the Stewart FMU into a third component,
+//! `control` (`control_fmu.fmu` beside the Stewart FMU): the cabin's motion feeds it, its command
+//! the Stewart FMU (`command_input = true`); every component carries its step (libcosim's
+//! `osp:StepSizeHint` annotation): the scene's step for the cable and Stewart FMUs, the
+//! controller's command period for `control`.
+//!
 //! The scene file itself travels inside each FMU that reads it (`resources/exported_scene.toml`,
 //! the parameter set to that relative name, which the FMU resolves against its resources), so
 //! the archive stands alone.
@@ -15,7 +21,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use cosim::ssp::write::{SspComponent, SspConnector, SspSystem, with_resource, write_archive};
 use cosim::system::fmu::resolve;
-use cosim::system::spec::Value;
+use cosim::system::spec::{Component, Connection, Endpoint, Matching, Parameter, Value};
 use studies::system::scene_spec;
 
 use super::args::SceneFile;
@@ -36,6 +42,67 @@ pub(crate) struct Args {
     /// `fmi3/<name>.fmu` beside each).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(2..=3))]
     pub(crate) fmi: u32,
+    /// The second level: `builtin` (in the Stewart FMU) or `fmu` (a third component, `control`:
+    /// control_fmu beside the Stewart FMU, at its command period; the Stewart FMU follows its
+    /// command).
+    #[arg(long, default_value = "builtin", value_parser = ["builtin", "fmu"])]
+    pub(crate) controller: String,
+}
+
+/// The name of the controller's component with `--controller fmu`.
+pub(crate) const CONTROL: &str = "control";
+
+/// The scene's system with its second level as a component of its own: `control` (control_fmu
+/// beside the Stewart FMU) between the cable FMU's cabin motion and the Stewart FMU's command;
+/// every component with its step. Returns the system and the names of the parameters that hand
+/// the scene over.
+fn with_controller(
+    scene: &feedcore::scene::ValidScene,
+    mut spec: cosim::SystemSpec,
+    reads_scene: &mut Vec<String>,
+) -> anyhow::Result<cosim::SystemSpec> {
+    let control = scene.control.as_ref().with_context(|| {
+        format!("--controller fmu: scene `{}` has no [control] (the second level to take out)", scene.name)
+    })?;
+    anyhow::ensure!(
+        control.sensor == feedcore::scene::SensorKind::Sampled,
+        "--controller fmu: scene `{}` has [control] sensor = {:?}; a controller of its own samples the cabin: \
+         sensor = \"sampled\"",
+        scene.name,
+        control.sensor
+    );
+    let model = stewart::Stewart::from_scene(scene)?;
+    let period = model.compensation().context("the platform has no second level")?.step_period().0;
+    let component = |name: &str| spec.components.iter().position(|c| c.name == name);
+    let (Some(cable), Some(platform)) = (component("cable"), component("stewart")) else {
+        anyhow::bail!("--controller fmu: the scene's [system] must name its FMUs `cable` and `stewart`");
+    };
+    let source = spec.components[platform].source.with_file_name("control_fmu.fmu");
+    anyhow::ensure!(
+        source.is_file(),
+        "{}: the controller's FMU is missing (`master package --out DIR` writes it beside the Stewart FMU)",
+        source.display()
+    );
+    let dt = scene.solver.dt_s;
+    spec.components[cable].step = Some(dt);
+    spec.components[platform].step = Some(dt);
+    spec.components.push(Component { name: CONTROL.into(), source, interface: None, step: Some(period) });
+    let end = |component: &str, variable: &str| Endpoint { component: component.into(), variable: variable.into() };
+    for (from, to) in [(end("cable", "cabin"), end(CONTROL, "cabin")), (end(CONTROL, "command"), end("stewart", "command"))] {
+        spec.connections.push(Connection { from, to, matching: Matching::Prefix, transform: None });
+    }
+    let scene_value = spec
+        .parameters
+        .iter()
+        .find(|p| p.target.component == "stewart" && p.target.variable == "scene")
+        .map(|p| p.value.clone())
+        .context("the scene's [system] hands the Stewart FMU no scene")?;
+    spec.parameters.push(Parameter { target: end(CONTROL, "scene"), value: scene_value });
+    spec.parameters.push(Parameter { target: end("stewart", "command_input"), value: Value::Typed(fmi::Value::Boolean(true)) });
+    if reads_scene.iter().any(|k| k == "stewart.scene") {
+        reads_scene.push(format!("{CONTROL}.scene"));
+    }
+    Ok(spec)
 }
 
 /// The FMI 3.0 twin of a workspace FMU: `<dir>/fmi3/<name>.fmu`, as `master package` writes it.
@@ -66,14 +133,18 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         }
     }
     let sys = scene.system.as_ref().expect("scene_spec needs a [system]");
+    // the parameters that hand the FMUs the scene (`@scene`)
+    let mut reads_scene: Vec<String> = sys.parameters.iter().filter(|(_, v)| *v == "@scene").map(|(k, _)| k.clone()).collect();
+    if args.controller == "fmu" {
+        spec = with_controller(&scene, spec, &mut reads_scene)?;
+    }
     let resolved = resolve(&spec)?;
     let scene_bytes =
         std::fs::read(&args.file.scene).with_context(|| format!("{}: cannot read", args.file.scene.display()))?;
     let mut components = Vec::new();
     for c in &spec.components {
-        let reads_scene =
-            sys.parameters.iter().any(|(k, v)| v == "@scene" && k.split_once('.').is_some_and(|(f, _)| f == c.name));
-        let fmu = if reads_scene {
+        let reads = reads_scene.iter().any(|k| k.split_once('.').is_some_and(|(f, _)| f == c.name));
+        let fmu = if reads {
             with_resource(&c.source, SCENE_RESOURCE, &scene_bytes)?
         } else {
             std::fs::read(&c.source).with_context(|| format!("{}: cannot read", c.source.display()))?
@@ -96,14 +167,14 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         for (p, var_type, _) in resolved.parameters.iter().filter(|p| p.0.target.component == c.name) {
             add(&p.target.variable, "parameter", *var_type);
             let key = format!("{}.{}", c.name, p.target.variable);
-            let value = if sys.parameters.get(&key).is_some_and(|v| v == "@scene") {
+            let value = if reads_scene.contains(&key) {
                 Value::Typed(fmi::Value::String(SCENE_RESOURCE.into()))
             } else {
                 p.value.clone()
             };
             parameters.push((p.target.variable.clone(), value));
         }
-        components.push(SspComponent { name: c.name.clone(), fmu, connectors, parameters });
+        components.push(SspComponent { name: c.name.clone(), fmu, connectors, parameters, step: c.step });
     }
     let system = SspSystem {
         name: scene.name.clone(),

@@ -42,6 +42,7 @@ pub(crate) const EXPORTABLE: &[Exportable] = &[
     Exportable::of::<fmi_testmodel::Oscillator>("fmi_testmodel"),
     Exportable::of::<cable_fmu::CableFmu>("cable_fmu_cdylib"),
     Exportable::of::<stewart_fmu::StewartFmu>("stewart_fmu_cdylib"),
+    Exportable::of::<control_fmu::ControlFmu>("control_fmu_cdylib"),
     // The zoo: small FMUs that know nothing of the LT50m system (testfmus/, docs/systems.md).
     Exportable::of::<zoo_fmus::dahlquist::DahlquistFmu>("zoo_dahlquist"),
     Exportable::of::<zoo_fmus::van_der_pol::VanDerPolFmu>("zoo_van_der_pol"),

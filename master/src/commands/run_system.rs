@@ -21,8 +21,7 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
     }
     let method = args.options.method(args.scheme)?;
     let files = args.system_files.files();
-    let system = SystemFile::prepare(file, method, args.dt, args.t_end, &files.limits(), &caps().run)?
-        .with_model_exchange(&files.model_exchange())?;
+    let system = SystemFile::prepare(file, method, args.dt, args.t_end, &files, &caps().run)?;
     let (dt, t_end, adaptive) = (system.dt, system.t_end, system.adaptive());
     let mut outputs = Outputs::new(system.inputs());
     let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;

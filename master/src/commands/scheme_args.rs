@@ -150,6 +150,16 @@ pub(crate) struct SystemFileArgs {
     /// Absolute tolerance of the Model Exchange integrator (in the states' units).
     #[arg(long, default_value = "1e-8", value_parser = positive, allow_negative_numbers = true)]
     pub(crate) me_atol: f64,
+    /// Step a component at its own period, H seconds, a whole multiple of --dt (comma-separated
+    /// or repeated): `control=0.01`. Its outputs hold between its steps. Overrides the system
+    /// file's step of that component (libcosim's osp:StepSizeHint annotation).
+    #[arg(long, value_delimiter = ',', value_name = "COMPONENT=H", value_parser = lib::rate, allow_negative_numbers = true)]
+    pub(crate) rate: Vec<(String, f64)>,
+    /// The Python library (libpython3.X.so) to load before an FMU whose binary leaves the Python
+    /// C API to its host (one written with pythonfmu) [default: that of the `python3` on PATH,
+    /// looked up only when such an FMU is loaded].
+    #[arg(long, value_name = "PATH")]
+    pub(crate) python_library: Option<std::path::PathBuf>,
 }
 
 impl SystemFileArgs {
@@ -162,6 +172,8 @@ impl SystemFileArgs {
             me_solver: self.me_solver,
             me_rtol: self.me_rtol,
             me_atol: self.me_atol,
+            rate: self.rate.clone(),
+            python_library: self.python_library.clone(),
         }
     }
 }

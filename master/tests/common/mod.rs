@@ -66,6 +66,7 @@ pub(crate) fn me_system(which: &str, version: u8) -> SystemSpec {
         name: name.into(),
         source: zoo.join(format!("{fmu}.fmu")),
         interface: me.then_some(Interface::ModelExchange),
+        step: None,
     };
     let e = |c: &str, v: &str| Endpoint { component: c.into(), variable: v.into() };
     let connect = |from: Endpoint, to: Endpoint, factor: Option<f64>| Connection {

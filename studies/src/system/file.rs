@@ -6,11 +6,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use cosim::Options;
-use cosim::ssp::read::{LoadedSsp, ReadLimits, load_within};
+use cosim::ssp::read::{LoadedSsp, load_within};
 use serde_json::{Value, json};
 
 use super::{Adaptive, Sinks, SystemOutcome, SystemRun};
 use crate::limits::{Limits, num};
+use crate::options::SystemFiles;
 use crate::simulate::{Method, RunError};
 use crate::stepping::Watch;
 
@@ -24,17 +25,20 @@ pub struct SystemFile {
     pub t_end: f64,
     limits: Limits,
     model_exchange: cosim::me::MeOptions,
+    /// The Python library for FMUs that leave the Python C API to their host.
+    python_library: Option<PathBuf>,
 }
 
 impl SystemFile {
-    /// Loads `file` within `read` and checks a run of `method` at `dt` (or the adaptive step) to
-    /// `t_end` (default: the system's DefaultExperiment stopTime) within `limits`.
+    /// Loads `file` within what `files` allows, with the interfaces and periods it asks for,
+    /// and checks a run of `method` at `dt` (or the adaptive step) to `t_end` (default: the
+    /// system's DefaultExperiment stopTime) within `limits`.
     pub fn prepare(
         file: &Path,
         method: Method,
         dt: Option<f64>,
         t_end: Option<f64>,
-        read: &ReadLimits,
+        files: &SystemFiles,
         limits: &Limits,
     ) -> anyhow::Result<SystemFile> {
         let (options, adaptive) = match method {
@@ -46,7 +50,11 @@ impl SystemFile {
                 other.name()
             ),
         };
-        let loaded = load_within(file, read)?;
+        let mut loaded = load_within(file, &files.limits())?;
+        let within = |e: String| anyhow::anyhow!("{}: {e}", file.display());
+        let choice = files.model_exchange();
+        choice.apply(&mut loaded.spec).map_err(within)?;
+        super::apply_rates(&mut loaded.spec, &files.rate).map_err(within)?;
         crate::options::check_dt(adaptive.is_some(), dt)?;
         let dt = match (&adaptive, dt) {
             (None, Some(dt)) => dt,
@@ -83,16 +91,9 @@ impl SystemFile {
             dt,
             t_end,
             limits: *limits,
-            model_exchange: Default::default(),
+            model_exchange: choice.options,
+            python_library: files.python_library.clone(),
         })
-    }
-
-    /// Runs the components `choice` names as the interface it names, Model Exchange ones with
-    /// its integrator.
-    pub fn with_model_exchange(mut self, choice: &super::ModelExchangeChoice) -> anyhow::Result<SystemFile> {
-        choice.apply(&mut self.loaded.spec).map_err(|e| anyhow::anyhow!("{}: {e}", self.file.display()))?;
-        self.model_exchange = choice.options;
-        Ok(self)
     }
 
     /// The files the run reads: the system file and its FMUs.
@@ -119,6 +120,7 @@ impl SystemFile {
             &self.limits,
         )?;
         let run = SystemRun { model_exchange: self.model_exchange, ..run };
+        fmi::import::name_python_library(self.python_library.clone());
         run.execute(watch, sinks)
     }
 
