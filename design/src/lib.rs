@@ -1,0 +1,13 @@
+//! The second level's model-based design.
+//!
+//! * [`riccati`]: the discrete-time algebraic Riccati equation (doubling), checked by residual;
+//! * [`sampled`]: a continuous system sampled with its input held (Van Loan), the Lyapunov equation;
+//! * [`lqg`]: sampled-data LQG synthesis with a periodic Kalman filter, and the controller;
+//! * [`h2`]: the closed loop's stationary covariance and any output's mean square.
+//! * [`simulate`]: a seeded run of the linear closed loop, what predictions are checked against.
+
+pub mod h2;
+pub mod lqg;
+pub mod riccati;
+pub mod sampled;
+pub mod simulate;
