@@ -2,8 +2,10 @@
 //! the time average of any output's mean square between the samples too — what a long run of the
 //! linear closed loop would measure.
 //!
-//! The loop's state at a sample is the plant's and the filter's prior `ζ = (x, x̂⁻)`; over one
-//! step at phase j it moves as `ζ' = Ā_j ζ + B̄_j (w, v)`. Lifted over a period, the covariance at
+//! The loop's state at a sample is the plant's continuous part and the filter's error
+//! `ζ = (x_c, e = x − x̂⁻)`; over one step at phase j it moves as `ζ' = Ā_j ζ + B̄_j (w, v)`. (The
+//! discrete part of the plant — memories, delay lines, random-walk biases — acts on nothing but
+//! the readings, through the error; a bias itself has no stationary covariance, its error has.) Lifted over a period, the covariance at
 //! phase 0 solves a discrete Lyapunov equation; the other phases follow by the recursion. Between
 //! samples an output `z = H x_c + D u` moves with the continuous plant and the held command, plus
 //! the noise of that part of the step; its mean square is integrated over the step by Simpson's
@@ -33,42 +35,43 @@ impl ClosedLoop {
     pub fn new(plant: &Plant, syn: &Synthesis) -> Result<ClosedLoop, sampled::LyapunovError> {
         let ctl = &syn.controller;
         let (n, m, nc) = (plant.states(), plant.inputs(), plant.continuous_states());
-        let (a, b, q) = (&syn.sampled.a, &syn.sampled.b, &syn.sampled.q);
+        let (a, q) = (&syn.sampled.a, &syn.sampled.q);
+        let (ad, bd) = &syn.sampled.continuous;
+        let kc = ctl.k.columns(0, nc).into_owned();
         let eye = DMatrix::<f64>::identity(n, n);
+        let size = nc + n;
         let mut steps = Vec::new();
         for (j, (c, l)) in ctl.phases.iter().enumerate() {
             let r = &plant.phases[j].r;
             let mj = c.nrows();
-            let lc = l * c;
-            let ilc = &eye - &lc;
-            let k = &ctl.k;
-            // posterior = LC x + (I − LC) x̂⁻ + L v; u = −K posterior
-            let mut abar = DMatrix::zeros(2 * n, 2 * n);
-            let bk = b * k;
-            abar.view_mut((0, 0), (n, n)).copy_from(&(a - &bk * &lc));
-            abar.view_mut((0, n), (n, n)).copy_from(&(-(&bk * &ilc)));
-            let abk = a - &bk;
-            abar.view_mut((n, 0), (n, n)).copy_from(&(&abk * &lc));
-            abar.view_mut((n, n), (n, n)).copy_from(&(&abk * &ilc));
-            let mut bbar = DMatrix::zeros(2 * n, n + mj);
-            bbar.view_mut((0, 0), (n, n)).copy_from(&eye);
-            bbar.view_mut((0, n), (n, mj)).copy_from(&(-(&bk * l)));
-            bbar.view_mut((n, n), (n, mj)).copy_from(&(&abk * l));
+            // e⁺ = (I − LC) e − L v; u = −K_c x_c + K (I − LC) e − K L v
+            let ilc = &eye - l * c;
+            let k_ilc = &ctl.k * &ilc;
+            let kl = &ctl.k * l;
+            let mut abar = DMatrix::zeros(size, size);
+            abar.view_mut((0, 0), (nc, nc)).copy_from(&(ad - bd * &kc));
+            abar.view_mut((0, nc), (nc, n)).copy_from(&(bd * &k_ilc));
+            abar.view_mut((nc, nc), (n, n)).copy_from(&(a * &ilc));
+            let mut bbar = DMatrix::zeros(size, n + mj);
+            bbar.view_mut((0, 0), (nc, nc)).copy_from(&DMatrix::identity(nc, nc));
+            bbar.view_mut((0, n), (nc, mj)).copy_from(&(-(bd * &kl)));
+            bbar.view_mut((nc, 0), (n, n)).copy_from(&eye);
+            bbar.view_mut((nc, n), (n, mj)).copy_from(&(-(a * l)));
             let mut noise = DMatrix::zeros(n + mj, n + mj);
             noise.view_mut((0, 0), (n, n)).copy_from(q);
             noise.view_mut((n, n), (mj, mj)).copy_from(r);
             // (x_c, u) at the sample
-            let mut mmap = DMatrix::zeros(nc + m, 2 * n);
+            let mut mmap = DMatrix::zeros(nc + m, size);
             mmap.view_mut((0, 0), (nc, nc)).copy_from(&DMatrix::identity(nc, nc));
-            mmap.view_mut((nc, 0), (m, n)).copy_from(&(-(k * &lc)));
-            mmap.view_mut((nc, n), (m, n)).copy_from(&(-(k * &ilc)));
-            let nmap = -(k * l);
+            mmap.view_mut((nc, 0), (m, nc)).copy_from(&(-&kc));
+            mmap.view_mut((nc, nc), (m, n)).copy_from(&k_ilc);
+            let nmap = -kl;
             steps.push((abar, &bbar * &noise * bbar.transpose(), mmap, nmap, r.clone()));
         }
         // lifted over one period from phase 0
         let p = steps.len();
-        let mut phi = DMatrix::identity(2 * n, 2 * n);
-        let mut acc = DMatrix::zeros(2 * n, 2 * n);
+        let mut phi = DMatrix::identity(size, size);
+        let mut acc = DMatrix::zeros(size, size);
         for (abar, qbar, ..) in &steps {
             acc = abar * &acc * abar.transpose() + qbar;
             phi = abar * &phi;

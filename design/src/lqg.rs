@@ -343,10 +343,11 @@ impl Controller {
         }
     }
 
-    /// One sample at phase `phase` with the measurements `y` (as many as the phase has): the
-    /// filter predicts from the last sample with the command then in force, corrects, and the
-    /// new command is returned. Allocates nothing.
-    pub fn step<'s>(&self, state: &'s mut ControllerState, phase: usize, y: &[f64]) -> &'s [f64] {
+    /// One sample at phase `phase` with the measurements `y`: the filter predicts from the last
+    /// sample with the command then in force, corrects, and the new command is returned. Only the
+    /// first `present` of the phase's measurements were taken (a fix late or not yet come): the
+    /// others count as read exactly as predicted. Allocates nothing.
+    pub fn step<'s>(&self, state: &'s mut ControllerState, phase: usize, y: &[f64], present: usize) -> &'s [f64] {
         let (c, l) = &self.phases[phase];
         if state.started {
             multiply_into(&mut state.prior, &self.a, &state.posterior, false);
@@ -355,11 +356,11 @@ impl Controller {
         state.started = true;
         // innovation y − C x̂⁻ (at most a few dozen measurements: on the stack)
         let mut innovation = [0.0; MAX_MEASUREMENTS];
-        let rows = c.nrows();
-        innovation[..rows].copy_from_slice(&y[..rows]);
+        let (rows, taken) = (c.nrows(), present.min(c.nrows()));
+        innovation[..taken].copy_from_slice(&y[..taken]);
         for (j, xj) in state.prior.iter().enumerate() {
             if *xj != 0.0 {
-                for (i, v) in innovation[..rows].iter_mut().enumerate() {
+                for (i, v) in innovation[..taken].iter_mut().enumerate() {
                     *v -= c[(i, j)] * xj;
                 }
             }

@@ -75,7 +75,7 @@ pub fn run(
         x.rows_mut(0, nc).copy_from(&xc);
         x.rows_mut(nc, nd).copy_from(&xd);
         let y = &plant.phases[phase].c * &x + &noise_y[phase] * normal(plant.phases[phase].c.nrows());
-        let u = DVector::from_column_slice(ctl.step(&mut state, phase, y.as_slice()));
+        let u = DVector::from_column_slice(ctl.step(&mut state, phase, y.as_slice(), y.len()));
         // the discrete part moves with the sample it remembers
         xd = &plant.f * &xc + &plant.e * &xd + &noise_d * normal(nd);
         for _ in 0..substeps {

@@ -15,6 +15,7 @@
 //! * [`schur`]: the constraints' Schur complement, factorized leg by leg onto the joints that
 //!   touch the cabin or the platform;
 //! * [`problem`]: residual and iteration matrix, as the integrator asks for them;
+//! * [`linear`]: the model linearized at rest, the second level's design model;
 //! * [`run`]: the model in time ([`Monolithic`]): stepping, samples, snapshots.
 //!
 //! The cable–cabin part is assembled by the cable crate itself ([`cable::system::System`]),
@@ -27,6 +28,7 @@
 
 pub mod config;
 pub mod kkt;
+pub mod linear;
 pub mod model;
 pub mod problem;
 pub mod run;
