@@ -6,6 +6,7 @@
 //! * [`kaimal`]: a rational model of the wind's Kaimal spectrum (the turbulence as filtered white noise);
 //! * [`plant`]: the linear design model of the coupled system from a scene's `[control.lqg]` and instruments;
 //! * [`h2`]: the closed loop's stationary covariance and any output's mean square.
+//! * [`study`]: the bound, the penalties that keep the limits, the bound against the fixes' rate and delay;
 //! * [`simulate`]: a seeded run of the linear closed loop, what predictions are checked against.
 
 pub mod h2;
@@ -15,3 +16,4 @@ pub mod plant;
 pub mod riccati;
 pub mod sampled;
 pub mod simulate;
+pub mod study;

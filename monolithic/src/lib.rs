@@ -10,6 +10,7 @@
 //!
 //! * [`model`]: what does not change during a run;
 //! * [`config`]: the configuration (cable–cabin configuration and the Stewart bodies' poses);
+//! * [`feed`]: the feed's error over a run, what the second level's figures are measured from;
 //! * [`kkt`]: the linear algebra of a Newton iteration — the cable chains condensed onto the
 //!   cabin, the rigid bodies eliminated, and the constraints' dense Schur complement;
 //! * [`schur`]: the constraints' Schur complement, factorized leg by leg onto the joints that
@@ -27,6 +28,7 @@
 //! abrupt start, at full speed): the same initial state as the co-simulation.
 
 pub mod config;
+pub mod feed;
 pub mod kkt;
 pub mod linear;
 pub mod model;

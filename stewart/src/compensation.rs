@@ -345,18 +345,6 @@ impl Compensation {
         Pose::new(dc.x, dc.y, dc.z, dphi.x, dphi.y, dphi.z)
     }
 
-    /// The cabin pose whose [`Compensation::linear_command`] is `u`.
-    fn compensated_pose(&self, u: &Pose) -> (Vec3, Quat) {
-        let (p0, r0) = self.reference;
-        // linear_command is δφ = −R₀ᵀδθ, δc = R₀ᵀ(−δp − δθ × a) + f × δφ: solved for (δp, δθ)
-        let dphi = Vec3::new(u[3], u[4], u[5]);
-        let dtheta = -(r0 * dphi);
-        let arm = r0 * (self.rest + self.feed_point);
-        let dc = Vec3::new(u[0], u[1], u[2]) - self.feed_point.cross(&dphi);
-        let dp = -(r0 * dc) - dtheta.cross(&arm);
-        (p0 + dp, Quat::from_scaled_axis(dtheta) * r0)
-    }
-
     /// The ideal sensor's command: the platform's pose relative to the cabin with its
     /// derivatives, for the true cabin motion.
     pub fn ideal(&self, cabin: &CabinMotion, t: f64) -> PathPoint {
@@ -697,10 +685,11 @@ impl CommandState {
             && law.reading_due(state, t)
         {
             let u = law.read(state, cabin, t, c.delay);
-            // the command holds, to first order, the feed of a cabin at some pose (the one the
-            // controller foresees, with its own corrections); the exact command of that pose
-            let (p, r) = c.compensated_pose(&Pose::from(u));
-            let command = c.command(&p, &r, t);
+            // what holding the feed takes beyond the first order the controller's model holds,
+            // at the estimated cabin pose
+            let (p, r) = law.estimate(state);
+            let beyond = c.command(&p, &r, t) - c.rest_pose() - c.linear_command(&p, &r);
+            let command = c.rest_pose() + Pose::from(u) + beyond;
             self.pending.push_back((t, command.into()));
         }
     }
@@ -938,10 +927,6 @@ mod tests {
         };
         let (a, b) = (gap(1e-3), gap(1e-4));
         assert!(a < 1e-3 && (a / b - 10.0).abs() < 0.5, "{a:e} {b:e}");
-        // and the pose it compensates is found back from it
-        let (p, r) = (p0 + dir * 1e-2, Quat::from_scaled_axis(turn * 1e-2) * r0);
-        let (pb, rb) = c.compensated_pose(&c.linear_command(&p, &r));
-        assert!((pb - p).norm() < 1e-15 && (rb * r.inverse()).angle() < 1e-15, "{pb:?} {p:?}");
     }
 
     #[test]
