@@ -182,7 +182,11 @@ pub fn of_scene(scene: &ValidScene) -> Result<CoupledPlant, PlantError> {
 /// The design model of `design` (for `scene`'s gravity, pose and feed point) with `ins`.
 pub fn build(scene: &ValidScene, design: &LqgDesign, ins: &Instruments) -> Result<CoupledPlant, PlantError> {
     ins.check()?;
-    let control = scene.control.as_ref().ok_or_else(|| PlantError::Scene("the scene has no [control]".into()))?;
+    // without [control] the feed is the platform's centre, its axis the default
+    let (feed_point, feed_axis) = scene
+        .control
+        .as_ref()
+        .map_or(([0.0; 3], feedcore::scene::DEFAULT_FEED_AXIS), |c| (c.feed_point_m, c.feed_axis()));
     let t = ins.period;
     let n = design.modes_hz.len();
     let stages = ins.servo_stages;
@@ -273,7 +277,7 @@ pub fn build(scene: &ValidScene, design: &LqgDesign, ins: &Instruments) -> Resul
     let cabin_acc_u = &phi * b.view((qd, 0), (n, m));
     // outputs
     let r0 = scene.target_orientation().to_rotation_matrix().into_inner();
-    let f = Vec3::from(control.feed_point_m);
+    let f = Vec3::from(feed_point);
     let arm = Vec3::from(design.feed_arm_m);
     let mut feed_of_pose = DMatrix::zeros(3, 12); // (δp, δθ, δc, δφ)
     put3(&mut feed_of_pose, 0, 0, &Matrix3::identity());
@@ -288,7 +292,7 @@ pub fn build(scene: &ValidScene, design: &LqgDesign, ins: &Instruments) -> Resul
     both.view_mut((6, 0), (6, nc)).copy_from(&pose_of_r);
     let feed_h = &feed_of_pose * &both;
     let rot_h = &rot_of_pose * &both;
-    let axis = r0 * Vec3::from(control.feed_axis()).normalize();
+    let axis = r0 * Vec3::from(feed_axis).normalize();
     let across = Matrix3::identity() - axis * axis.transpose();
     let tilt_h = DMatrix::from_fn(3, 3, |i, j| across[(i, j)]) * &rot_h;
     let stroke_h = rows(&design.leg_jacobian) * &pose_of_r;

@@ -4,15 +4,18 @@
 //! platform at rest:
 //!
 //! * the cable–cabin modes with the platform locked (the cable crate's sparse modal solver):
-//!   the lowest `modes`, of which those whose cabin share of the kinetic energy reaches
-//!   `min_cabin_share` are kept (a mode the cabin hardly takes part in is neither driven by the
-//!   wind or the platform nor seen by the instruments), their Rayleigh damping ratios
-//!   `α/(2ω) + βω/2` exactly;
+//!   the lowest `modes`, of which every one up to `keep_below_hz` and above it those whose cabin
+//!   share of the kinetic energy reaches `min_cabin_share` are kept (a mode the cabin hardly takes
+//!   part in is neither driven by the wind or the platform nor seen by the instruments; above the
+//!   band it acts statically), their Rayleigh damping ratios
+//!   `α/(2ω) + βω/2` exactly; and what the modes left out give the cabin statically (the net's
+//!   compliance at the cabin less the kept modes' `Σ φφᵀ/ω²`) as pseudo-modes at 20 Hz;
 //! * the platform's wrench on the cabin, the legs' lengths and the actuator forces against its
 //!   relative pose and acceleration, and the forces against the cabin's acceleration and
 //!   rotation: central differences of the Stewart model's Newton–Euler solution (linear in the
 //!   accelerations, so that their differences are exact to round-off);
-//! * the wind: the drag linearized about the mean speed, and the fitted Kaimal filter.
+//! * the wind: the drag linearized about the mean speed, and the fitted Kaimal filter (without
+//!   `[wind]`, a filter whose load is nil).
 //!
 //! The locked payload of the modes and the platform model's own reaction to the cabin's
 //! acceleration are one physics (tests check them against each other), so the relative motion
@@ -31,7 +34,9 @@ use stewart::{CabinMotion, Stewart};
 pub struct Options {
     /// The lowest modes computed.
     pub modes: usize,
-    /// Smallest cabin share of a mode's kinetic energy for it to be kept.
+    /// Every mode up to this frequency is kept (Hz); above it, those with a cabin share of
+    /// their kinetic energy of at least `min_cabin_share`.
+    pub keep_below_hz: f64,
     pub min_cabin_share: f64,
     /// Poles of the wind's filter.
     pub wind_sections: usize,
@@ -74,18 +79,17 @@ pub enum LinearError {
     Wind(#[from] kaimal::FitError),
 }
 
+/// The pseudo-modes that carry the left-out modes' static compliance: far above the band the
+/// design cares for (3 Hz) and below the readings' Nyquist frequency, damped near critically.
+const PSEUDO_MODE_HZ: f64 = 20.0;
+const PSEUDO_MODE_DAMPING: f64 = 0.7;
+
 /// Steps of the central differences: pose (m, rad), acceleration (m/s², rad/s²).
 const POSE_STEP: f64 = 1e-6;
 const ACCELERATION_STEP: f64 = 1e-3;
 
 /// The scene's design model.
 pub fn linearize(scene: &ValidScene, o: &Options) -> Result<Linearization, LinearError> {
-    if scene.control.is_none() {
-        return Err(LinearError::Scene("the scene has no [control]".into()));
-    }
-    let wind = scene.wind.as_ref().ok_or_else(|| {
-        LinearError::Scene("the scene has no [wind]: the design rejects the wind's load, give one".into())
-    })?;
     let model = CableCabin::build(scene, o.modes)?;
     let found = model.modes.as_ref().ok_or_else(|| LinearError::Scene("no modes were computed".into()))?;
     let sys = model.system(Payload::Locked);
@@ -100,12 +104,50 @@ pub fn linearize(scene: &ValidScene, o: &Options) -> Result<Linearization, Linea
         let f = found.frequencies_hz[k];
         let shape = found.cabin_part(k);
         let share = shape.dot(&(cabin_mass * shape));
-        let keep = share >= o.min_cabin_share && f > 0.0;
+        let keep = f > 0.0 && (f <= o.keep_below_hz || share >= o.min_cabin_share);
         modes.push((f, share, keep));
         if keep {
             let w = std::f64::consts::TAU * f;
             modes_hz.push(f);
             damping_ratios.push(alpha / (2.0 * w) + beta * w / 2.0);
+            cabin_shapes.push(shape.as_slice().to_vec());
+        }
+    }
+    // the modes left out, as the cabin's static compliance they carry: pseudo-modes above the
+    // band (residual flexibility), so that the moments the platform puts on the cabin move it by
+    // what the whole net gives (a tenth of the cabin's tilt at 2 Hz lies in the modes left out)
+    let compliance = {
+        let tangent = cable::modes::tangent(&sys, &model.equilibrium_config());
+        let factor =
+            tangent.stiffness.factorize(false).map_err(|e| LinearError::Scene(format!("the static stiffness: {e}")))?;
+        let n = sys.dim();
+        let c0 = sys.cabin_offset();
+        let mut g = Matrix6::zeros();
+        for j in 0..6 {
+            let mut b = vec![0.0; n];
+            b[c0 + j] = 1.0;
+            factor.solve_in_place(&mut b);
+            for i in 0..6 {
+                g[(i, j)] = b[c0 + i];
+            }
+        }
+        g
+    };
+    let mut kept_compliance = Matrix6::zeros();
+    for (f, shape) in modes_hz.iter().zip(&cabin_shapes) {
+        let phi = nalgebra::Vector6::from_column_slice(shape);
+        kept_compliance += phi * phi.transpose() / (std::f64::consts::TAU * f).powi(2);
+    }
+    let residual = compliance - kept_compliance;
+    let residual = (residual + residual.transpose()) * 0.5;
+    let eig = residual.symmetric_eigen();
+    let w = std::f64::consts::TAU * PSEUDO_MODE_HZ;
+    let largest = eig.eigenvalues.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    for (k, lambda) in eig.eigenvalues.iter().enumerate() {
+        if *lambda > 1e-6 * largest && *lambda > 0.0 {
+            let shape = eig.eigenvectors.column(k) * (lambda.sqrt() * w);
+            modes_hz.push(PSEUDO_MODE_HZ);
+            damping_ratios.push(PSEUDO_MODE_DAMPING);
             cabin_shapes.push(shape.as_slice().to_vec());
         }
     }
@@ -188,10 +230,25 @@ pub fn linearize(scene: &ValidScene, o: &Options) -> Result<Linearization, Linea
         (0..6).map(|i| cols.iter().map(|c| c[from + i]).collect()).collect()
     };
     let added_mass = Matrix6::from_fn(|i, j| by_cabin_acceleration[j][i]);
-    let fit = kaimal::fit(wind, o.wind_sections)?;
-    let direction = {
-        let a = wind.direction_deg.to_radians();
-        [a.cos(), a.sin(), 0.0]
+    // without [wind], a still-air filter whose load is nil
+    let (fit, direction, force) = match scene.wind.as_ref() {
+        Some(wind) => {
+            let a = wind.direction_deg.to_radians();
+            let force = wind.air_density_kg_m3 * wind.drag_area_m2 * wind.mean_speed_m_s;
+            (kaimal::fit(wind, o.wind_sections)?, [a.cos(), a.sin(), 0.0], force)
+        }
+        None => (
+            kaimal::Fit {
+                gain: 1.0,
+                high_pass_hz: None,
+                poles_hz: vec![1.0],
+                zeros_hz: Vec::new(),
+                worst_db: 0.0,
+                variance_error: 0.0,
+            },
+            [1.0, 0.0, 0.0],
+            0.0,
+        ),
     };
     let feed_arm = q0 * (rest + comp.feed_point());
     let design = LqgDesign {
@@ -208,7 +265,7 @@ pub fn linearize(scene: &ValidScene, o: &Options) -> Result<Linearization, Linea
         force_cabin_rotation: block(&by_cabin_rotation, 12),
         feed_arm_m: feed_arm.into(),
         wind_direction: direction,
-        wind_force_n_per_m_s: wind.air_density_kg_m3 * wind.drag_area_m2 * wind.mean_speed_m_s,
+        wind_force_n_per_m_s: force,
         wind_gain: fit.gain,
         wind_high_pass_hz: fit.high_pass_hz,
         wind_poles_hz: fit.poles_hz.clone(),
@@ -334,4 +391,52 @@ pub fn model_error(
         force_density: density,
         moment_density: density * gyration,
     })
+}
+
+/// `H(j2πf) = C (j2πf I − A)⁻¹ B` of a continuous system, as (real, imaginary) parts.
+pub fn frequency_response(
+    a: &nalgebra::DMatrix<f64>,
+    b: &nalgebra::DMatrix<f64>,
+    c: &nalgebra::DMatrix<f64>,
+    f: f64,
+) -> nalgebra::DMatrix<nalgebra::Complex<f64>> {
+    use nalgebra::{Complex, DMatrix};
+    let n = a.nrows();
+    let w = Complex::new(0.0, std::f64::consts::TAU * f);
+    let m = DMatrix::from_fn(n, n, |i, j| if i == j { w } else { Complex::new(0.0, 0.0) })
+        - a.map(|x| Complex::new(x, 0.0));
+    let x = m.lu().solve(&b.map(|x| Complex::new(x, 0.0))).unwrap_or_else(|| DMatrix::zeros(n, b.ncols()));
+    c.map(|x| Complex::new(x, 0.0)) * x
+}
+
+/// The complex amplitudes `z_k` of `y(t) ≈ c₀ + c₁t + Σ Re(z_k e^{j2πf_k t}) + Σ e^{−σ_i t}
+/// (a_i cos 2πg_i t + b_i sin 2πg_i t)` fitted by least squares to samples (t, y): the sinusoids
+/// at `freqs` and the free ringing of the modes `ringing` = (g_i Hz, σ_i 1/s) a start leaves.
+pub fn sinusoids(times: &[f64], values: &[f64], freqs: &[f64], ringing: &[(f64, f64)]) -> Vec<nalgebra::Complex<f64>> {
+    use nalgebra::{DMatrix, DVector};
+    let k = 2 + 2 * freqs.len() + 2 * ringing.len();
+    let t0 = times.first().copied().unwrap_or(0.0);
+    let row = |t: f64| {
+        let mut r = vec![1.0, t - t0];
+        for f in freqs {
+            let (s, c) = (std::f64::consts::TAU * f * t).sin_cos();
+            r.push(c);
+            r.push(-s);
+        }
+        for (g, sigma) in ringing {
+            let (s, c) = (std::f64::consts::TAU * g * t).sin_cos();
+            let e = (-sigma * (t - t0)).exp();
+            r.push(e * c);
+            r.push(e * s);
+        }
+        r
+    };
+    let (mut ata, mut atb) = (DMatrix::<f64>::zeros(k, k), DVector::<f64>::zeros(k));
+    for (t, y) in times.iter().zip(values) {
+        let r = DVector::from_vec(row(*t));
+        ata += &r * r.transpose();
+        atb += &r * *y;
+    }
+    let x = ata.lu().solve(&atb).unwrap_or_else(|| DVector::zeros(k));
+    (0..freqs.len()).map(|i| nalgebra::Complex::new(x[2 + 2 * i], x[3 + 2 * i])).collect()
 }

@@ -27,7 +27,11 @@ pub(crate) struct Args {
     /// The lowest modes computed (platform locked).
     #[arg(long, default_value_t = 90, value_parser = clap::value_parser!(u32).range(1..=feedcore::scene::MAX_DESIGN_MODES as i64))]
     pub(crate) modes: u32,
-    /// A mode is kept when the cabin carries at least this share of its kinetic energy.
+    /// Every mode up to this frequency is kept (Hz): the band the design model answers for.
+    #[arg(long, default_value_t = 3.0, value_parser = positive, allow_negative_numbers = true)]
+    pub(crate) keep_below: f64,
+    /// Above it a mode is kept when the cabin carries at least this share of its kinetic energy
+    /// (the others, as the cabin's static compliance they leave, become pseudo-modes at 20 Hz).
     #[arg(long, default_value_t = 0.02, value_parser = share)]
     pub(crate) min_cabin_share: f64,
     /// Poles of the wind's rational filter.
@@ -92,15 +96,19 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let name = format!("{}_lqg.toml", scene.name);
     let scene_id = outputs.declare("--out", &args.out.join(&name), Some("toml"))?;
     let report_id = outputs.declare("--out", &args.out.join("design.md"), Some("md"))?;
-    let sweep_id = if args.rates.is_empty() {
+    let sweep_ids = if args.rates.is_empty() {
         None
     } else {
-        Some(outputs.declare("--out", &args.out.join("bound.csv"), Some("csv"))?)
+        Some((
+            outputs.declare("--out", &args.out.join("bound.csv"), Some("csv"))?,
+            outputs.declare("--out", &args.out.join("bound.svg"), Some("svg"))?,
+        ))
     };
     outputs.open()?;
 
     let options = Options {
         modes: args.modes as usize,
+        keep_below_hz: args.keep_below,
         min_cabin_share: args.min_cabin_share,
         wind_sections: args.wind_sections as usize,
         delay_s: delay,
@@ -141,12 +149,15 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut report = String::new();
     report += &format!("# master design: {}\n\n", scene.name);
     report += &format!(
-        "Design model: {kept} of the lowest {} modes (up to {highest:.3} Hz; cabin share ≥ {}), the servo {} × {} Hz, \
+        "Design model: {kept} of the lowest {} modes (up to {highest:.3} Hz: all to {} Hz, above with a cabin share ≥ {}; \
+         the rest's static compliance at the cabin as {} pseudo-modes at 20 Hz), the servo {} × {} Hz, \
          readings at {} Hz, a fix every {} readings {} readings late; the wind's Kaimal filter of {} poles within \
          {:.3} dB over {}–{} Hz (variance {:+.2e}); the model's error against the nonlinear model over {} s: \
          {:.3} mm and {:.3} mrad RMS of {:.3} mm and {:.3} mrad, a white wrench of {:.3} N/√Hz and {:.3} N·m/√Hz.\n\n",
         lin.modes.len(),
+        args.keep_below,
         args.min_cabin_share,
+        design.modes_hz.len() - kept,
         ins.servo_stages,
         ins.servo_hz,
         1.0 / ins.period,
@@ -175,7 +186,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     for (what, feed) in &improved {
         report += &format!("| {what} | {} |\n", feed.as_ref().map_or_else(|e| e.clone(), |f| format!("{:.4}", mm(*f))));
     }
-    if let Some(id) = sweep_id {
+    if let Some((id, svg_id)) = sweep_ids {
+        let svg = bound_plot(&scene.name, &cells, &args.rates)?;
+        outputs.write(svg_id, |w| w.write_all(svg.as_bytes()))?;
         outputs.write(id, |w| {
             writeln!(w, "rate_hz,delay_s,bound_feed_rms_mm,note")?;
             for c in &cells {
@@ -194,7 +207,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     outputs.write(report_id, |w| w.write_all(report.as_bytes()))?;
     let mut ids = vec![scene_id, report_id];
-    ids.extend(sweep_id);
+    ids.extend(sweep_ids.iter().flat_map(|(a, b)| [*a, *b]));
     let paths: Vec<String> = ids.iter().map(|&i| outputs.path(i).display().to_string()).collect();
     outputs.commit()?;
     let mut out = std::io::stdout().lock();
@@ -379,4 +392,44 @@ fn evaluation_table(name: &str, evaluation: &Evaluation, args: &Args) -> String 
         );
     }
     s
+}
+
+/// The bound against the fixes' delay, a line per rate.
+fn bound_plot(name: &str, cells: &[study::Cell], rates: &[f64]) -> anyhow::Result<String> {
+    use plotters::prelude::*;
+    let points = |r: f64| -> Vec<(f64, f64)> {
+        cells
+            .iter()
+            .filter(|c| c.rate_hz == r)
+            .filter_map(|c| c.feed_m.as_ref().ok().map(|f| (c.delay_s * 1e3, f * 1e3)))
+            .collect()
+    };
+    let all: Vec<(f64, f64)> = rates.iter().flat_map(|&r| points(r)).collect();
+    let x1 = all.iter().map(|p| p.0).fold(1.0f64, f64::max);
+    let y1 = all.iter().map(|p| p.1).fold(0.0f64, f64::max) * 1.1;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (800, 500)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(format!("{name}: the LQG bound against the fixes' rate and delay"), ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..x1, 0.0..y1.max(1e-6))
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        chart
+            .configure_mesh()
+            .x_desc("delay of the fixes (ms)")
+            .y_desc("bound: feed RMS (mm)")
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        for (i, &r) in rates.iter().enumerate() {
+            master::plot::palette_line(&mut chart, i, points(r), &format!("fixes at {r} Hz"))?;
+        }
+        master::plot::legend(&mut chart, 13)?;
+        root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+    Ok(svg)
 }
