@@ -89,6 +89,14 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let ins = Instruments::of(&scene).with_context(|| format!("{shown}: the instruments"))?;
     let delay = control.lqg.as_ref().map_or(control.delay_s, |d| d.delay_s);
+    if !args.evaluate.is_empty() && control.delay_s >= args.t_end {
+        bail!(
+            "{shown}: control.delay_s = {} s is not shorter than an evaluation run (--t-end {} s): no fix would \
+             arrive within it",
+            control.delay_s,
+            args.t_end
+        );
+    }
     if !(args.error_t_end > 10.0) {
         bail!("--error-t-end {}: the comparison leaves out its first 10 s; give more", args.error_t_end);
     }

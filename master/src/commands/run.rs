@@ -52,6 +52,10 @@ pub(crate) struct Args {
     /// switched off, the uncompensated reference of its feed error.
     #[arg(long, value_enum, default_value_t = CompensationArg::On)]
     pub(crate) compensation: CompensationArg,
+    /// The seed of the scene's wind record (`[wind] seed`), instead of the scene's: the same
+    /// spectrum, another record.
+    #[arg(long)]
+    pub(crate) wind_seed: Option<u64>,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
     #[command(flatten)]
@@ -74,7 +78,13 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     if let Some(option) = args.system_files.given() {
         bail!("{option} applies to --system (an SSP archive or .ssd); a --scene names its FMUs in [system]");
     }
-    let scene = args.compensation.apply(&load_scene(scene_file)?)?;
+    let mut scene = args.compensation.apply(&load_scene(scene_file)?)?;
+    if let Some(seed) = args.wind_seed {
+        if scene.wind.is_none() {
+            bail!("--wind-seed: {} has no [wind] section, so there is no wind record to draw", scene.file());
+        }
+        scene = scene.edited(|s| s.wind.iter_mut().for_each(|w| w.seed = seed))?;
+    }
     let method = args.options.method(args.scheme)?;
     master::options::check_dt(args.options.adaptive, args.dt)?;
     let dt = args.dt.unwrap_or(scene.solver.dt_s);

@@ -19,6 +19,9 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
     if args.compensation != super::scheme_args::CompensationArg::On {
         bail!("--compensation applies to a --scene with [control]; a --system runs its FMUs as they are");
     }
+    if args.wind_seed.is_some() {
+        bail!("--wind-seed applies to a --scene with [wind]; a --system runs its FMUs as they are");
+    }
     let method = args.options.method(args.scheme)?;
     let system = SystemFile::prepare(file, method, args.dt, args.t_end, &args.system_files.limits(), &caps().run)?;
     let (dt, t_end, adaptive) = (system.dt, system.t_end, system.adaptive());
