@@ -43,18 +43,22 @@ fn factor(cov: &DMatrix<f64>) -> DMatrix<f64> {
     f
 }
 
-/// Runs `syn`'s controller on `plant` for `samples` sample periods (after `warmup` more), the
-/// plant stepped `substeps` times per period; `outputs` are (H, D) pairs on (x_c, u).
-pub fn run(
-    plant: &Plant,
-    syn: &Synthesis,
-    outputs: &[(DMatrix<f64>, DMatrix<f64>)],
-    substeps: usize,
-    warmup: usize,
-    samples: usize,
-    batches: usize,
-    seed: u64,
-) -> Run {
+/// How long and how finely a run goes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Length {
+    /// Plant steps per sample period.
+    pub substeps: usize,
+    /// Sample periods run before the recording starts, and recorded.
+    pub warmup: usize,
+    pub samples: usize,
+    /// Batches the recorded samples are split into (for the standard error).
+    pub batches: usize,
+    pub seed: u64,
+}
+
+/// Runs `syn`'s controller on `plant`; `outputs` are (H, D) pairs on (x_c, u).
+pub fn run(plant: &Plant, syn: &Synthesis, outputs: &[(DMatrix<f64>, DMatrix<f64>)], length: Length) -> Run {
+    let Length { substeps, warmup, samples, batches, seed } = length;
     let (nc, nd, m) = (plant.continuous_states(), plant.e.nrows(), plant.inputs());
     let h = plant.period / substeps as f64;
     let (e_h, g_h) = sampled::hold(&plant.a, &plant.b, h);

@@ -45,7 +45,12 @@ fn the_predictions_match_a_long_run_of_the_linear_loop() {
     let syn = synthesize(&cp.plant).unwrap();
     let cl = ClosedLoop::new(&cp.plant, &syn).unwrap();
     let outputs = [cp.feed.clone(), cp.tilt.clone()];
-    let run = design::simulate::run(&cp.plant, &syn, &outputs, 2, 2000, 200_000, 20, 5);
+    let run = design::simulate::run(
+        &cp.plant,
+        &syn,
+        &outputs,
+        design::simulate::Length { substeps: 2, warmup: 2000, samples: 200_000, batches: 20, seed: 5 },
+    );
     for (i, (h, d)) in outputs.iter().enumerate() {
         let predicted = cl.mean_square(h, d);
         let (measured, se) = run.mean_square(i);

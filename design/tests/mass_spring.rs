@@ -98,7 +98,12 @@ fn predicted_mean_squares_match_a_long_run_of_the_linear_loop() {
     let cl = ClosedLoop::new(&p, &syn).unwrap();
     let position = (DMatrix::from_row_slice(1, 2, &[1.0, 0.0]), DMatrix::zeros(1, 1));
     let force = (DMatrix::zeros(1, 2), DMatrix::from_element(1, 1, 1.0));
-    let run = design::simulate::run(&p, &syn, &[position.clone(), force.clone()], 4, 2000, 400_000, 20, 11);
+    let run = design::simulate::run(
+        &p,
+        &syn,
+        &[position.clone(), force.clone()],
+        design::simulate::Length { substeps: 4, warmup: 2000, samples: 400_000, batches: 20, seed: 11 },
+    );
     for (i, (h, d)) in [position, force].iter().enumerate() {
         let predicted = cl.mean_square(h, d);
         let (measured, se) = run.mean_square(i);

@@ -120,8 +120,7 @@ impl Stewart {
         let mut stewart = Self::new(scene.stewart_geometry(), &motion, scene.gravity())?;
         let rest = stewart.path.at_rest();
         let legs = stewart.strokes_at(&rest, 0.0)?.map(|s| s.length);
-        stewart.compensation =
-            Some(Compensation::new(scene, rest.position, legs).map_err(|e| StewartError::Design(e))?);
+        stewart.compensation = Some(Compensation::new(scene, rest.position, legs).map_err(StewartError::Design)?);
         Ok(stewart)
     }
 

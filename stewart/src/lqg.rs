@@ -7,7 +7,8 @@
 //! displacement from its reference position and its rotation vector from the reference attitude
 //! (world frame). The fixes come every `fix_every` readings; the controller's gains repeat with
 //! that period, counted from the last fix that arrived. A fix that does not come when one is due
-//! (at the start, before the first has travelled its delay) counts as read as predicted.
+//! (at the start, before the first has travelled its delay) counts as read as predicted; one that
+//! comes sooner than the design's delay is held until it is as old as the design assumes.
 
 use std::collections::VecDeque;
 
@@ -132,8 +133,11 @@ impl LqgLaw {
     pub fn read(&self, s: &mut LqgState, cabin: &CabinMotion, t: f64, delay: f64) -> [f64; 6] {
         let reading = self.imu.read(&mut s.imu, cabin, t);
         let mut arrived = None;
+        // a fix is taken when it has arrived and is as old as the design assumes (one that came
+        // sooner is held: the controller reads its age from its phase)
+        let age = delay.max(self.delay_steps as f64 * self.imu.period);
         while let Some(&(measured, fix)) = s.fixes.front() {
-            if measured + delay > t + SAME_INSTANT {
+            if measured + age > t + SAME_INSTANT {
                 break;
             }
             s.fixes.pop_front();
