@@ -168,7 +168,7 @@ impl ControlFmu {
                 }
             };
             let command = c.relative_command(&state.command_at(t));
-            let (p, q) = state.estimate(c, t).map_or_else(|| c.reference(), |e| (Vec3::from(e.position), e.attitude()));
+            let (p, q) = state.estimate(c, t).unwrap_or_else(|| c.reference());
             Ok((command, p, q))
         });
         self.data.controller = started;
@@ -230,7 +230,8 @@ impl Model for ControlFmu {
     }
 
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), ModelError> {
-        let slot = self.data.inputs.get_mut(vr as usize).ok_or_else(|| format!("value reference {vr} is not an input"))?;
+        let slot =
+            self.data.inputs.get_mut(vr as usize).ok_or_else(|| format!("value reference {vr} is not an input"))?;
         *slot = value;
         Ok(())
     }
@@ -245,7 +246,7 @@ impl Model for ControlFmu {
         let (command, p, q) = if self.data.initialized {
             let state = self.data.controller.as_ref().ok_or("the controller has no state")?;
             let c = self.compensation.as_ref().ok_or("the second level is not built")?;
-            let (p, q) = state.estimate(c, self.data.time).map_or_else(|| c.reference(), |e| (Vec3::from(e.position), e.attitude()));
+            let (p, q) = state.estimate(c, self.data.time).unwrap_or_else(|| c.reference());
             (self.data.command, p, q)
         } else {
             self.outputs()?

@@ -208,9 +208,11 @@ fn run(
     let kwargs = Kwargs::new(options);
     let (scheme, dt, t_end, options) = kwargs.method()?;
     let compensation = kwargs.named::<Compensation>("compensation")?.unwrap_or_default();
+    let wind_seed = kwargs.take("wind_seed", studies::options::seed)?;
     kwargs.done()?;
     let scene = source.load().map_err(scene_error)?;
     let scene = compensation.apply(&scene).map_err(|e| option_value_error(&e))?;
+    let scene = studies::options::with_wind_seed(&scene, wind_seed).map_err(|e| option_value_error(&e))?;
     let method = options.method(scheme).map_err(|e| option_value_error(&e))?;
     check_dt(options.adaptive, dt).map_err(|e| option_value_error(&e))?;
     let dt = dt.unwrap_or(scene.solver.dt_s);
@@ -333,7 +335,11 @@ fn run_system(py: Python<'_>, path: String, options: Bound<'_, PyDict>) -> PyRes
         me_solver: kwargs.named("me_solver")?.unwrap_or(defaults.me_solver),
         me_rtol: kwargs.take("me_rtol", opt::tolerance)?.unwrap_or(defaults.me_rtol),
         me_atol: kwargs.take("me_atol", positive)?.unwrap_or(defaults.me_atol),
-        rate: kwargs.list("rate")?.iter().map(|t| opt::rate(t).map_err(|r| invalid("rate", t, &r))).collect::<PyResult<_>>()?,
+        rate: kwargs
+            .list("rate")?
+            .iter()
+            .map(|t| opt::rate(t).map_err(|r| invalid("rate", t, &r)))
+            .collect::<PyResult<_>>()?,
         python_library: kwargs.take("python_library", |t| Ok::<_, String>(std::path::PathBuf::from(t)))?,
     };
     kwargs.done()?;

@@ -430,10 +430,13 @@ impl StewartFmu {
         let command = self.data.command.take();
         let estimate = self.model().map(|model| {
             let c = model.compensation()?;
-            Some(match command.as_ref().filter(|_| own).and_then(|state| state.estimate(c, t)) {
-                Some(e) => (Vec3::from(e.position), e.attitude()),
-                None => c.reference(),
-            })
+            Some(
+                command
+                    .as_ref()
+                    .filter(|_| own)
+                    .and_then(|state| state.estimate(c, t))
+                    .unwrap_or_else(|| c.reference()),
+            )
         });
         self.data.command = command;
         estimate?.ok_or_else(|| "the model has no compensation".into())
@@ -754,10 +757,12 @@ impl Model for StewartFmu {
     fn do_step(&mut self, t: f64, h: f64) -> Result<StepOutcome, ModelError> {
         self.model()?;
         if let Some(mut state) = self.data.command.take() {
+            let (commanded, command, accepted) =
+                (self.data.settings.command_input, self.data.commanded, self.data.accepted);
             let c = self.model()?.compensation().expect("a command state comes with a compensation");
-            let result = if self.data.settings.command_input {
+            let result = if commanded {
                 // the command held over the step, followed from its start
-                state.follow(c, t, c.pose_of_relative(&self.data.commanded));
+                state.follow(c, t, c.pose_of_relative(&command));
                 Ok(())
             } else if h > c.max_step() * (1.0 + 1e-9) {
                 let ((period, key), most) = (c.step_period(), c.max_step());
@@ -769,7 +774,7 @@ impl Model for StewartFmu {
                 .into())
             } else {
                 // the sample at the start of the step measures the pose stepped to last
-                cabin_motion(&self.data.accepted).map(|cabin| state.sample(c, t, &cabin))
+                cabin_motion(&accepted).map(|cabin| state.sample(c, t, &cabin))
             };
             self.data.command = Some(state);
             result?;
@@ -803,7 +808,8 @@ impl Model for StewartFmu {
     /// end: the step map's derivative is the instantaneous one at the current time.
     fn derivative(&mut self, kind: Derivative, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
         // the command acts over a step, never at once
-        let commanding = at.knowns.iter().zip(at.seed).any(|(k, s)| (vr::COMMAND_R..vr::RADIUS).contains(k) && *s != 0.0);
+        let commanding =
+            at.knowns.iter().zip(at.seed).any(|(k, s)| (vr::COMMAND_R..vr::RADIUS).contains(k) && *s != 0.0);
         if kind == Derivative::StepMap && commanding {
             return Err("the step map's derivative with respect to the command inputs is not provided: step the \
                  controller at a longer period than the platform (its command is then held over the platform's \

@@ -228,11 +228,11 @@ pub fn periods(spec: &SystemSpec, adaptive: bool, dt: f64) -> Result<Vec<u32>, S
 /// component of `spec` is refused.
 pub fn apply_rates(spec: &mut SystemSpec, rates: &[(String, f64)]) -> Result<(), String> {
     for (name, step) in rates {
-        let names = || spec.components.iter().map(|c| format!("`{}`", c.name)).collect::<Vec<_>>().join(", ");
-        let Some(c) = spec.components.iter_mut().find(|c| &c.name == name) else {
-            return Err(format!("--rate {name}={step}: the system has no component `{name}` (it has {})", names()));
+        let Some(k) = spec.components.iter().position(|c| &c.name == name) else {
+            let names = spec.components.iter().map(|c| format!("`{}`", c.name)).collect::<Vec<_>>().join(", ");
+            return Err(format!("--rate {name}={step}: the system has no component `{name}` (it has {names})"));
         };
-        c.step = Some(*step);
+        spec.components[k].step = Some(*step);
     }
     Ok(())
 }

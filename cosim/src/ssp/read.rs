@@ -254,7 +254,12 @@ fn component_step<'a, 'i>(component: Node<'a, 'i>) -> Result<Option<f64>, (Node<
             let text = hint.attribute("value").ok_or_else(|| (hint, "<StepSizeHint> without `value`".to_string()))?;
             match text.trim().parse::<f64>() {
                 Ok(v) if v.is_finite() && v > 0.0 => step = Some(v),
-                _ => return Err((hint, format!("<StepSizeHint value=\"{text}\">: a step must be a positive number of seconds"))),
+                _ => {
+                    return Err((
+                        hint,
+                        format!("<StepSizeHint value=\"{text}\">: a step must be a positive number of seconds"),
+                    ));
+                }
             }
         }
     }

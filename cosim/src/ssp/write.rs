@@ -124,7 +124,8 @@ pub fn ssd_text(s: &SspSystem) -> String {
             // the schema: <ssd:Annotations> last in the component
             let _ = writeln!(x, "        <ssd:Annotations>");
             let _ = writeln!(x, r#"          <ssc:Annotation type="{}">"#, super::STEP_ANNOTATION);
-            let _ = writeln!(x, r#"            <osp:StepSizeHint xmlns:osp="{}" value="{step:?}"/>"#, super::OSP_NAMESPACE);
+            let _ =
+                writeln!(x, r#"            <osp:StepSizeHint xmlns:osp="{}" value="{step:?}"/>"#, super::OSP_NAMESPACE);
             let _ = writeln!(x, "          </ssc:Annotation>");
             let _ = writeln!(x, "        </ssd:Annotations>");
         }

@@ -88,7 +88,9 @@ fn with_controller(
     spec.components[platform].step = Some(dt);
     spec.components.push(Component { name: CONTROL.into(), source, interface: None, step: Some(period) });
     let end = |component: &str, variable: &str| Endpoint { component: component.into(), variable: variable.into() };
-    for (from, to) in [(end("cable", "cabin"), end(CONTROL, "cabin")), (end(CONTROL, "command"), end("stewart", "command"))] {
+    for (from, to) in
+        [(end("cable", "cabin"), end(CONTROL, "cabin")), (end(CONTROL, "command"), end("stewart", "command"))]
+    {
         spec.connections.push(Connection { from, to, matching: Matching::Prefix, transform: None });
     }
     let scene_value = spec
@@ -98,7 +100,8 @@ fn with_controller(
         .map(|p| p.value.clone())
         .context("the scene's [system] hands the Stewart FMU no scene")?;
     spec.parameters.push(Parameter { target: end(CONTROL, "scene"), value: scene_value });
-    spec.parameters.push(Parameter { target: end("stewart", "command_input"), value: Value::Typed(fmi::Value::Boolean(true)) });
+    spec.parameters
+        .push(Parameter { target: end("stewart", "command_input"), value: Value::Typed(fmi::Value::Boolean(true)) });
     if reads_scene.iter().any(|k| k == "stewart.scene") {
         reads_scene.push(format!("{CONTROL}.scene"));
     }
@@ -134,7 +137,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let sys = scene.system.as_ref().expect("scene_spec needs a [system]");
     // the parameters that hand the FMUs the scene (`@scene`)
-    let mut reads_scene: Vec<String> = sys.parameters.iter().filter(|(_, v)| *v == "@scene").map(|(k, _)| k.clone()).collect();
+    let mut reads_scene: Vec<String> =
+        sys.parameters.iter().filter(|(_, v)| *v == "@scene").map(|(k, _)| k.clone()).collect();
     if args.controller == "fmu" {
         spec = with_controller(&scene, spec, &mut reads_scene)?;
     }
