@@ -133,6 +133,39 @@ fn model_exchange_units_step_without_allocating() {
     }
 }
 
+/// A multi-rate system (the sampler every 4th macro step, its outputs held): every scheme steps
+/// without allocating once each set of units that step together has stepped long enough
+/// (IQN-ILS keeps a history per set, made the first time, grown to its length).
+#[test]
+fn multi_rate_systems_step_without_allocating() {
+    for version in [2, 3] {
+        let spec = common::me_system("sampled", version);
+        for (scheme, jacobian) in [
+            (Scheme::Jacobi, JacobianUpdate::EveryStep),
+            (Scheme::GaussSeidel { reversed: false }, JacobianUpdate::EveryStep),
+            (Scheme::Ijcsa, JacobianUpdate::EveryStep),
+            (Scheme::Ijcsa, JacobianUpdate::Reuse),
+            (Scheme::IqnIls, JacobianUpdate::EveryStep),
+            (Scheme::Iterative, JacobianUpdate::EveryStep),
+        ] {
+            let options = Options { scheme, jacobian, ..Options::default() };
+            let system = FmuSystem::load(&spec, &studies::system::needs(&options, false)).unwrap();
+            let mut c = Coupled::new(system, options).unwrap();
+            c.set_periods(&[1, 4]).unwrap();
+            // warm-up: 100 steps of the sampler (IQN-ILS's histories reach their full length)
+            for _ in 0..400 {
+                c.step(0.025).unwrap();
+            }
+            let n = allocations(|| {
+                for _ in 0..100 {
+                    c.step(0.025).unwrap();
+                }
+            });
+            assert_eq!(n, 0, "allocations in 100 macro steps of {} ({jacobian:?}, FMI {version})", scheme.name());
+        }
+    }
+}
+
 /// The fixed-step schemes over `spec`, 100 macro steps each after 100 of warm-up.
 fn schemes_step_without_allocating(spec: &studies::cosim::SystemSpec, version: &str) {
     for (scheme, jacobian) in [

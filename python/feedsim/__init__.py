@@ -184,7 +184,13 @@ def run_system(path, scheme: str = "ijcsa", *, dt: float | None = None, t_end: f
     defaults to the system's DefaultExperiment stopTime. ``options``: the scheme options of
     :func:`run`, and ``allow_external_fmus``, ``max_archive_entries``, ``max_unpacked_mb``; for
     Model Exchange components ``interface`` (``"me"``, or ``"COMPONENT=me,..."``),
-    ``me_solver`` (``"dopri5"`` or ``"esdirk3"``), ``me_rtol``, ``me_atol``."""
+    ``me_solver`` (``"dopri5"`` or ``"esdirk3"``), ``me_rtol``, ``me_atol``; ``rate``: components
+    stepped at their own period, a whole multiple of ``dt`` (``{"control": 0.02}``, or
+    ``"control=0.02,..."`` as ``--rate`` takes it), over the system file's ``osp:StepSizeHint``;
+    ``python_library``: the libpython an FMU written with pythonfmu needs outside Python (inside
+    this interpreter its symbols are there already)."""
+    if isinstance(options.get("rate"), Mapping):
+        options["rate"] = [f"{name}={step!r}" for name, step in options["rate"].items()]
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path: give the path of an .ssp or .ssd file, not {type(path).__name__}")
     summary, csv = _feedsim.run_system(os.fspath(path), {"scheme": scheme, "dt": dt, "t_end": t_end, **options})

@@ -732,17 +732,19 @@ impl Model for StewartFmu {
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), ModelError> {
         self.data.initialized = true;
         let commanded = self.data.settings.command_input;
-        let model = self.model()?;
-        let c = model.compensation().ok_or("the platform model has no second level")?;
-        if commanded && !c.follows_commands() {
-            return Err(format!(
-                "command_input: scene `{}` gives the platform no response to follow commands with: its [control] \
-                 needs bandwidth_hz (the filter's stages) or a sampled sensor's sample_rate_hz",
-                self.scene.label()
-            )
-            .into());
-        }
-        let command = (commanded || c.sensor() == SensorKind::Sampled).then(|| c.start_state());
+        let label = self.scene.label().to_owned();
+        let command = match self.model()?.compensation() {
+            Some(c) if commanded && c.follows_commands() => Some(c.start_state()),
+            _ if commanded => {
+                return Err(format!(
+                    "command_input: scene `{label}` gives the platform no response to follow commands with: its \
+                     [control] needs bandwidth_hz (the filter's stages) or a sampled sensor's sample_rate_hz"
+                )
+                .into());
+            }
+            Some(c) if c.sensor() == SensorKind::Sampled => Some(c.start_state()),
+            _ => None,
+        };
         self.data.command = command;
         self.data.accepted = self.data.inputs;
         self.data.time = start_time;

@@ -34,6 +34,7 @@ from zoo import (
     fmu_file,
     loop_expected,
     pack,
+    sampled_expected,
     read_table,
     rk4_van_der_pol,
     run,
@@ -47,10 +48,10 @@ TIGHT = ("--tol", "1e-13", "--max-iter", "500")
 def systems(tmp_path_factory):
     """Every system packed once as an .ssp archive with the FMUs under test."""
     d = tmp_path_factory.mktemp("zoo-systems")
-    return {name: pack(name, d) for name in ["chain", "loop", "ball", "stair", "resource", "oscillators"]}
+    return {name: pack(name, d) for name in ["chain", "loop", "ball", "stair", "resource", "oscillators", "sampled"]}
 
 
-@pytest.mark.parametrize("name", ["chain", "loop", "ball", "stair", "resource", "oscillators"])
+@pytest.mark.parametrize("name", ["chain", "loop", "ball", "stair", "resource", "oscillators", "sampled"])
 def test_every_system_is_valid_ssp(systems, name):
     """fmpy validates the .ssd against the SSP 1.0 schema; the .ssv files travel in the archive."""
     ssd = read_ssd(str(systems[name]), validate=True)
@@ -262,3 +263,70 @@ def test_a_scheme_an_fmu_cannot_support_is_refused_up_front(systems, tmp_path):
                         "--allow-external-fmus"],
                        capture_output=True, text=True)
     assert p.returncode != 0 and "canGetAndSetFMUstate" in p.stderr, p.stderr
+
+
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_sampled_gives_each_schemes_exact_discrete_answer(systems, scheme):
+    """A multi-rate system: the sampler c steps every 0.1 s (its osp:StepSizeHint), four macro
+    steps of 0.025 s, and holds its output in between; the plant p steps every macro step. Each
+    scheme against the exact discrete answer of the sampled loop (sampled_expected)."""
+    cols, js, _ = run(systems["sampled"], scheme, 0.025, *TIGHT)
+    t = cols["time"]
+    assert len(t) == 81 and t[-1] == 2.0
+    x, out = sampled_expected(0.025, 80, scheme)
+    assert np.max(np.abs(cols["p.x"] - x)) < 1e-13, np.max(np.abs(cols["p.x"] - x))
+    assert np.max(np.abs(cols["c.real_continuous_out"] - out)) < 1e-13
+    # the held input is not a second-order hold: the sampled loop differs from the continuous one
+    assert np.max(np.abs(x - np.exp(-3.0 * t))) > 1e-2
+
+
+def test_sampled_rate_from_the_command_line(systems):
+    """--rate overrides the file's step: c every 0.05 s (two macro steps) is that answer."""
+    cols, _, _ = run(systems["sampled"], "ijcsa", 0.025, "--rate", "c=0.05", *TIGHT)
+    x, _ = sampled_expected(0.025, 80, "ijcsa", every=2)
+    assert np.max(np.abs(cols["p.x"] - x)) < 1e-13
+    # every component at the macro step: the single-rate system, whose iterating schemes couple
+    # end values both ways, u_n = -2 x_{n+1}: x_{n+1} = e^{-h} x_n / (1 + 2 (1 - e^{-h}))
+    cols, _, _ = run(systems["sampled"], "ijcsa", 0.025, "--rate", "c=0.025", *TIGHT)
+    rho = math.exp(-0.025) / (1.0 - 2.0 * math.expm1(-0.025))
+    assert np.max(np.abs(cols["p.x"] - rho ** np.arange(81))) < 1e-13
+
+
+@pytest.mark.parametrize("rate, reason", [
+    ("c=0.03", "whole multiple"),
+    ("c=0.01", "whole multiple"),
+    ("c=0", "positive number"),
+    ("c=-0.1", "positive number"),
+    ("c=abc", "not a number"),
+    ("q=0.1", "no component `q`"),
+    ("0.1", "COMPONENT=H"),
+])
+def test_bad_rates_are_refused_by_name_before_anything_runs(systems, tmp_path, rate, reason):
+    csv_path = tmp_path / "out.csv"
+    p = subprocess.run([str(MASTER), "run", "--system", str(systems["sampled"]), "--scheme", "jacobi", "--dt", "0.025",
+                        "--rate", rate, "--out", str(csv_path)], capture_output=True, text=True)
+    assert p.returncode != 0 and reason in p.stderr, p.stderr
+    name = rate.split("=")[0]
+    assert "=" not in rate or name in p.stderr, p.stderr
+    assert not csv_path.exists(), "nothing ran"
+
+
+def test_the_adaptive_step_refuses_a_multi_rate_system(systems, tmp_path):
+    p = subprocess.run([str(MASTER), "run", "--system", str(systems["sampled"]), "--scheme", "ijcsa", "--adaptive"],
+                       capture_output=True, text=True)
+    assert p.returncode != 0 and "component `c`" in p.stderr and "adaptive" in p.stderr, p.stderr
+
+
+def test_sampled_from_python_takes_the_rates(systems):
+    """feedsim.run_system takes the rates as --rate does (a dict or the flag's text): the same
+    columns, bit for bit, and the exact discrete answer."""
+    import feedsim
+
+    cols, _, _ = run(systems["sampled"], "iqn-ils", 0.025, "--rate", "c=0.05", *TIGHT)
+    for rate in ({"c": 0.05}, "c=0.05"):
+        r = feedsim.run_system(systems["sampled"], "iqn-ils", dt=0.025, rate=rate, tol=1e-13, max_iter=500)
+        assert r.frame["p.x"].to_numpy().tolist() == cols["p.x"].tolist()
+    x, _ = sampled_expected(0.025, 80, "iqn-ils", every=2)
+    assert np.max(np.abs(cols["p.x"] - x)) < 1e-13
+    with pytest.raises(feedsim.RunError, match="component `c`.*whole multiple"):
+        feedsim.run_system(systems["sampled"], "jacobi", dt=0.025, rate={"c": 0.03})

@@ -205,6 +205,24 @@ def chain_expected(t, scheme):
     return x1, f_out, dahlquist_steps(2.0, 0.0, h, u2)
 
 
+def sampled_expected(h, n_steps, scheme, every=4, gain=2.0, x0=1.0):
+    """sampled.ssd at macro step h: p.x at t_0 … t_N and the sampler c's output there (held
+    between its steps, every `every` macro steps). Over macro step n the plant's input is
+    u = -gain · s, s the sampler's output: x0 (its input at the start) until its first step,
+    then what it took at its last communication point t_j = j·every·h — p.x(t_j) for the schemes
+    that couple end values, p.x(t_j − h) for Jacobi and Gauss-Seidel reversed (it steps with the
+    outputs at the start of the macro step that ends at t_j). Each step exact with u held."""
+    e, g = math.exp(-h), -math.expm1(-h)
+    x, held, out = [x0], x0, [x0]
+    for n in range(n_steps):
+        x.append(e * x[-1] + g * (-gain * held))
+        if (n + 1) % every == 0:
+            # the sampler's step ends at t_{n+1}
+            held = x[-1] if scheme in END_VALUES else x[-2]
+        out.append(held)
+    return np.array(x), np.array(out)
+
+
 def loop_expected(t):
     """loop.ssd, solved every step with d.u held at its end value u = 2x/3 (the loop's
     equation): x_{n+1} = x_n e^{-h} / (1 - (2/3)(1 - e^{-h}))."""

@@ -224,13 +224,21 @@ impl Ijcsa {
 fn unit_jacobian<S: Units>(core: &mut Core<S>, dydu: &mut [f64], t: f64, h: f64, k: usize) -> Result<(), StepError> {
     let nu = core.work.r.len();
     let (t_k, h_k) = core.rates.window(k, t, h);
-    let Core { units, work, .. } = core;
+    let Core { units, work, rates, .. } = core;
     let (ir, or) = (units.layout().units[k].inputs.clone(), units.layout().units[k].outputs.clone());
     let (io, ni, oo, no) = (ir.start, ir.len(), or.start, or.len());
     let (seed, col) = (&mut work.seed[..ni], &mut work.col[..no]);
+    // an input this step does not iterate (a slower unit's held output) keeps its value: its
+    // column is never used, and is neither asked for nor differenced
+    let held = |c: usize| !rates.iterated[io + c];
+    for c in (0..ni).filter(|&c| held(c)) {
+        for r in 0..no {
+            dydu[(oo + r) * nu + io + c] = 0.0;
+        }
+    }
     let res = (|| {
         if units.capabilities(k).step_derivatives {
-            for c in 0..ni {
+            for c in (0..ni).filter(|&c| !held(c)) {
                 seed.fill(0.0);
                 seed[c] = 1.0;
                 units.step_derivative(k, seed, col)?;
@@ -241,7 +249,7 @@ fn unit_jacobian<S: Units>(core: &mut Core<S>, dydu: &mut [f64], t: f64, h: f64,
             return Ok(());
         }
         // central differences, each from the saved state; the nominal step last
-        for c in 0..ni {
+        for c in (0..ni).filter(|&c| !held(c)) {
             let delta = 1e-6 * units.layout().scale[io + c];
             for r in 0..no {
                 dydu[(oo + r) * nu + io + c] = 0.0;

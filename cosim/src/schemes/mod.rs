@@ -378,7 +378,7 @@ impl<S: Units> Core<S> {
     /// asked), and for non-iterating schemes the slope into `work.slope`. Returns whether a
     /// slope is set.
     fn predict(&mut self) -> bool {
-        let Core { work, units, y, y_prev, prev_step, options, .. } = self;
+        let Core { work, units, y, y_prev, prev_step, options, rates, .. } = self;
         let l = units.layout();
         for (i, g) in work.guess.iter_mut().enumerate() {
             *g = l.coupled(i, y);
@@ -388,7 +388,8 @@ impl<S: Units> Core<S> {
             return false;
         };
         for (i, sl) in work.slope.iter_mut().enumerate() {
-            *sl = (work.guess[i] - l.coupled(i, y_prev)) / h_prev;
+            // a slower unit's outputs hold between its steps: nothing to extrapolate
+            *sl = if rates.held(i) { 0.0 } else { (work.guess[i] - l.coupled(i, y_prev)) / h_prev };
         }
         true
     }
@@ -443,14 +444,16 @@ impl<S: Units> Core<S> {
         let Core { units, work, .. } = self;
         let r = units.layout().units[k].inputs.clone();
         let n = r.len();
-        let interpolates = units.capabilities(k).interpolates;
+        // the guess is at the base step's start; a slower unit's step began earlier, and its
+        // inputs' slopes would be read from there: it gets the end values
+        let interpolates = units.capabilities(k).interpolates && h_k == h;
         let res = (|| {
             if slope && interpolates {
                 units.set_inputs(k, &work.guess[r.clone()])?;
                 units.set_input_slopes(k, &work.slope[r.clone()])?;
             } else if slope {
                 for (j, i) in r.clone().enumerate() {
-                    work.end[j] = work.guess[i] + work.slope[i] * h_k;
+                    work.end[j] = work.guess[i] + work.slope[i] * h;
                 }
                 units.set_inputs(k, &work.end[..n])?;
             } else {
@@ -472,8 +475,10 @@ impl<S: Units> Core<S> {
         Ok(())
     }
 
+    /// Saves the state of every unit that steps in this base step (a slower unit between its
+    /// steps keeps the state saved at its last step's start: it has not moved since).
     fn save_states(&mut self, t: f64) -> Result<(), StepError> {
-        for k in 0..self.units.layout().units.len() {
+        for k in (0..self.units.layout().units.len()).filter(|&k| self.rates.stepping[k]) {
             if let Err(e) = self.units.save_state(k, Slot::Step) {
                 return Err(self.unit_err(t, k, e));
             }
@@ -481,8 +486,13 @@ impl<S: Units> Core<S> {
         Ok(())
     }
 
+    /// Restores the units to `slot`: for [`Slot::Step`] those that stepped in the base step
+    /// taken (the others did not move), for a checkpoint every unit.
     fn restore_states(&mut self, t: f64, slot: Slot) -> Result<(), StepError> {
         for k in 0..self.units.layout().units.len() {
+            if slot == Slot::Step && !self.rates.stepping[k] {
+                continue;
+            }
             if let Err(e) = self.units.restore_state(k, slot) {
                 return Err(self.unit_err(t, k, e));
             }

@@ -70,8 +70,10 @@ impl Rates {
         self.multiple.iter().any(|&m| m > 1)
     }
 
-    pub(super) fn multiple(&self, k: usize) -> u32 {
-        self.multiple[k]
+    /// Whether input `i` holds a slower unit's outputs (its source steps at a multiple above 1):
+    /// piecewise constant, never extrapolated.
+    pub(super) fn held(&self, i: usize) -> bool {
+        self.multiple[self.giver[i]] > 1
     }
 
     /// The units that step in the next base step, and the inputs it iterates.
@@ -81,7 +83,7 @@ impl Rates {
         }
         let end = self.done + 1;
         for (s, &m) in self.stepping.iter_mut().zip(&self.multiple) {
-            *s = end % u64::from(m) == 0;
+            *s = end.is_multiple_of(u64::from(m));
         }
         for i in 0..self.taker.len() {
             self.iterated[i] = self.stepping[self.taker[i]] && self.stepping[self.giver[i]] && !self.from_slower[i];

@@ -24,7 +24,8 @@ pub(crate) fn library(name: &str) -> PathBuf {
     panic!("lib{name}.so not found next to {}: run `cargo build --release --workspace` first", exe.display());
 }
 
-/// Both FMUs, packaged once per test binary; their FMI 3.0 twins in `fmi3/` below.
+/// The cable, Stewart and control FMUs, packaged once per test binary; their FMI 3.0 twins in
+/// `fmi3/` below.
 pub(crate) fn fmu_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
@@ -34,6 +35,10 @@ pub(crate) fn fmu_dir() -> &'static Path {
         fmi::package::package_model::<stewart_fmu::StewartFmu>(&dir, &stewart).unwrap();
         fmi::package::package_model3::<cable_fmu::CableFmu>(&dir.join("fmi3"), &cable).unwrap();
         fmi::package::package_model3::<stewart_fmu::StewartFmu>(&dir.join("fmi3"), &stewart).unwrap();
+        // the second level's own FMU, beside the Stewart FMU (`export-ssp --controller fmu`)
+        let control = library("control_fmu_cdylib");
+        fmi::package::package_model::<control_fmu::ControlFmu>(&dir, &control).unwrap();
+        fmi::package::package_model3::<control_fmu::ControlFmu>(&dir.join("fmi3"), &control).unwrap();
         dir
     })
 }
@@ -58,8 +63,8 @@ pub(crate) fn zoo_dir() -> &'static Path {
 }
 
 /// The chain of docs/systems.md with `d1` as Model Exchange, or the loop with `d` as Model
-/// Exchange, or the bouncing ball (Model Exchange, state events) into a feedthrough; FMI
-/// `version`.
+/// Exchange, or the bouncing ball (Model Exchange, state events) into a feedthrough, or the
+/// sampled system (Co-Simulation); FMI `version`.
 pub(crate) fn me_system(which: &str, version: u8) -> SystemSpec {
     let zoo = if version == 3 { zoo_dir().join("fmi3") } else { zoo_dir().to_owned() };
     let component = |name: &str, fmu: &str, me: bool| Component {
@@ -94,6 +99,16 @@ pub(crate) fn me_system(which: &str, version: u8) -> SystemSpec {
             vec![
                 connect(e("d", "der_x"), e("f", "real_continuous_in"), Some(-2.0)),
                 connect(e("f", "real_continuous_out"), e("d", "u"), None),
+            ],
+            vec![],
+        ),
+        // tests/systems/sampled.ssd: a sampler `c` on Dahlquist's `p` (the periods are set by the
+        // caller: `Coupled::set_periods`)
+        "sampled" => (
+            vec![component("p", "dahlquist", false), component("c", "feedthrough", false)],
+            vec![
+                connect(e("p", "x"), e("c", "real_continuous_in"), None),
+                connect(e("c", "real_continuous_out"), e("p", "u"), Some(-2.0)),
             ],
             vec![],
         ),
