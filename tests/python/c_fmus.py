@@ -13,7 +13,7 @@ import zipfile
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 SOURCES = REPO / "testfmus" / "c"
-NAMES = ["dahlquist", "van_der_pol", "feedthrough", "stair", "bouncing_ball", "hostile_me"]
+NAMES = ["dahlquist", "van_der_pol", "feedthrough", "stair", "bouncing_ball", "hostile_me", "controller"]
 
 
 def build(out_dir):

@@ -42,11 +42,40 @@ pub(crate) struct Args {
     /// `fmi3/<name>.fmu` beside each).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(2..=3))]
     pub(crate) fmi: u32,
-    /// The second level: `builtin` (in the Stewart FMU) or `fmu` (a third component, `control`:
+    /// The second level: `builtin` (in the Stewart FMU), `fmu` (a third component, `control`:
     /// control_fmu beside the Stewart FMU, at its command period; the Stewart FMU follows its
-    /// command).
-    #[arg(long, default_value = "builtin", value_parser = ["builtin", "fmu"])]
+    /// command), or the path of a controller FMU of your own (`.fmu`: inputs `cabin.*`, outputs
+    /// `command.r`, `command.rot`, as control_fmu's; docs/controllers.md), put in as `control` at
+    /// the scene's command period.
+    #[arg(long, default_value = "builtin", value_name = "builtin|fmu|FILE.fmu")]
     pub(crate) controller: String,
+}
+
+/// What `--controller` puts in.
+enum Controller {
+    Builtin,
+    /// control_fmu, beside the Stewart FMU.
+    Shipped,
+    /// An FMU of the user's.
+    Own(PathBuf),
+}
+
+impl Controller {
+    fn parse(text: &str) -> anyhow::Result<Controller> {
+        match text {
+            "builtin" => Ok(Controller::Builtin),
+            "fmu" => Ok(Controller::Shipped),
+            path if path.ends_with(".fmu") => {
+                let path = PathBuf::from(path);
+                anyhow::ensure!(path.is_file(), "--controller {}: no such file", path.display());
+                Ok(Controller::Own(path))
+            }
+            other => anyhow::bail!(
+                "--controller {other}: give `builtin`, `fmu` (the shipped control_fmu) or the path of a controller FMU \
+                 (FILE.fmu)"
+            ),
+        }
+    }
 }
 
 /// The name of the controller's component with `--controller fmu`.
@@ -60,9 +89,10 @@ fn with_controller(
     scene: &feedcore::scene::ValidScene,
     mut spec: cosim::SystemSpec,
     reads_scene: &mut Vec<String>,
+    own: Option<&std::path::Path>,
 ) -> anyhow::Result<cosim::SystemSpec> {
     let control = scene.control.as_ref().with_context(|| {
-        format!("--controller fmu: scene `{}` has no [control] (the second level to take out)", scene.name)
+        format!("--controller fmu: scene `{}` has no [control] (the second level to take out, its rate)", scene.name)
     })?;
     anyhow::ensure!(
         control.sensor == feedcore::scene::SensorKind::Sampled,
@@ -77,7 +107,10 @@ fn with_controller(
     let (Some(cable), Some(platform)) = (component("cable"), component("stewart")) else {
         anyhow::bail!("--controller fmu: the scene's [system] must name its FMUs `cable` and `stewart`");
     };
-    let source = spec.components[platform].source.with_file_name("control_fmu.fmu");
+    let source = match own {
+        Some(path) => path.to_owned(),
+        None => spec.components[platform].source.with_file_name("control_fmu.fmu"),
+    };
     anyhow::ensure!(
         source.is_file(),
         "{}: the controller's FMU is missing (`master package --out DIR` writes it beside the Stewart FMU)",
@@ -93,6 +126,12 @@ fn with_controller(
     {
         spec.connections.push(Connection { from, to, matching: Matching::Prefix, transform: None });
     }
+    spec.parameters
+        .push(Parameter { target: end("stewart", "command_input"), value: Value::Typed(fmi::Value::Boolean(true)) });
+    if own.is_some() {
+        // a controller of the user's takes what it takes from its own parameters
+        return Ok(spec);
+    }
     let scene_value = spec
         .parameters
         .iter()
@@ -100,8 +139,6 @@ fn with_controller(
         .map(|p| p.value.clone())
         .context("the scene's [system] hands the Stewart FMU no scene")?;
     spec.parameters.push(Parameter { target: end(CONTROL, "scene"), value: scene_value });
-    spec.parameters
-        .push(Parameter { target: end("stewart", "command_input"), value: Value::Typed(fmi::Value::Boolean(true)) });
     if reads_scene.iter().any(|k| k == "stewart.scene") {
         reads_scene.push(format!("{CONTROL}.scene"));
     }
@@ -129,6 +166,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let scene = load_scene(&args.file.scene)?;
     let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
     let id = outputs.declare("--out", &args.out, Some("ssp"))?;
+    let controller = Controller::parse(&args.controller)?;
     let mut spec = scene_spec(&scene, &args.file.scene)?;
     if args.fmi == 3 {
         for c in &mut spec.components {
@@ -139,8 +177,10 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     // the parameters that hand the FMUs the scene (`@scene`)
     let mut reads_scene: Vec<String> =
         sys.parameters.iter().filter(|(_, v)| *v == "@scene").map(|(k, _)| k.clone()).collect();
-    if args.controller == "fmu" {
-        spec = with_controller(&scene, spec, &mut reads_scene)?;
+    match &controller {
+        Controller::Builtin => {}
+        Controller::Shipped => spec = with_controller(&scene, spec, &mut reads_scene, None)?,
+        Controller::Own(path) => spec = with_controller(&scene, spec, &mut reads_scene, Some(path))?,
     }
     let resolved = resolve(&spec)?;
     let scene_bytes =
