@@ -24,6 +24,12 @@ fn library(name: &str) -> PathBuf {
 
 fn main() {
     let dir = std::env::temp_dir().join(format!("master-bench-{}", std::process::id()));
+    // `cargo bench -p master --bench cosim -- controller`: the three-FMU system against the two
+    if std::env::args().any(|a| a == "controller") {
+        controller(&dir);
+        let _ = std::fs::remove_dir_all(&dir);
+        return;
+    }
     // `cargo bench -p master --bench cosim -- model-exchange`: that part alone
     if std::env::args().any(|a| a == "model-exchange") {
         model_exchange(&dir);
@@ -180,6 +186,78 @@ fn model_exchange(dir: &std::path::Path) {
             "{:<48} {:>12} per run   (median of 31; {steps} integrator steps, |x(10) - (1 - e^-10)| = {error:.1e})",
             format!("{}, rtol {rtol:e}", method.name()),
             human(median)
+        );
+    }
+}
+
+/// LT50m C compensated, 2 s at its step (2.5 ms, 800 macro steps from the start): the two-FMU
+/// system (the built-in controller) against the three-FMU one (control_fmu every 10 ms, the
+/// Stewart FMU following its command), IJCSA (its Jacobian every step, and reused) and IQN-ILS;
+/// 11 runs of each, interleaved, timed
+/// from loaded systems; medians and the ratio of the medians.
+fn controller(dir: &std::path::Path) {
+    use studies::cosim::system::spec::{Component, Connection, Endpoint, Matching, Parameter, Value};
+    let cable = fmi::package::package_model::<cable_fmu::CableFmu>(dir, &library("cable_fmu_cdylib")).unwrap();
+    fmi::package::package_model::<stewart_fmu::StewartFmu>(dir, &library("stewart_fmu_cdylib")).unwrap();
+    let control = fmi::package::package_model::<control_fmu::ControlFmu>(dir, &library("control_fmu_cdylib")).unwrap();
+    let scene_file = PathBuf::from(format!("{}/../scenes/lt50m_C_compensated.toml", env!("CARGO_MANIFEST_DIR")));
+    let mut scene = Scene::load(&scene_file).unwrap().to_scene();
+    for f in &mut scene.system.as_mut().unwrap().fmus {
+        f.path = cable.with_file_name(format!("{}_fmu.fmu", f.name)).display().to_string();
+    }
+    let file = dir.join("compensated.toml");
+    std::fs::write(&file, scene.to_toml()).unwrap();
+    let scene = scene.validated(&file.display().to_string()).unwrap();
+    let two = studies::system::scene_spec(&scene, &file).unwrap();
+    let mut three = two.clone();
+    let end = |c: &str, v: &str| Endpoint { component: c.into(), variable: v.into() };
+    three.components.push(Component { name: "control".into(), source: control, interface: None, step: None });
+    for (from, to) in
+        [(end("cable", "cabin"), end("control", "cabin")), (end("control", "command"), end("stewart", "command"))]
+    {
+        three.connections.push(Connection { from, to, matching: Matching::Prefix, transform: None });
+    }
+    let scene_value = two.parameters.iter().find(|p| p.target.component == "stewart").unwrap().value.clone();
+    three.parameters.push(Parameter { target: end("control", "scene"), value: scene_value });
+    three
+        .parameters
+        .push(Parameter { target: end("stewart", "command_input"), value: Value::Typed(fmi::Value::Boolean(true)) });
+    let h = scene.solver.dt_s;
+    println!(
+        "LT50m C compensated, 2 s at h = {h} s: two FMUs (built-in controller) against three (control_fmu every 10 ms)"
+    );
+    for (label, scheme, jacobian) in [
+        ("ijcsa", Scheme::Ijcsa, JacobianUpdate::EveryStep),
+        ("ijcsa, Jacobian reused (the command line's default)", Scheme::Ijcsa, JacobianUpdate::Reuse),
+        ("iqn-ils", Scheme::IqnIls, JacobianUpdate::EveryStep),
+    ] {
+        let options = Options { scheme, jacobian, ..Options::default() };
+        let run = |spec: &studies::cosim::SystemSpec, periods: &[u32]| {
+            let mut c = Coupled::new(FmuSystem::load(spec, &studies::system::needs(&options, false)).unwrap(), options)
+                .unwrap();
+            c.set_periods(periods).unwrap();
+            let start = std::time::Instant::now();
+            for _ in 0..800 {
+                c.step(h).unwrap();
+            }
+            start.elapsed().as_secs_f64()
+        };
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        for _ in 0..11 {
+            a.push(run(&two, &[1, 1]));
+            b.push(run(&three, &[1, 1, 4]));
+        }
+        a.sort_by(f64::total_cmp);
+        b.sort_by(f64::total_cmp);
+        println!(
+            "{label}: two FMUs {} (IQR {} – {}), three FMUs {} (IQR {} – {}): {:.3}x",
+            human(a[5]),
+            human(a[3]),
+            human(a[8]),
+            human(b[5]),
+            human(b[3]),
+            human(b[8]),
+            b[5] / a[5]
         );
     }
 }

@@ -99,7 +99,7 @@ impl<S: Units> CouplingScheme<S> for Ijcsa {
                 fresh_jacobian = true;
             } else if reuse && it == 1 {
                 for k in 0..self.jacobian.volatile.len() {
-                    if self.jacobian.volatile[k] > 0 && core.rates.stepping[k] {
+                    if self.jacobian.volatile[k] > 0 && core.rates.stepping[k] && core.rates.feeds_iterated[k] {
                         self.jacobian.volatile[k] -= 1;
                         unit_jacobian(core, &mut self.jacobian.dydu, t, h, k)?;
                     }
@@ -210,8 +210,10 @@ impl Ijcsa {
     /// ∂Y/∂U after stepping with `work.guess` (the units' step maps): derivatives where the
     /// unit provides them, central differences with rollback otherwise.
     fn interface_jacobian<S: Units>(&mut self, core: &mut Core<S>, t: f64, h: f64) -> Result<(), StepError> {
+        // a unit whose outputs no input of this step iterates (a sink, or a slower unit feeding
+        // held inputs only) has a block no Newton row reads: not computed
         for k in 0..core.units.layout().units.len() {
-            if core.rates.stepping[k] {
+            if core.rates.stepping[k] && core.rates.feeds_iterated[k] {
                 unit_jacobian(core, &mut self.jacobian.dydu, t, h, k)?;
             }
         }

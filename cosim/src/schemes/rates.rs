@@ -31,6 +31,9 @@ pub(super) struct Rates {
     pub(super) iterated: Vec<bool>,
     /// Per input: its source is slower than its unit (held, never the newest).
     pub(super) from_slower: Vec<bool>,
+    /// Per unit: some input this step iterates takes its outputs (else IJCSA's block of it is
+    /// never read: a sink, or a slower unit whose outputs hold).
+    pub(super) feeds_iterated: Vec<bool>,
 }
 
 impl Rates {
@@ -38,7 +41,8 @@ impl Rates {
     pub(super) fn single(layout: &Layout) -> Rates {
         let (n, nu) = (layout.units.len(), layout.inputs());
         let taker = (0..nu).map(|i| layout.units.iter().position(|u| u.inputs.contains(&i)).unwrap_or(0)).collect();
-        let giver = (0..nu).map(|i| layout.owner_of_output(layout.source[i]).unwrap_or(0)).collect();
+        let giver: Vec<usize> = (0..nu).map(|i| layout.owner_of_output(layout.source[i]).unwrap_or(0)).collect();
+        let feeds_iterated = (0..n).map(|k| giver.contains(&k)).collect();
         Rates {
             multiple: vec![1; n],
             taker,
@@ -47,6 +51,7 @@ impl Rates {
             stepping: vec![true; n],
             iterated: vec![true; nu],
             from_slower: vec![false; nu],
+            feeds_iterated,
         }
     }
 
@@ -85,8 +90,12 @@ impl Rates {
         for (s, &m) in self.stepping.iter_mut().zip(&self.multiple) {
             *s = end.is_multiple_of(u64::from(m));
         }
+        self.feeds_iterated.fill(false);
         for i in 0..self.taker.len() {
             self.iterated[i] = self.stepping[self.taker[i]] && self.stepping[self.giver[i]] && !self.from_slower[i];
+            if self.iterated[i] {
+                self.feeds_iterated[self.giver[i]] = true;
+            }
         }
     }
 
