@@ -101,6 +101,21 @@ fn three_fmus_give_the_two_fmu_systems_feed_error() {
     }
 }
 
+/// control_fmu runs whatever law the scene's `[control]` has: the LQG law of `lt50m_C_lqg`
+/// (its controller at each reading of its inertial unit, every 10 ms) gives the two-FMU system's
+/// feed error within 1e-6 of its peak over 5 s (IJCSA).
+#[test]
+fn control_fmu_runs_the_lqg_law_as_the_built_in_controller() {
+    let (_, file) = common::scene("lt50m_C_lqg.toml", "three-lqg", |_| {});
+    let dir = common::fmu_dir().join("three-lqg");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (two, three) = (export(&file, &dir, false, 2), export(&file, &dir, true, 2));
+    let a = feed_error(&two, "ijcsa", 5.0, &dir.join("two.csv"));
+    let b = feed_error(&three, "ijcsa", 5.0, &dir.join("three.csv"));
+    let (p, gap) = (peak(&a), largest_gap(&a, &b) / peak(&a));
+    assert!(p > 1e-5 && gap < 1e-6, "LQG: three FMUs against two: {gap:e} of the peak {p:e} m");
+}
+
 /// The FMI 3.0 twins (cable, Stewart, control) give the FMI 2.0 system's run bit for bit.
 #[test]
 fn the_fmi3_three_fmu_system_equals_the_fmi2_one() {
