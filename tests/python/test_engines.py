@@ -8,6 +8,7 @@ Skipped only where the packages have no build for this platform; on linux x86_64
 3.11 (this project's machines) a missing package is a failure: tests/run_all.sh installs them."""
 
 import ctypes
+import math
 import platform
 import subprocess
 import sys
@@ -88,7 +89,7 @@ def libcosim_run(engine, ssp, step, steps, names):
 @pytest.fixture(scope="module")
 def zoo_ssp(tmp_path_factory):
     d = tmp_path_factory.mktemp("engines")
-    return {name: pack(name, d) for name in ["chain", "loop", "ball", "stair", "resource", "oscillators"]}
+    return {name: pack(name, d) for name in ["chain", "loop", "ball", "stair", "resource", "oscillators", "sampled"]}
 
 
 @pytest.fixture(scope="module")
@@ -161,6 +162,26 @@ def test_libcosim_runs_the_zoo_like_the_masters_jacobi(libcosim, zoo_ssp, system
             assert v[name] == ours[name][1:], name
         else:
             assert np.max(np.abs(np.array(v[name], dtype=float) - ours[name][1:])) < 1e-12, name
+
+
+def test_libcosim_reads_the_samplers_step_from_our_ssp(libcosim, zoo_ssp):
+    """sampled.ssd's sampler carries libcosim's own annotation (osp:StepSizeHint, 0.1 s): at a
+    base step of 0.025 s libcosim steps it every fourth, as its fixed-step algorithm defines — a
+    slow step starts at its first base step with the inputs there, and its outputs reach the
+    others when it ends. So the plant's input over [t_j + 0.1, t_j + 0.2) is -2 x(t_j), one
+    sampler period later than the master's (which takes the step in the base step that ends it,
+    docs/systems.md): the exact answer of that recurrence, to rounding."""
+    t, v, failed = libcosim_run(libcosim, zoo_ssp["sampled"], 0.025, 80, ["p.x", "c.real_continuous_out"])
+    assert failed is None and len(t) == 80
+    e, g = math.exp(-0.025), -math.expm1(-0.025)
+    x = [1.0]
+    for n in range(80):
+        held = 1.0 if n < 8 else x[4 * (n // 4 - 1)]
+        x.append(e * x[-1] + g * (-2.0 * held))
+    assert np.max(np.abs(np.array(v["p.x"]) - np.array(x[1:]))) < 1e-14
+    # the sampler's output changes every fourth step only
+    changes = np.flatnonzero(np.diff(np.array(v["c.real_continuous_out"])))
+    assert np.all((changes + 2) % 4 == 0), changes
 
 
 def test_libcosim_hides_the_algebraic_loop_the_master_refuses(libcosim, zoo_ssp):
