@@ -225,7 +225,7 @@ pub fn run(scenes: Scenes<'_>, quick: bool, limits: &Limits, observer: &dyn Obse
                     modal.push(ModalCase { scene: name, hypothesis, platform, youngs_modulus, frequencies });
                 }
             }
-            observer.point(modal.len(), 0, &format!("table 2, {name}: {} done", hypothesis.name()));
+            observer.point(&format!("table 2, {name}: {} done", hypothesis.name()));
         }
     }
 
@@ -241,7 +241,7 @@ pub fn run(scenes: Scenes<'_>, quick: bool, limits: &Limits, observer: &dyn Obse
                 .and_then(|run| run.execute_watched(&mut *observer.watch()))
                 .with_context(|| format!("{name}, {}", case.name))?;
             responses.push(analyse(name, case, trace));
-            observer.point(responses.len(), 0, &format!("responses, {name}: {} done", case.name));
+            observer.point(&format!("responses, {name}: {} done", case.name));
         }
     }
     let mut statics = Vec::new();

@@ -92,7 +92,7 @@ pub fn run(scenes: Scenes<'_>, quick: bool, limits: &Limits, observer: &dyn Obse
     let mut cases = Vec::new();
     let mut report = |case: &str, r: anyhow::Result<String>| {
         cases.push((case.to_string(), r.map_err(|e| format!("{e:#}"))));
-        observer.point(cases.len(), 8, &format!("{case}: done"));
+        observer.point(&format!("{case}: done"));
     };
     report(
         &format!("{} s, ijcsa, C", long(1000.0)),
