@@ -123,7 +123,7 @@ fn step_map_derivatives_are_the_instantaneous_ones() {
         m.set_real(k as u32, *x).unwrap();
     }
     m.do_step(0.0, 0.37).unwrap();
-    let unknowns: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
+    let unknowns: Vec<u32> = (vr::FORCE..vr::COMMAND_R).collect();
     for k in 0..INPUTS as u32 {
         let (mut a, mut b) = (vec![0.0; unknowns.len()], vec![1.0; unknowns.len()]);
         m.directional_derivative(&unknowns, &[k], &[1.0], &mut a).unwrap();
@@ -140,7 +140,7 @@ fn step_map_derivatives_are_the_instantaneous_ones() {
 #[test]
 fn derivatives_and_dependencies_follow_the_standard() {
     let info = ModelInfo::new(StewartFmu::description().unwrap()).unwrap();
-    let outputs: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
+    let outputs: Vec<u32> = (vr::FORCE..vr::COMMAND_R).collect();
     let declared = |o: u32, i: u32, initial: bool| {
         let v = info.lookup(fmi::VarType::Real, o).unwrap();
         let deps = if initial { &v.initial_dependencies } else { &v.dependencies };
@@ -213,7 +213,7 @@ fn directional_derivatives_match_central_differences() {
         m.set_real(k as u32, *x).unwrap();
     }
     m.do_step(0.0, 0.37).unwrap();
-    let unknowns: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
+    let unknowns: Vec<u32> = (vr::FORCE..vr::COMMAND_R).collect();
     let outputs = |m: &mut StewartFmu| unknowns.iter().map(|v| m.get_real(*v).unwrap()).collect::<Vec<_>>();
     for k in 0..INPUTS {
         let mut analytic = vec![0.0; unknowns.len()];
@@ -281,7 +281,7 @@ fn a_sampled_sensor_rolls_back_bit_exactly() {
     for (tag, control) in [("sampled", sampled.to_string()), ("fused", fused)] {
         let name = controlled_scene(tag, &control);
         let mut m = ready(&name);
-        let outputs: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
+        let outputs: Vec<u32> = (vr::FORCE..vr::COMMAND_R).collect();
         let step = |m: &mut StewartFmu, n: usize| {
             for (k, x) in displaced(n + 1).iter().enumerate() {
                 m.set_real(k as u32, *x).unwrap();
@@ -336,7 +336,7 @@ fn an_ideal_sensor_holds_the_feed_on_its_target() {
 #[test]
 fn a_retaken_step_computes_what_a_fresh_instance_does() {
     let name = "lt50m_B.toml";
-    let outputs: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
+    let outputs: Vec<u32> = (vr::FORCE..vr::COMMAND_R).collect();
     let u1 = moving_inputs();
     let mut u2 = u1;
     u2[vr::A as usize] += 0.05;
@@ -373,4 +373,54 @@ fn a_retaken_step_computes_what_a_fresh_instance_does() {
     let faster = step(&mut m, &u2, Some(0.8));
     assert_eq!(faster, fresh(&u2, Some(0.8)));
     assert_ne!(faster.0[(vr::LEG - vr::FORCE) as usize], again.0[(vr::LEG - vr::FORCE) as usize]);
+}
+
+/// The command inputs (docs/controllers.md). Without `command_input` they are ignored: the
+/// outputs after 2 s are those of an FMU whose command inputs were never set, bit for bit. With
+/// it, a command held from the start is reached through the filter stages — after 2 s (57 time
+/// constants of the 4.5 Hz stages) the platform's pose is home displaced by `command.r` and turned
+/// by `command.rot`, cabin frame — and zeros hold it at home. A scene that gives the platform no
+/// response is refused by name when initialization ends.
+#[test]
+fn the_command_inputs_are_followed_only_when_switched_on() {
+    let name = "lt50m_C_compensated.toml";
+    let outputs: Vec<u32> = (vr::FORCE..vr::COMMAND_R).collect();
+    let run = |command: Option<[f64; 6]>, on: bool| -> Vec<f64> {
+        let mut m = StewartFmu::instantiate(None).unwrap();
+        m.set_string(vr::SCENE, name).unwrap();
+        m.set_boolean(vr::COMMAND_INPUT, on).unwrap();
+        set_rest_pose(&mut m, name);
+        m.exit_initialization(0.0).unwrap();
+        for n in 0..800 {
+            for (k, x) in command.iter().flatten().enumerate() {
+                m.set_real(vr::COMMAND_R + k as u32, *x).unwrap();
+            }
+            m.do_step(n as f64 * 0.0025, 0.0025).unwrap();
+        }
+        outputs.iter().map(|&o| m.get_real(o).unwrap()).collect()
+    };
+    let bits = |v: Vec<f64>| v.into_iter().map(f64::to_bits).collect::<Vec<_>>();
+    let command = [0.01, -0.02, 0.005, 0.002, -0.001, 0.003];
+    assert_eq!(bits(run(None, false)), bits(run(Some(command), false)), "ignored without command_input");
+    let at = |v: &[f64], vr0: u32, n: usize| v[(vr0 - vr::FORCE) as usize..(vr0 - vr::FORCE) as usize + n].to_vec();
+    // the cabin rests at scene C's pose (identity attitude): home is (0.1, 0, −1.8) below its centre
+    let home = [0.1, 0.0, 9.8 - 1.8];
+    let held = run(Some([0.0; 6]), true);
+    let r = at(&held, vr::PLATFORM_R, 3);
+    assert!(r.iter().zip(home).all(|(a, b)| (a - b).abs() < 1e-12), "zeros hold it at home: {r:?}");
+    let moved = run(Some(command), true);
+    let r = at(&moved, vr::PLATFORM_R, 3);
+    assert!((0..3).all(|i| (r[i] - home[i] - command[i]).abs() < 1e-9), "the centre follows command.r: {r:?}");
+    let q = at(&moved, vr::PLATFORM_Q, 4);
+    let want = feedcore::Quat::from_scaled_axis(feedcore::Vec3::new(command[3], command[4], command[5]));
+    let gap =
+        (feedcore::Quat::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3])).inverse() * want).angle();
+    assert!(gap < 1e-9, "the attitude follows command.rot: {q:?} ({gap:e} rad off)");
+    // no second level to follow commands with
+    let mut m = StewartFmu::instantiate(None).unwrap();
+    m.set_string(vr::SCENE, "lt50m_C.toml").unwrap();
+    m.set_boolean(vr::COMMAND_INPUT, true).unwrap();
+    set_rest_pose(&mut m, "lt50m_C.toml");
+    let e = m.exit_initialization(0.0).unwrap_err().to_string();
+    assert!(e.contains("command_input") && e.contains("lt50m_C"), "{e}");
 }
