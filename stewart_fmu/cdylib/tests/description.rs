@@ -11,7 +11,8 @@ fn the_model_description_reads_back_equal() {
     assert_eq!(read, declared.description);
     assert_eq!(
         read.variables.len(),
-        19 + 38 + 5,
-        "inputs, outputs (wrench, actuators, platform, legs, feed, estimate), parameters"
+        19 + 38 + 6 + 6,
+        "cabin inputs, outputs (wrench, actuators, platform, legs, feed, estimate), command inputs, parameters \
+         (command_input among them)"
     );
 }
