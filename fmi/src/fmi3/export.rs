@@ -189,7 +189,7 @@ pub unsafe fn set_debug_logging<M: Model>(
 ) -> fmi3Status {
     let on = c_int::from(logging_on != fmi3False);
     // SAFETY: the same contract.
-    unsafe { crate::export::exported::set_debug_logging_as::<M>("fmi3SetDebugLogging", c, on, n, categories) }
+    unsafe { crate::export::exported::set_debug_logging::<M>("fmi3SetDebugLogging", c, on, n, categories) }
 }
 
 /// # Safety
