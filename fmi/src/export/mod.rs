@@ -300,6 +300,20 @@ macro_rules! exports {
     )*};
 }
 
+/// Inside [`export_fmu!`]: `fmi2Get*`/`fmi2Set*` of each type, forwarded to the layer's function
+/// of that type.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! fmi2_values {
+    ($($name:ident($values:ty) => $f:ident),* $(,)?) => {
+        $crate::exports! { "2.0", "fmi::export_fmu!"; $(
+            fn $name(c: fmi2Component, vr: *const u32, n: usize, v: $values) -> fmi2Status {
+                e::$f::<M>(c, vr, n, v)
+            }
+        )* }
+    };
+}
+
 /// Exports a [`Model`] as the 34 `fmi2*` C functions of an FMI 2.0 Co-Simulation FMU, and the
 /// extension `feedsimGetStepMapDerivative`. Invoke once, in a `cdylib` crate:
 /// `fmi::export_fmu!(my_crate::MyModel);`.
@@ -356,30 +370,6 @@ macro_rules! export_fmu {
                 }
                 fn fmi2Reset(c: fmi2Component) -> fmi2Status {
                     e::reset::<M>("fmi2Reset", c)
-                }
-                fn fmi2GetReal(c: fmi2Component, vr: *const u32, n: usize, v: *mut f64) -> fmi2Status {
-                    e::get_real::<M>(c, vr, n, v)
-                }
-                fn fmi2GetInteger(c: fmi2Component, vr: *const u32, n: usize, v: *mut i32) -> fmi2Status {
-                    e::get_integer::<M>(c, vr, n, v)
-                }
-                fn fmi2GetBoolean(c: fmi2Component, vr: *const u32, n: usize, v: *mut i32) -> fmi2Status {
-                    e::get_boolean::<M>(c, vr, n, v)
-                }
-                fn fmi2GetString(c: fmi2Component, vr: *const u32, n: usize, v: *mut fmi2String) -> fmi2Status {
-                    e::get_string::<M>(c, vr, n, v)
-                }
-                fn fmi2SetReal(c: fmi2Component, vr: *const u32, n: usize, v: *const f64) -> fmi2Status {
-                    e::set_real::<M>(c, vr, n, v)
-                }
-                fn fmi2SetInteger(c: fmi2Component, vr: *const u32, n: usize, v: *const i32) -> fmi2Status {
-                    e::set_integer::<M>(c, vr, n, v)
-                }
-                fn fmi2SetBoolean(c: fmi2Component, vr: *const u32, n: usize, v: *const i32) -> fmi2Status {
-                    e::set_boolean::<M>(c, vr, n, v)
-                }
-                fn fmi2SetString(c: fmi2Component, vr: *const u32, n: usize, v: *const fmi2String) -> fmi2Status {
-                    e::set_string::<M>(c, vr, n, v)
                 }
                 fn fmi2GetFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
                     e::get_fmu_state::<M>("fmi2GetFMUstate", c, s)
@@ -482,6 +472,12 @@ macro_rules! export_fmu {
                 fn fmi2GetNominalsOfContinuousStates(c: fmi2Component, x: *mut f64, n: usize) -> fmi2Status {
                     $crate::export::me::nominals::<M>(c, "fmi2GetNominalsOfContinuousStates", x, n)
                 }
+            }
+            $crate::fmi2_values! {
+                fmi2GetReal(*mut f64) => get_real, fmi2GetInteger(*mut i32) => get_integer,
+                fmi2GetBoolean(*mut i32) => get_boolean, fmi2GetString(*mut fmi2String) => get_string,
+                fmi2SetReal(*const f64) => set_real, fmi2SetInteger(*const i32) => set_integer,
+                fmi2SetBoolean(*const i32) => set_boolean, fmi2SetString(*const fmi2String) => set_string,
             }
             // Not in `exports!`: the closure holds an unsafe block of its own.
             /// # Safety

@@ -139,30 +139,6 @@ macro_rules! export_fmu3 {
                 fn fmi3Reset(c: I) -> fmi3Status {
                     e::reset::<M>("fmi3Reset", c)
                 }
-                fn fmi3GetFloat64(c: I, vr: VR, n: usize, v: *mut f64, nv: usize) -> fmi3Status {
-                    e3::get_float64::<M>(c, vr, n, v, nv)
-                }
-                fn fmi3GetInt32(c: I, vr: VR, n: usize, v: *mut i32, nv: usize) -> fmi3Status {
-                    e3::get_int32::<M>(c, vr, n, v, nv)
-                }
-                fn fmi3GetBoolean(c: I, vr: VR, n: usize, v: *mut fmi3Boolean, nv: usize) -> fmi3Status {
-                    e3::get_boolean::<M>(c, vr, n, v, nv)
-                }
-                fn fmi3GetString(c: I, vr: VR, n: usize, v: *mut fmi3String, nv: usize) -> fmi3Status {
-                    e3::get_string::<M>(c, vr, n, v, nv)
-                }
-                fn fmi3SetFloat64(c: I, vr: VR, n: usize, v: *const f64, nv: usize) -> fmi3Status {
-                    e3::set_float64::<M>(c, vr, n, v, nv)
-                }
-                fn fmi3SetInt32(c: I, vr: VR, n: usize, v: *const i32, nv: usize) -> fmi3Status {
-                    e3::set_int32::<M>(c, vr, n, v, nv)
-                }
-                fn fmi3SetBoolean(c: I, vr: VR, n: usize, v: *const fmi3Boolean, nv: usize) -> fmi3Status {
-                    e3::set_boolean::<M>(c, vr, n, v, nv)
-                }
-                fn fmi3SetString(c: I, vr: VR, n: usize, v: *const fmi3String, nv: usize) -> fmi3Status {
-                    e3::set_string::<M>(c, vr, n, v, nv)
-                }
                 fn fmi3GetBinary(
                     c: I, vr: VR, n: usize, _sizes: *mut usize, _v: *mut *const u8, _nv: usize,
                 ) -> fmi3Status {
@@ -268,6 +244,12 @@ macro_rules! export_fmu3 {
             ) -> I {
                 e3::instantiate_other("fmi3InstantiateScheduledExecution", env, log)
             }
+            $crate::fmi3_values! {
+                fmi3GetFloat64(*mut f64) => get_float64, fmi3GetInt32(*mut i32) => get_int32,
+                fmi3GetBoolean(*mut fmi3Boolean) => get_boolean, fmi3GetString(*mut fmi3String) => get_string,
+                fmi3SetFloat64(*const f64) => set_float64, fmi3SetInt32(*const i32) => set_int32,
+                fmi3SetBoolean(*const fmi3Boolean) => set_boolean, fmi3SetString(*const fmi3String) => set_string,
+            }
             $crate::fmi3_no_variables! {
                 fmi3GetFloat32(*mut f32), fmi3GetInt8(*mut i8), fmi3GetUInt8(*mut u8), fmi3GetInt16(*mut i16),
                 fmi3GetUInt16(*mut u16), fmi3GetUInt32(*mut u32), fmi3GetInt64(*mut i64), fmi3GetUInt64(*mut u64),
@@ -332,6 +314,20 @@ macro_rules! export_fmu3 {
                 }
             }
         };
+    };
+}
+
+/// Inside [`export_fmu3!`]: `fmi3Get`/`fmi3Set` of the types the FMU has variables of, each
+/// forwarded to the layer's function of its type.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! fmi3_values {
+    ($($name:ident($values:ty) => $f:ident),* $(,)?) => {
+        $crate::exports! { "3.0", "fmi::export_fmu3!"; $(
+            fn $name(c: I, vr: VR, n: usize, v: $values, nv: usize) -> fmi3Status {
+                e3::$f::<M>(c, vr, n, v, nv)
+            }
+        )* }
     };
 }
 
