@@ -692,26 +692,8 @@ pub(crate) fn derivative_checked<M: Model>(
     seed: &[f64],
     out: &mut [f64],
 ) -> Result<(), String> {
-    let (mut k, mut s) = (std::mem::take(&mut inst.scratch_knowns), std::mem::take(&mut inst.scratch_seed));
-    let result = derivative_into(inst, kind, unknowns, knowns, seed, out, &mut k, &mut s);
-    (inst.scratch_knowns, inst.scratch_seed) = (k, s);
-    result
-}
-
-/// [`derivative_checked`] with the buffers `k`, `s` for the knowns kept.
-#[allow(clippy::too_many_arguments)]
-fn derivative_into<M: Model>(
-    inst: &mut Instance<M>,
-    kind: Derivative,
-    unknowns: &[u32],
-    knowns: &[u32],
-    seed: &[f64],
-    out: &mut [f64],
-    k: &mut Vec<u32>,
-    s: &mut Vec<f64>,
-) -> Result<(), String> {
-    k.clear();
-    s.clear();
+    inst.scratch_knowns.clear();
+    inst.scratch_seed.clear();
     for &r in unknowns {
         let v = inst.find(VarType::Real, r)?;
         if !matches!(v.var.causality, Causality::Output | Causality::Local | Causality::CalculatedParameter) {
@@ -730,11 +712,12 @@ fn derivative_into<M: Model>(
         // A zero seed on a parameter contributes nothing (importers such as OMSimulator pass
         // whole dependency lists).
         if !(is_param && x == 0.0) {
-            k.push(r);
-            s.push(x);
+            inst.scratch_knowns.push(r);
+            inst.scratch_seed.push(x);
         }
     }
-    inst.model.derivative(kind, Seeds { unknowns, knowns: k, seed: s }, out).msg()?;
+    let at = Seeds { unknowns, knowns: &inst.scratch_knowns, seed: &inst.scratch_seed };
+    inst.model.derivative(kind, at, out).msg()?;
     if let Some(i) = out.iter().position(|x| !x.is_finite()) {
         let v = inst.find(VarType::Real, unknowns[i])?;
         return Err(format!("the derivative of {} is {} at t = {}", describe(v), out[i], inst.time));

@@ -110,7 +110,8 @@ macro_rules! export_fmu3 {
                     name: fmi3String, token: fmi3String, resources: fmi3String, _visible: fmi3Boolean,
                     logging_on: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback,
                 ) -> I {
-                    e3::instantiate_model_exchange::<M>(&INFO, name, token, resources, logging_on, env, log)
+                    let interface = e3::Instance3::ModelExchange;
+                    e3::instantiate::<M>(&INFO, interface, name, token, resources, logging_on, env, log)
                 }
                 fn fmi3InstantiateCoSimulation(
                     name: fmi3String, token: fmi3String, resources: fmi3String, _visible: fmi3Boolean,
@@ -118,9 +119,8 @@ macro_rules! export_fmu3 {
                     _required: VR, _n_required: usize, env: fmi3InstanceEnvironment,
                     log: fmi3LogMessageCallback, _intermediate: fmi3IntermediateUpdateCallback,
                 ) -> I {
-                    e3::instantiate_co_simulation::<M>(
-                        &INFO, name, token, resources, logging_on, event_mode_used, early_return_allowed, env, log,
-                    )
+                    let interface = e3::Instance3::CoSimulation { event_mode_used, early_return_allowed };
+                    e3::instantiate::<M>(&INFO, interface, name, token, resources, logging_on, env, log)
                 }
                 fn fmi3FreeInstance(c: I) {
                     e::free_instance::<M>(c)
