@@ -136,13 +136,7 @@ fn split(x: &Vector6<f64>) -> (Vec3, Vec3) {
 #[test]
 fn jacobians_match_central_differences() {
     for (name, speed) in [("lt50m_B", 0.02), ("lt50m_C", 0.02), ("lt50m_B", 0.5)] {
-        let scene = common::scene(name)
-            .edited(|scene| {
-                scene.motion.speed_m_s = speed;
-            })
-            .unwrap();
-        let st = Stewart::from_scene(&scene).unwrap();
-        let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
+        let (_, st, path) = common::moving(name, speed);
         for t in [0.0, 1.9, 8.4, 23.0] {
             let cabin = path.at(t);
             let (_, jac) = st.wrench_with_jacobians(&cabin, t).unwrap();
