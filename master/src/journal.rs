@@ -59,10 +59,14 @@ struct Point {
 /// The journal of one command's points.
 pub(crate) struct Journal {
     path: PathBuf,
+    identity: String,
     file: Mutex<File>,
     done: BTreeMap<usize, Point>,
     /// Lines not used: cut short, not verifying, disagreeing, not of this run's points.
     dropped: AtomicUsize,
+    /// Points whose line the study did not take (another key, cells refused): they are computed
+    /// again, so their old lines go from the file once every point has been looked up.
+    unused: Mutex<Vec<usize>>,
 }
 
 impl Journal {
@@ -71,7 +75,6 @@ impl Journal {
     /// journal of other work is refused); without, an existing journal is refused rather than
     /// overwritten. A missing journal starts empty either way.
     pub(crate) fn open(path: &Path, identity: &str, resume: bool) -> Result<Journal, JournalError> {
-        let io = |source| JournalError::Io { path: path.to_owned(), source };
         let identity = identity.replace('\n', " ");
         let (done, dropped) = match path.symlink_metadata() {
             Err(_) => (BTreeMap::new(), 0),
@@ -81,18 +84,18 @@ impl Journal {
             Ok(_) if !resume => return Err(JournalError::Exists(path.to_owned())),
             Ok(_) => read_back(path, &identity)?,
         };
-        // what was read is written back whole, replacing the file at once: the lines dropped
-        // go, and the next point starts a line of its own
-        let mut text = format!("{IDENTITY}{identity}\n");
-        for (index, point) in &done {
-            text.push_str(&line(*index, &point.key, &point.cells));
-        }
+        // what was read is written back whole: the lines dropped go, and the next point starts a
+        // line of its own
         studies::tempfiles::remove_stale(path);
-        let fresh = studies::tempfiles::beside(path);
-        std::fs::write(&fresh, text).map_err(io)?;
-        std::fs::rename(&fresh, path).map_err(io)?;
-        let file = std::fs::OpenOptions::new().append(true).open(path).map_err(io)?;
-        Ok(Journal { path: path.to_owned(), file: Mutex::new(file), done, dropped: AtomicUsize::new(dropped) })
+        let file = write_back(path, &identity, done.iter())?;
+        Ok(Journal {
+            path: path.to_owned(),
+            identity,
+            file: Mutex::new(file),
+            done,
+            dropped: AtomicUsize::new(dropped),
+            unused: Mutex::new(Vec::new()),
+        })
     }
 
     /// How many points an earlier run finished (before any is checked against its key).
@@ -126,6 +129,24 @@ impl Journal {
     pub(crate) fn finish(self) -> Result<(), JournalError> {
         std::fs::remove_file(&self.path).map_err(|source| JournalError::Io { path: self.path, source })
     }
+}
+
+/// Replaces the journal at `path` at once (write and rename) by the identity line and the lines
+/// of `points`; the file open for appending the next points.
+fn write_back<'a>(
+    path: &Path,
+    identity: &str,
+    points: impl Iterator<Item = (&'a usize, &'a Point)>,
+) -> Result<File, JournalError> {
+    let io = |source| JournalError::Io { path: path.to_owned(), source };
+    let mut text = format!("{IDENTITY}{identity}\n");
+    for (index, point) in points {
+        text.push_str(&line(*index, &point.key, &point.cells));
+    }
+    let fresh = studies::tempfiles::beside(path);
+    std::fs::write(&fresh, text).map_err(io)?;
+    std::fs::rename(&fresh, path).map_err(io)?;
+    std::fs::OpenOptions::new().append(true).open(path).map_err(io)
 }
 
 /// The points of an earlier run of the work `identity` in the journal at `path`, and how many
@@ -239,18 +260,30 @@ impl studies::points::Store for Journal {
     fn earlier(&self, index: usize, key: &str) -> Option<Vec<String>> {
         let point = self.done.get(&index)?;
         if point.key != key {
-            self.dropped.fetch_add(1, Ordering::Relaxed);
+            self.refused(index);
             return None;
         }
         Some(point.cells.clone())
     }
 
-    fn refused(&self, _: usize) {
+    fn refused(&self, index: usize) {
         self.dropped.fetch_add(1, Ordering::Relaxed);
+        self.unused.lock().unwrap_or_else(|p| p.into_inner()).push(index);
     }
 
+    /// Says what was dropped, and takes the lines of the points computed again out of the file
+    /// (else their old line and the new one would disagree on the next resume).
     fn looked_up(&self) {
         self.say_dropped();
+        let unused = std::mem::take(&mut *self.unused.lock().unwrap_or_else(|p| p.into_inner()));
+        if unused.is_empty() {
+            return;
+        }
+        let kept = self.done.iter().filter(|(index, _)| !unused.contains(index));
+        // a journal that cannot be rewritten keeps its lines; the next resume drops them again
+        if let Ok(file) = write_back(&self.path, &self.identity, kept) {
+            *self.file.lock().unwrap_or_else(|p| p.into_inner()) = file;
+        }
     }
 
     fn resumed(&self) -> usize {
@@ -365,10 +398,15 @@ mod tests {
         assert_eq!(take(&j, 3, "x=3", true), None);
         assert_eq!(take(&j, 4, "x=4", false), None);
         assert_eq!(take(&j, 5, "x=5", true), Some(cells("f")));
+        // the points not taken (another key, refused cells) leave the file, and their new lines
+        // meet no old one on the next resume
+        j.looked_up();
+        j.record(2, "x=9", &cells("c9")).unwrap();
+        j.record(4, "x=4", &cells("e")).unwrap();
         drop(j);
-        // what the resumed run kept is written back alone
         let j = Journal::open(&path, "work", true).unwrap();
         assert_eq!((j.resumed(), j.dropped.load(Ordering::Relaxed)), (4, 0));
+        assert_eq!(take(&j, 2, "x=9", true), Some(cells("c9")));
         drop(j);
         // a file that is no journal at all
         std::fs::write(&path, b"\x00\x01\x02").unwrap();

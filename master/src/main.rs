@@ -55,7 +55,8 @@ enum Command {
     Modes(commands::modes::Args),
     /// Model updating: scene keys fitted to measured natural frequencies by least squares.
     Calibrate(commands::calibrate::Args),
-    /// Stewart platform on a fixed cabin: added mass, static wrench, wrench range over one circle.
+    /// Stewart platform on a fixed cabin: added mass, static wrench, wrench range over one circle
+    /// (the cabin held at the scene's target pose, the motion sampled every `solver.dt_s`).
     Stewart(commands::stewart::Args),
     /// Simulate a scene with a coupling scheme of its FMUs, the monolithic, decoupled or cable-only
     /// model, or any SSP system of FMUs (--system).

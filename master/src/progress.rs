@@ -79,7 +79,7 @@ impl Observer for Shown {
         Box::new(Progress::new(!self.bars))
     }
 
-    fn point(&self, _done: usize, _of: usize, line: &str) {
+    fn point(&self, line: &str) {
         if self.lines {
             eprintln!("{line}");
         }

@@ -255,14 +255,7 @@ impl<'a> Bench<'a> {
         let mut earlier: Vec<_> = labels
             .iter()
             .enumerate()
-            .map(|(i, (label, count))| {
-                let cells = store.earlier(i, label)?;
-                let decoded = from_cells(&cells, *count).ok();
-                if decoded.is_none() {
-                    store.refused(i);
-                }
-                decoded
-            })
+            .map(|(i, (label, count))| crate::points::earlier(store, i, label, |cells| from_cells(cells, *count)))
             .collect();
         store.looked_up();
         // a measurement: from the store where an earlier run took it, else taken and kept

@@ -10,8 +10,8 @@ pub trait Observer: Sync {
     fn begin(&self, _label: &str) {}
     /// A watch for the steps of the run about to start.
     fn watch(&self) -> Box<dyn Watch + '_>;
-    /// Point `done` of `of` finished, with a line that says how.
-    fn point(&self, _done: usize, _of: usize, _line: &str) {}
+    /// A point finished, with a line that says which and how.
+    fn point(&self, _line: &str) {}
 }
 
 /// Nothing is shown.

@@ -21,17 +21,20 @@ pub trait Store: Sync {
     fn record(&self, index: usize, key: &str, cells: &[String]) -> anyhow::Result<()>;
 }
 
-/// No store: every point is computed, none kept.
-pub struct Nowhere;
-
-impl Store for Nowhere {
-    fn earlier(&self, _: usize, _: &str) -> Option<Vec<String>> {
-        None
+/// Point `index`, named `key`, as an earlier run left it in `store`, if `decode` accepts its cells
+/// (refused cells are reported to the store: the point is computed again).
+pub fn earlier<R>(
+    store: &dyn Store,
+    index: usize,
+    key: &str,
+    decode: impl FnOnce(&[String]) -> anyhow::Result<R>,
+) -> Option<R> {
+    let cells = store.earlier(index, key)?;
+    let decoded = decode(&cells).ok();
+    if decoded.is_none() {
+        store.refused(index);
     }
-    fn refused(&self, _: usize) {}
-    fn record(&self, _: usize, _: &str, _: &[String]) -> anyhow::Result<()> {
-        Ok(())
-    }
+    decoded
 }
 
 /// How a study names, writes and reads back its points: `key` names an item, `encode` gives a
@@ -63,18 +66,8 @@ where
     D: Fn(&T, &[String]) -> anyhow::Result<R> + Sync,
 {
     let Codec { key, encode, decode } = codec;
-    let mut earlier: Vec<Option<R>> = items
-        .iter()
-        .enumerate()
-        .map(|(i, t)| {
-            let cells = store.earlier(i, &key(t))?;
-            let decoded = decode(t, &cells).ok();
-            if decoded.is_none() {
-                store.refused(i);
-            }
-            decoded
-        })
-        .collect();
+    let mut earlier: Vec<Option<R>> =
+        items.iter().enumerate().map(|(i, t)| self::earlier(store, i, &key(t), |cells| decode(t, cells))).collect();
     store.looked_up();
     let todo: Vec<usize> = (0..items.len()).filter(|&i| earlier[i].is_none()).collect();
     let computed = crate::parallel::map_longest_first(

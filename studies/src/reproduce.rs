@@ -183,7 +183,8 @@ fn static_inertial(scene: &ValidScene) -> anyhow::Result<[f64; 5]> {
     Ok(out)
 }
 
-/// The scenes reproduced: the paper's poses B and C, each with its file.
+/// The paper's poses, each with its file: B (the edge of the workspace, with the nearly slack
+/// cable) and C (its centre).
 #[derive(Clone, Copy)]
 pub struct Scenes<'a> {
     pub b: &'a ValidScene,
@@ -224,7 +225,7 @@ pub fn run(scenes: Scenes<'_>, quick: bool, limits: &Limits, observer: &dyn Obse
                     modal.push(ModalCase { scene: name, hypothesis, platform, youngs_modulus, frequencies });
                 }
             }
-            observer.point(modal.len(), 0, &format!("table 2, {name}: {} done", hypothesis.name()));
+            observer.point(&format!("table 2, {name}: {} done", hypothesis.name()));
         }
     }
 
@@ -240,7 +241,7 @@ pub fn run(scenes: Scenes<'_>, quick: bool, limits: &Limits, observer: &dyn Obse
                 .and_then(|run| run.execute_watched(&mut *observer.watch()))
                 .with_context(|| format!("{name}, {}", case.name))?;
             responses.push(analyse(name, case, trace));
-            observer.point(responses.len(), 0, &format!("responses, {name}: {} done", case.name));
+            observer.point(&format!("responses, {name}: {} done", case.name));
         }
     }
     let mut statics = Vec::new();

@@ -11,18 +11,9 @@ use feedcore::scene::{Scene, Start, ValidScene};
 use crate::cosim::{Options, Scheme};
 use crate::limits::Limits;
 use crate::observe::Observer;
+pub use crate::reproduce::Scenes;
 use crate::simulate::{Method, Run, Trace};
 use crate::table::Table;
-
-/// The scenes the cases run: C (the centre of the workspace) and B (the edge, with the nearly
-/// slack cable), each with its file.
-#[derive(Clone, Copy)]
-pub struct Scenes<'a> {
-    pub c: &'a ValidScene,
-    pub c_file: &'a Path,
-    pub b: &'a ValidScene,
-    pub b_file: &'a Path,
-}
 
 /// Every case: its name, and its figures or why it failed.
 pub struct Cases(pub Vec<(String, Result<String, String>)>);
@@ -101,7 +92,7 @@ pub fn run(scenes: Scenes<'_>, quick: bool, limits: &Limits, observer: &dyn Obse
     let mut cases = Vec::new();
     let mut report = |case: &str, r: anyhow::Result<String>| {
         cases.push((case.to_string(), r.map_err(|e| format!("{e:#}"))));
-        observer.point(cases.len(), 8, &format!("{case}: done"));
+        observer.point(&format!("{case}: done"));
     };
     report(
         &format!("{} s, ijcsa, C", long(1000.0)),

@@ -15,15 +15,17 @@ use studies::bench::{self, Bench};
 use crate::journal::{self, Journal};
 use crate::progress::Shown;
 
+use super::args::{Quiet, Resume, SceneFile, Steps};
 use super::output::{Outputs, run_inputs};
-use super::scheme_args::{SchemeName, SchemeOptions, named, positive, tolerance};
+use super::scheme_args::{SchemeName, SchemeOptions, named, tolerance};
 use super::{CmdResult, caps, fingerprint, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML).
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
+    #[command(flatten)]
+    pub(crate) steps: Steps,
     /// Methods (comma-separated).
     #[arg(
         long,
@@ -32,10 +34,6 @@ pub(crate) struct Args {
         default_value = "monolithic,ijcsa,iqn-ils,iterative,gauss-seidel,jacobi,decoupled"
     )]
     pub(crate) schemes: Vec<SchemeName>,
-    /// Macro steps (s, comma-separated); the coarsest must be a whole multiple of each.
-    #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
-          default_value = "0.04,0.02,0.01,0.005,0.0025")]
-    pub(crate) dts: Vec<f64>,
     /// Runs per scheme and step; the median wall time is reported.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub(crate) repeats: u32,
@@ -53,23 +51,19 @@ pub(crate) struct Args {
     /// Directory for bench.csv, work_precision.svg (and bench_adaptive.csv).
     #[arg(long, default_value = "out/bench")]
     pub(crate) out: PathBuf,
-    /// No progress bars.
-    #[arg(long)]
-    pub(crate) quiet: bool,
-    /// Continue a bench that was interrupted or killed: the measurements its journal in --out
-    /// (`bench.csv.partial`, written as each finishes) holds are not taken again (the reference
-    /// run is); they keep their wall times.
-    #[arg(long)]
-    pub(crate) resume: bool,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
+    #[command(flatten)]
+    pub(crate) quiet: Quiet,
+    #[command(flatten)]
+    pub(crate) resume: Resume,
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
+    let scene = load_scene(&args.file.scene)?;
     let settings = bench::Settings {
         schemes: args.schemes.clone(),
-        dts: args.dts.clone(),
+        dts: args.steps.dts.clone(),
         repeats: args.repeats,
         t_end: args.t_end,
         reference_dt: args.reference_dt,
@@ -78,8 +72,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         limits: caps().run,
     };
     // every run is checked before the first one starts
-    let bench = Bench::new(&scene, &args.scene, settings.clone())?;
-    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let bench = Bench::new(&scene, &args.file.scene, settings.clone())?;
+    let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
     let csv_id = outputs.declare("--out", &args.out.join("bench.csv"), Some("csv"))?;
     let svg_id = outputs.declare("--out", &args.out.join("work_precision.svg"), Some("svg"))?;
     let adaptive_id = bench
@@ -99,8 +93,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         s.adaptive_rtols,
         s.options
     );
-    let journal = Journal::open(&journal::path(&args.out, "bench.csv"), &identity, args.resume)?;
-    let quiet = args.quiet || !std::io::stderr().is_terminal();
+    let journal = Journal::open(&journal::path(&args.out, "bench.csv"), &identity, args.resume.resume)?;
+    let quiet = args.quiet.quiet || !std::io::stderr().is_terminal();
     let results = bench.run(&journal, &Shown { lines: true, bars: !quiet }).map_err(journal::resumable(&journal))?;
     let (table, csv) = results.grid();
     outputs.write(csv_id, |w| w.write_all(csv.as_bytes()))?;

@@ -7,6 +7,7 @@ use studies::compare;
 
 use crate::progress::Shown;
 
+use super::args::{Quiet, SceneFile};
 use super::output::{Outputs, run_inputs};
 use super::run::plot_traces;
 use super::scheme_args::{SchemeName, SchemeOptions, named};
@@ -14,9 +15,8 @@ use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML).
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
     /// Methods to compare with the monolithic reference (comma-separated).
     #[arg(
         long,
@@ -37,16 +37,15 @@ pub(crate) struct Args {
     /// Draw all displacement histories in one SVG.
     #[arg(long)]
     pub(crate) plot: Option<PathBuf>,
-    /// No progress bars.
-    #[arg(long)]
-    pub(crate) quiet: bool,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
+    #[command(flatten)]
+    pub(crate) quiet: Quiet,
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
-    let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
+    let scene = load_scene(&args.file.scene)?;
+    let quiet = args.quiet.quiet || args.json || !std::io::stderr().is_terminal();
     let settings = compare::Settings {
         schemes: args.schemes.clone(),
         dt: args.dt,
@@ -54,8 +53,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         options: args.options.options(),
         limits: caps().run,
     };
-    let comparison = compare::Comparison::new(&scene, &args.scene, settings)?;
-    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let comparison = compare::Comparison::new(&scene, &args.file.scene, settings)?;
+    let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
     outputs.open()?;
     let compared = comparison.run(&Shown { lines: false, bars: !quiet })?;

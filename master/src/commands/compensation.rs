@@ -24,15 +24,15 @@ use studies::compensation::{self, Study};
 use crate::journal::{self, Journal};
 use crate::progress::Shown;
 
+use super::args::{Resume, SceneFile, Workers};
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::positive;
 use super::{CmdResult, caps, fingerprint, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML) with a `[control]` section whose sensor is "sampled".
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
     /// Directory for compensation.csv/.svg and sweep.csv/.svg.
     #[arg(long, default_value = "out/compensation")]
     pub(crate) out: PathBuf,
@@ -54,29 +54,25 @@ pub(crate) struct Args {
     /// `control.bandwidth_hz`.
     #[arg(long, value_parser = positive, allow_negative_numbers = true)]
     pub(crate) bandwidth: Option<f64>,
-    /// Worker threads (default: one per core).
-    #[arg(long, value_parser = studies::options::jobs)]
-    pub(crate) jobs: Option<usize>,
-    /// Continue a study that was interrupted or killed: the sweep cases its journal in --out
-    /// (`sweep.csv.partial`, written as each case finishes) holds are not run again (the two
-    /// long runs are).
-    #[arg(long)]
-    pub(crate) resume: bool,
+    #[command(flatten)]
+    pub(crate) resume: Resume,
+    #[command(flatten)]
+    pub(crate) workers: Workers,
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
+    let scene = load_scene(&args.file.scene)?;
     let settings = compensation::Settings {
         t_end: args.t_end,
         sweep_t_end: args.sweep_t_end,
         delays: args.delays.clone(),
         rates: args.rates.clone(),
         bandwidth: args.bandwidth,
-        jobs: args.jobs,
+        jobs: args.workers.jobs,
         limits: caps().run,
     };
-    let study = Study::new(&scene, &args.scene.display().to_string(), settings.clone())?;
-    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let study = Study::new(&scene, &args.file.scene.display().to_string(), settings.clone())?;
+    let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
     let mut declare = |f: &str| outputs.declare("--out", &args.out.join(f), f.rsplit('.').next());
     let (csv_id, svg_id) = (declare("compensation.csv")?, declare("compensation.svg")?);
     let (sweep_csv_id, sweep_svg_id) = (declare("sweep.csv")?, declare("sweep.svg")?);
@@ -91,7 +87,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         s.sweep_t_end,
         s.t_end
     );
-    let journal = Journal::open(&journal::path(&args.out, "sweep.csv"), &identity, args.resume)?;
+    let journal = Journal::open(&journal::path(&args.out, "sweep.csv"), &identity, args.resume.resume)?;
     let results = study.run(&journal, &Shown { lines: true, bars: false }).map_err(journal::resumable(&journal))?;
     for failure in &results.budget_failures {
         eprintln!("{failure}");

@@ -18,6 +18,7 @@ use cosim::system::fmu::resolve;
 use cosim::system::spec::Value;
 use studies::system::scene_spec;
 
+use super::args::SceneFile;
 use super::output::{Outputs, run_inputs};
 use super::{CmdResult, load_scene};
 
@@ -26,9 +27,8 @@ pub(crate) const SCENE_RESOURCE: &str = "exported_scene.toml";
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML) whose [system] is exported.
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
     /// The SSP archive to write (`.ssp`).
     #[arg(long)]
     pub(crate) out: PathBuf,
@@ -56,10 +56,10 @@ fn fmi3_twin(fmu: &std::path::Path) -> anyhow::Result<PathBuf> {
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
-    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let scene = load_scene(&args.file.scene)?;
+    let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
     let id = outputs.declare("--out", &args.out, Some("ssp"))?;
-    let mut spec = scene_spec(&scene, &args.scene)?;
+    let mut spec = scene_spec(&scene, &args.file.scene)?;
     if args.fmi == 3 {
         for c in &mut spec.components {
             c.source = fmi3_twin(&c.source)?;
@@ -67,7 +67,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let sys = scene.system.as_ref().expect("scene_spec needs a [system]");
     let resolved = resolve(&spec)?;
-    let scene_bytes = std::fs::read(&args.scene).with_context(|| format!("{}: cannot read", args.scene.display()))?;
+    let scene_bytes =
+        std::fs::read(&args.file.scene).with_context(|| format!("{}: cannot read", args.file.scene.display()))?;
     let mut components = Vec::new();
     for c in &spec.components {
         let reads_scene =

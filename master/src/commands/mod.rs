@@ -9,6 +9,7 @@ use anyhow::Context;
 use feedcore::scene::{Scene, SceneErrorKind, ValidScene};
 use studies::limits::Limits;
 
+pub(crate) mod args;
 pub(crate) mod bench;
 pub(crate) mod calibrate;
 pub(crate) mod compare;

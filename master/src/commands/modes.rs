@@ -11,15 +11,15 @@ use studies::limits::{Footprint, check_memory};
 use studies::report::Modal;
 use studies::table::Table;
 
+use super::args::SceneFile;
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::named;
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML), e.g. scenes/lt50m_B.toml.
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
     /// Number of modes (lowest first); default: the scene's `analyses.modes`.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub(crate) count: Option<u32>,
@@ -63,11 +63,14 @@ fn run_case(args: &Args, scene: &ValidScene, count: usize) -> CmdResult {
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
+    let scene = load_scene(&args.file.scene)?;
     let mut out = std::io::stdout().lock();
     let count = args.count.map_or(scene.analyses.modes, |c| c as usize);
     if count == 0 {
-        anyhow::bail!("{}: the scene asks for no modes (analyses.modes = 0); give --count N", args.scene.display());
+        anyhow::bail!(
+            "{}: the scene asks for no modes (analyses.modes = 0); give --count N",
+            args.file.scene.display()
+        );
     }
     if args.hypothesis != Hypothesis::Full || args.platform != Platform::Locked || args.youngs_modulus.is_some() {
         if args.plot.is_some() || args.vtk.is_some() {
@@ -78,7 +81,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         }
         return run_case(args, &scene, count);
     }
-    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
     outputs.open()?;
     let series = match &args.vtk {
@@ -89,7 +92,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     };
     let built = CableCabin::modes_built(&scene, count);
     check_memory(&scene, Footprint::CableModel, built, &caps().run)
-        .with_context(|| format!("{}: the modal analysis cannot start", args.scene.display()))?;
+        .with_context(|| format!("{}: the modal analysis cannot start", args.file.scene.display()))?;
     let modal = Modal::of(&scene, count)?;
     if let Some(id) = svg {
         let figure = studies::view3d::modes_figure_of(&modal).context("drawing the mode shapes")?;
@@ -107,7 +110,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         writeln!(out, "{}", serde_json::to_string_pretty(&modal.json())?)?;
         return Ok(());
     }
-    writeln!(out, "Natural modes about the static equilibrium: {} ({})", scene.name, args.scene.display())?;
+    writeln!(out, "Natural modes about the static equilibrium: {} ({})", scene.name, args.file.scene.display())?;
     writeln!(
         out,
         "cable–cabin system with the Stewart platform locked at its start; {} elements per cable",

@@ -11,6 +11,7 @@ use studies::simulate::{Run, Trace};
 
 use studies::vtk::RunSeries;
 
+use super::args::Quiet;
 use super::output::{OutputId, Outputs, run_inputs};
 use super::scheme_args::{Compensation, SchemeName, SchemeOptions, named};
 use super::{CmdResult, caps, load_scene};
@@ -56,9 +57,6 @@ pub(crate) struct Args {
     /// With --vtk: write every K-th output sample (from the first).
     #[arg(long, value_name = "K", requires = "vtk", default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
     pub(crate) vtk_every: u64,
-    /// No progress bar (it is also off when stderr is not a terminal).
-    #[arg(long)]
-    pub(crate) quiet: bool,
     /// The second level (scenes with [control]): `off` runs the same scene with its compensation
     /// switched off, the uncompensated reference of its feed error.
     #[arg(long, default_value = "on", value_parser = named::<Compensation>())]
@@ -67,6 +65,8 @@ pub(crate) struct Args {
     pub(crate) options: SchemeOptions,
     #[command(flatten)]
     pub(crate) system_files: super::scheme_args::SystemFileArgs,
+    #[command(flatten)]
+    pub(crate) quiet: Quiet,
 }
 
 /// The displacement histories as three stacked panels, into output `id`.
@@ -98,7 +98,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     studies::options::check_dt(args.options.adaptive, args.dt)?;
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
-    let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
+    let quiet = args.quiet.quiet || args.json || !std::io::stderr().is_terminal();
     // everything the run needs is checked before its first step
     let run = Run::prepare(&scene, scene_file, method, dt, t_end, &caps().run).with_context(|| {
         let from =

@@ -29,7 +29,7 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
     outputs.open()?;
 
-    let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
+    let quiet = args.quiet.quiet || args.json || !std::io::stderr().is_terminal();
     let mut writer = csv.map(|id| outputs.stream(id)).transpose()?;
     let mut history = RealHistory::default();
     let sinks = Sinks { csv: writer.as_mut().map(|w| w as &mut dyn Write), real: svg.map(|_| &mut history) };

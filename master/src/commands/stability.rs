@@ -11,15 +11,17 @@ use studies::stability::{self, Stability};
 use crate::journal::{self, Journal};
 use crate::progress::Shown;
 
+use super::args::{Quiet, Resume, SceneFile, Steps, Workers};
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions, named, positive};
 use super::{CmdResult, caps, fingerprint, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML).
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
+    #[command(flatten)]
+    pub(crate) steps: Steps,
     /// Coupling schemes (comma-separated).
     #[arg(
         long,
@@ -32,45 +34,36 @@ pub(crate) struct Args {
     #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
           default_value = "0.1,0.2,0.5,1,2,5,10")]
     pub(crate) ratios: Vec<f64>,
-    /// Macro steps (s, comma-separated).
-    #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
-          default_value = "0.04,0.02,0.01,0.005,0.0025")]
-    pub(crate) dts: Vec<f64>,
     /// Simulated time of every run (s).
     #[arg(long, default_value_t = 10.0, value_parser = positive, allow_negative_numbers = true)]
     pub(crate) t_end: f64,
     /// Directory for stability.csv and stability.svg.
     #[arg(long, default_value = "out/stability")]
     pub(crate) out: PathBuf,
-    /// No progress bars.
-    #[arg(long)]
-    pub(crate) quiet: bool,
-    /// Worker threads: the runs are independent (default: one per core; progress bars only
-    /// with one).
-    #[arg(long, value_parser = studies::options::jobs)]
-    pub(crate) jobs: Option<usize>,
-    /// Continue a map that was interrupted or killed: the cells its journal in --out
-    /// (`stability.csv.partial`, written as each cell finishes) holds are not run again.
-    #[arg(long)]
-    pub(crate) resume: bool,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
+    #[command(flatten)]
+    pub(crate) quiet: Quiet,
+    #[command(flatten)]
+    pub(crate) resume: Resume,
+    #[command(flatten)]
+    pub(crate) workers: Workers,
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
+    let scene = load_scene(&args.file.scene)?;
     let settings = stability::Settings {
         schemes: args.schemes.clone(),
         ratios: args.ratios.clone(),
-        dts: args.dts.clone(),
+        dts: args.steps.dts.clone(),
         t_end: args.t_end,
         options: args.options.options(),
-        jobs: args.jobs,
+        jobs: args.workers.jobs,
         limits: caps().run,
     };
     // every run is checked before the first one starts
-    let map = Stability::new(&scene, &args.scene, settings.clone())?;
-    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let map = Stability::new(&scene, &args.file.scene, settings.clone())?;
+    let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
     let csv_id = outputs.declare("--out", &args.out.join("stability.csv"), Some("csv"))?;
     let svg_id = outputs.declare("--out", &args.out.join("stability.svg"), Some("svg"))?;
     outputs.open()?;
@@ -85,10 +78,11 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         s.t_end,
         s.options
     );
-    let journal = Journal::open(&journal::path(&args.out, "stability.csv"), &identity, args.resume)?;
+    let journal = Journal::open(&journal::path(&args.out, "stability.csv"), &identity, args.resume.resume)?;
     // the runs are independent: every one on its own core; progress bars only when one runs at
     // a time
-    let quiet = args.quiet || !std::io::stderr().is_terminal() || studies::parallel::threads(args.jobs) > 1;
+    let quiet =
+        args.quiet.quiet || !std::io::stderr().is_terminal() || studies::parallel::threads(args.workers.jobs) > 1;
     let map = map.run(&journal, &Shown { lines: true, bars: !quiet }).map_err(journal::resumable(&journal))?;
     outputs.write(csv_id, |w| w.write_all(map.csv().as_bytes()))?;
     let svg = map.svg().context("drawing the stability map")?;

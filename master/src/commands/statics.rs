@@ -10,14 +10,14 @@ use studies::limits::{Footprint, check_memory};
 use studies::report::Statics;
 use studies::table::Table;
 
+use super::args::SceneFile;
 use super::output::{Outputs, run_inputs};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML), e.g. scenes/lt50m_C.toml.
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
     /// Print JSON instead of a table: cabin_position [x, y, z] (m), cabin_orientation
     /// [w, x, y, z] (unit quaternion, body to world), and per cable unstretched_length_m,
     /// tension_anchor_n, tension_cabin_n, slack, nearly_slack, state, lowest_point_z_m, and
@@ -33,13 +33,13 @@ pub(crate) struct Args {
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
-    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let scene = load_scene(&args.file.scene)?;
+    let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
     outputs.open()?;
     let mut out = std::io::stdout().lock();
     check_memory(&scene, Footprint::CableModel, 0, &caps().run)
-        .with_context(|| format!("{}: the form-finding cannot start", args.scene.display()))?;
+        .with_context(|| format!("{}: the form-finding cannot start", args.file.scene.display()))?;
     let statics = Statics::of(&scene)?;
     if let Some(id) = svg {
         let figure = studies::view3d::statics_figure(&statics).context("drawing the net")?;
@@ -54,7 +54,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         writeln!(out, "{}", serde_json::to_string_pretty(&statics.json())?)?;
         return Ok(());
     }
-    writeln!(out, "Form-finding statics: {} ({})", scene.name, args.scene.display())?;
+    writeln!(out, "Form-finding statics: {} ({})", scene.name, args.file.scene.display())?;
     writeln!(
         out,
         "cabin centre point at ({:.4}, {:.4}, {:.4}) m, orientation (w, x, y, z) = ({:.9}, {:.9}, {:.9}, {:.9})",

@@ -21,6 +21,7 @@ use studies::sweep::table::{self, Table};
 use studies::sweep::{self, Grid, Placement, Request, Shard, Surface, map};
 use studies::table::Table as TextTable;
 
+use super::args::{Quiet, Workers};
 use super::output::{OutputId, Outputs, run_inputs};
 use super::scheme_args::{SchemeName, SchemeOptions, named, positive};
 use super::{CmdResult, caps, fingerprint, load_scene};
@@ -60,15 +61,9 @@ pub(crate) struct Args {
     /// Join shard files (or directories holding sweep.part-*.csv) into sweep.csv and sweep.svg.
     #[arg(long, num_args = 1.., value_name = "PART", conflicts_with_all = ["scene", "grid", "shard", "run"])]
     pub(crate) merge: Vec<PathBuf>,
-    /// Worker threads (default: one per core).
-    #[arg(long, value_parser = studies::options::jobs)]
-    pub(crate) jobs: Option<usize>,
     /// Output directory.
     #[arg(long, default_value = "out/sweep")]
     pub(crate) out: PathBuf,
-    /// No progress lines.
-    #[arg(long)]
-    pub(crate) quiet: bool,
     /// Continue a sweep that was interrupted or killed: the points its journal in --out
     /// (`sweep.csv.partial`, written as each point finishes) holds are not computed again, and
     /// the table is the uninterrupted one (but for wall times).
@@ -76,6 +71,10 @@ pub(crate) struct Args {
     pub(crate) resume: bool,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
+    #[command(flatten)]
+    pub(crate) quiet: Quiet,
+    #[command(flatten)]
+    pub(crate) workers: Workers,
 }
 
 /// A finite number.
@@ -97,7 +96,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         limits,
         utilisation: scene.cables.breaking_load_n.is_some(),
     };
-    let jobs = args.jobs;
+    let jobs = args.workers.jobs;
     let points: Vec<usize> = (0..grid.len()).filter(|i| shard.contains(*i)).collect();
     // every run's steps and what its method needs, at every step swept (the points differ
     // from the scene only in pose and masses)
@@ -146,7 +145,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let csv_name = csv_path.file_name().map_or("sweep.csv".into(), |n| n.to_string_lossy().into_owned());
     let journal = Journal::open(&journal::path(&args.out, &csv_name), &identity, args.resume)?;
 
-    let quiet = args.quiet || !std::io::stderr().is_terminal();
+    let quiet = args.quiet.quiet || !std::io::stderr().is_terminal();
     eprintln!(
         "{}: {} of {} points (shard {shard}) on {workers} threads{}",
         scene.name,

@@ -21,15 +21,15 @@ use studies::tune::{self, Design, Tuning, tuned_scene};
 
 use crate::progress::Shown;
 
+use super::args::{SceneFile, Workers};
 use super::output::{Outputs, run_inputs};
 use super::scheme_args::{named, positive};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML) with a `[control]` section whose sensor is "sampled".
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
     /// Directory for tuned.toml, tune.csv and tune.md.
     #[arg(long, default_value = "out/tune")]
     pub(crate) out: PathBuf,
@@ -65,14 +65,13 @@ pub(crate) struct Args {
     #[arg(long, value_delimiter = ',', value_parser = positive, allow_negative_numbers = true,
           default_value = "2,4,8")]
     pub(crate) notch_qs: Vec<f64>,
-    /// Worker threads (default: one per core).
-    #[arg(long, value_parser = studies::options::jobs)]
-    pub(crate) jobs: Option<usize>,
+    #[command(flatten)]
+    pub(crate) workers: Workers,
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
-    let shown = args.scene.display().to_string();
+    let scene = load_scene(&args.file.scene)?;
+    let shown = args.file.scene.display().to_string();
     let settings = tune::Settings {
         design: args.design,
         t_end: args.t_end,
@@ -82,17 +81,17 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         fusion_scales: args.fusion_scales.clone(),
         notch_hz: args.notch_hz,
         notch_qs: args.notch_qs.clone(),
-        jobs: args.jobs,
+        jobs: args.workers.jobs,
         limits: caps().run,
     };
     let tuning = Tuning::new(&scene, &shown, settings)?;
-    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
     let mut declare = |f: &str| outputs.declare("--out", &args.out.join(f), f.rsplit('.').next());
     let (scene_id, csv_id, report_id) = (declare("tuned.toml")?, declare("tune.csv")?, declare("tune.md")?);
     outputs.open()?;
     let results = tuning.run(&Shown { lines: true, bars: false })?;
 
-    let tuned = tuned_scene(&scene, &args.scene, results.chosen());
+    let tuned = tuned_scene(&scene, &args.file.scene, results.chosen());
     let tuned_text = format!(
         "# `master tune --design {}` on {} (t_end {} s): the chosen command filter; see tune.md.\n{}",
         args.design.name(),
