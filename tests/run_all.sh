@@ -8,12 +8,7 @@ cd "$(dirname "$0")/.."
 
 echo "== format and lints =="
 cargo fmt --all --check
-cargo fmt --manifest-path python/Cargo.toml --check
 cargo clippy --workspace --all-targets --release --locked -- -D warnings
-# the Python package's extension is its own workspace (python/Cargo.toml), with a target folder of its
-# own: two workspaces in one folder can leave a crate built against another's copy of a dependency
-python_target="${CARGO_TARGET_DIR:-$PWD/target}/python"
-CARGO_TARGET_DIR="$python_target" cargo clippy --manifest-path python/Cargo.toml --release --locked -- -D warnings
 
 echo "== build (release) =="
 cargo build --release --workspace --locked
@@ -29,8 +24,9 @@ fi
 .venv/bin/pip install --quiet --disable-pip-version-check -r tests/requirements.txt
 
 echo "== the Python package (feedsim, built from python/ into .venv) =="
-# maturin is pinned in tests/requirements.txt: no build isolation, so nothing is downloaded here
-PATH="$PWD/.venv/bin:$PATH" CARGO_TARGET_DIR="$python_target" \
+# maturin is pinned in tests/requirements.txt: no build isolation, so nothing is downloaded here; the
+# extension is a member of the workspace, built with its lock into the same target folder
+PATH="$PWD/.venv/bin:$PATH" \
     .venv/bin/pip install --quiet --disable-pip-version-check --no-build-isolation ./python
 
 echo "== package the FMUs =="

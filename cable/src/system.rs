@@ -209,6 +209,47 @@ impl System {
         }
     }
 
+    /// Points of the elements of every cable at `cfg`, appended to `out`: per cable, from its
+    /// anchor through its free nodes to its attachment point (`elements + 1` points).
+    pub fn cable_points(&self, cfg: &Config, out: &mut Vec<Vec3>) {
+        let m = self.free_nodes();
+        for i in 0..self.cables() {
+            out.push(self.net.anchors[i]);
+            out.extend_from_slice(&cfg.nodes[i * m..(i + 1) * m]);
+            out.push(self.attachment(cfg, i).0);
+        }
+    }
+
+    /// Axial force of every element at `cfg` (zero when slack), appended to `out`: per cable,
+    /// from the anchor to the cabin (`elements` forces).
+    pub fn element_forces(&self, cfg: &Config, out: &mut Vec<f64>) {
+        let (m, ea) = (self.free_nodes(), self.net.spec.ea);
+        for i in 0..self.cables() {
+            let l0 = self.element_length[i];
+            let mut from = self.net.anchors[i];
+            for e in 0..=m {
+                let to = if e < m { cfg.nodes[i * m + e] } else { self.attachment(cfg, i).0 };
+                out.push(Bar::new(&(to - from), ea, l0).force);
+                from = to;
+            }
+        }
+    }
+
+    /// A velocity-level vector `du` (a mode shape, a change of configuration) as the motion of
+    /// the points of [`System::cable_points`], appended to `out`: zero at the anchors, the free
+    /// nodes' entries, and at each attachment point the cabin's `δr + δθ × d` (d its arm).
+    pub fn point_motion(&self, cfg: &Config, du: &[f64], out: &mut Vec<Vec3>) {
+        let m = self.free_nodes();
+        let c0 = self.cabin_offset();
+        let (dr, dth) = (get3(du, c0 / 3), get3(du, c0 / 3 + 1));
+        for i in 0..self.cables() {
+            out.push(Vec3::zeros());
+            out.extend((i * m..(i + 1) * m).map(|k| get3(du, k)));
+            let (_, d) = self.attachment(cfg, i);
+            out.push(dr + dth.cross(&d));
+        }
+    }
+
     /// Change of the end tensions (anchor end, cabin end) per cable for a change `du` of the
     /// configuration (node displacements, cabin displacement and world-frame rotation;
     /// tension-only: a slack element stays at zero).

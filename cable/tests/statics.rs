@@ -180,3 +180,51 @@ fn infeasible_pose_names_the_cable() {
         other => panic!("expected infeasibility, got {other}"),
     }
 }
+
+/// The points and element forces a picture of the net is drawn from are the form-finding's:
+/// every node where the shooting put it, every element force the norm of its tension vector,
+/// and a small configuration change moves the points as `point_motion` says (to first order).
+#[test]
+fn the_net_as_points_is_the_equilibrium() {
+    use cable::system::{Support, System};
+    for name in ["lt50m_C.toml", "lt50m_B.toml"] {
+        let s = scene(name);
+        let net = CableNet::from_scene(&s);
+        let eq = form_find(&net, s.target_position(), s.target_orientation()).unwrap();
+        let sys = System::new(net, eq.lengths(), true, Support::Free);
+        let cfg = sys.config_from(&eq);
+        let (mut points, mut forces) = (Vec::new(), Vec::new());
+        sys.cable_points(&cfg, &mut points);
+        sys.element_forces(&cfg, &mut forces);
+        let n = s.cables.elements;
+        assert_eq!(points.len(), 6 * (n + 1));
+        assert_eq!(forces.len(), 6 * n);
+        for (i, c) in eq.cables.iter().enumerate() {
+            for (j, node) in c.shape.nodes.iter().enumerate() {
+                let p = points[i * (n + 1) + j];
+                assert!((p - node).norm() <= 1e-12 * node.norm(), "{name} cable {i} node {j}: {p} against {node}");
+            }
+            // the shooting places nodes to ~1e-13 of the span; EA/L0 makes that ~1e-8 of a tension
+            for (e, t) in c.shape.tension.iter().enumerate() {
+                let f = forces[i * n + e];
+                assert!(
+                    (f - t.norm()).abs() <= 2e-8 * t.norm(),
+                    "{name} cable {i} element {e}: {f} against {}",
+                    t.norm()
+                );
+            }
+        }
+        // a small change of every coordinate: the points move by point_motion to first order
+        let du: Vec<f64> = (0..sys.dim()).map(|k| 1e-6 * ((k as f64 * 0.7).sin())).collect();
+        let mut moved = cfg.clone();
+        moved.set_displaced(&cfg, &du);
+        let (mut after, mut motion) = (Vec::new(), Vec::new());
+        sys.cable_points(&moved, &mut after);
+        sys.point_motion(&cfg, &du, &mut motion);
+        for k in 0..points.len() {
+            let d = after[k] - points[k];
+            assert!((d - motion[k]).norm() <= 1e-10, "{name} point {k}: moved {d}, point_motion {}", motion[k]);
+        }
+        assert!(motion.iter().step_by(n + 1).all(|m| *m == Vec3::zeros()), "anchors do not move");
+    }
+}

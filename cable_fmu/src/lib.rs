@@ -26,10 +26,10 @@ use std::path::Path;
 
 use feedcore::Vec3;
 use feedcore::scene::{SceneError, ValidScene};
-use fmi2::description::Causality;
-use fmi2::export::{Derivative, Model, ModelError, Reals, Seeds, StepOutcome};
-use fmi2::resources::{FileKind, FileParameter, KeptFile, SavedFile};
-use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
+use fmi::description::Causality;
+use fmi::export::{Derivative, Model, ModelError, Reals, Seeds, StepOutcome};
+use fmi::resources::{FileKind, FileParameter, KeptFile, SavedFile};
+use fmi::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::Vector6;
 use serde::{Deserialize, Serialize};
 
@@ -43,13 +43,13 @@ pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
 /// Identifies the variable table: change it whenever the table changes.
 pub const GUID: &str = "{3c0b5e9a-7d41-4f8e-b2a6-1e9d4c7f6a03}";
 /// Number of Real outputs.
-const OUTPUTS: usize = fmi2::table::count(vr::TABLE, Causality::Output);
+const OUTPUTS: usize = fmi::table::count(vr::TABLE, Causality::Output);
 
 /// The variables: value references (separate spaces per type) and, for the Real ones, the table
 /// the description and the names come from.
 pub mod vr {
     use super::CABLES;
-    use fmi2::table::Block;
+    use fmi::table::Block;
 
     const XYZ: &[&str] = &["x", "y", "z"];
     const WXYZ: &[&str] = &["w", "x", "y", "z"];
@@ -59,7 +59,7 @@ pub mod vr {
     /// value lies beyond.
     const WRENCH_BOUND: f64 = 1e7;
 
-    fmi2::variable_table! {
+    fmi::variable_table! {
         /// Real inputs: the wrench on the cabin, force then moment.
         FORCE = Block::input("wrench.f", 3, "N",
             "force the Stewart platform exerts on the cabin, world frame (start: scene C's static value)")
@@ -191,12 +191,12 @@ struct InMemory {
 
 /// The names of the inputs, in value-reference order from 0.
 pub fn input_names() -> Vec<String> {
-    fmi2::table::names(vr::TABLE, Causality::Input)
+    fmi::table::names(vr::TABLE, Causality::Input)
 }
 
 /// The names of the outputs, in value-reference order from [`vr::POSITION`].
 pub fn output_names() -> Vec<String> {
-    fmi2::table::names(vr::TABLE, Causality::Output)
+    fmi::table::names(vr::TABLE, Causality::Output)
 }
 
 fn is_tension(vr: u32) -> bool {
@@ -429,7 +429,7 @@ impl CableFmu {
 
 /// The variables, inputs starting at the wrench `w0`.
 fn variables(w0: &Vector6<f64>) -> Vec<Variable> {
-    let mut variables = fmi2::table::variables(vr::TABLE, |v| w0[(v - vr::WRENCH) as usize]);
+    let mut variables = fmi::table::variables(vr::TABLE, |v| w0[(v - vr::WRENCH) as usize]);
     // No output responds to the wrench at a communication point. The start pose depends on the
     // scene only; the equilibrium's tensions also on the wrench and the discretisation.
     let tension_knowns: Vec<String> =

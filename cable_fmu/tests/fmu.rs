@@ -1,9 +1,9 @@
-//! The FMU adapter (called in-process through the `fmi2::Model` trait) against the library.
+//! The FMU adapter (called in-process through the `fmi::Model` trait) against the library.
 
 use cable::model::{CableCabin, Payload};
 use cable_fmu::{CableFmu, vr};
-use fmi2::ModelInfo;
-use fmi2::export::Model;
+use fmi::ModelInfo;
+use fmi::export::Model;
 use nalgebra::Vector6;
 
 fn load_scene(name: &str) -> feedcore::scene::ValidScene {
@@ -32,10 +32,10 @@ fn wrench_at(t: f64, base: &Vector6<f64>) -> Vector6<f64> {
 /// — and every input declares a range that holds its start value.
 #[test]
 fn the_description_is_valid_and_reads_back_as_written() {
-    let xml = fmi2::package::checked_xml(&CableFmu::description().unwrap()).unwrap();
-    let back = fmi2::xml::parse_model_description(&xml).unwrap();
-    for v in back.variables.iter().filter(|v| v.causality == fmi2::Causality::Input) {
-        let Some(fmi2::Value::Real(start)) = v.start else { panic!("{}: start {:?}", v.name, v.start) };
+    let xml = fmi::package::checked_xml(&CableFmu::description().unwrap()).unwrap();
+    let back = fmi::xml::parse_model_description(&xml).unwrap();
+    for v in back.variables.iter().filter(|v| v.causality == fmi::Causality::Input) {
+        let Some(fmi::Value::Real(start)) = v.start else { panic!("{}: start {:?}", v.name, v.start) };
         assert!(v.min.is_some() && v.max.is_some() && v.outside_range(start).is_none(), "{}", v.name);
     }
 }
@@ -165,9 +165,9 @@ fn derivatives_and_dependencies_follow_the_standard_at_b_and_c() {
     let info = ModelInfo::new(CableFmu::description().unwrap()).unwrap();
     let inputs: Vec<u32> = (vr::WRENCH..vr::POSITION).collect();
     let outputs: Vec<u32> = (vr::POSITION..vr::DAMPING_RATIO).collect();
-    let index_of = |vr: u32| info.lookup(fmi2::VarType::Real, vr).unwrap().index;
+    let index_of = |vr: u32| info.lookup(fmi::VarType::Real, vr).unwrap().index;
     let declared = |o: u32, i: u32, initial: bool| {
-        let v = info.lookup(fmi2::VarType::Real, o).unwrap();
+        let v = info.lookup(fmi::VarType::Real, o).unwrap();
         let deps = if initial { &v.initial_dependencies } else { &v.dependencies };
         deps.as_ref().unwrap().contains(&index_of(i))
     };

@@ -11,7 +11,7 @@ pub enum SetupError {
     File { path: PathBuf, message: String },
     /// A call into an FMU failed while loading or initializing it.
     #[error("component `{component}`: {source}")]
-    Fmu { component: String, source: fmi2::import::Error },
+    Fmu { component: String, source: fmi::import::Error },
     /// The description does not fit the FMUs (names, types, units, values); the message names
     /// where, what and how to fix it.
     #[error("{0}")]

@@ -16,6 +16,7 @@ pub mod dense;
 pub mod error;
 pub mod error_estimate;
 pub mod iqn;
+pub mod me;
 pub mod schemes;
 pub mod ssp;
 pub mod step_control;

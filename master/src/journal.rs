@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use crate::sweep::table::{quoted, split};
+use studies::sweep::table::{quoted, split};
 
 /// What a journal's first line begins with.
 const IDENTITY: &str = "# master journal: ";
@@ -33,7 +33,7 @@ const MAX_LINE: u64 = 1 << 20;
 
 /// Why a journal cannot be used.
 #[derive(Debug, thiserror::Error)]
-pub enum JournalError {
+pub(crate) enum JournalError {
     #[error(
         "{0}: the finished points of an earlier run of this command that did not complete (interrupted, killed \
          or failed) are here; continue it with the same command and --resume, or remove the file to start afresh"
@@ -57,12 +57,16 @@ struct Point {
 }
 
 /// The journal of one command's points.
-pub struct Journal {
+pub(crate) struct Journal {
     path: PathBuf,
+    identity: String,
     file: Mutex<File>,
     done: BTreeMap<usize, Point>,
     /// Lines not used: cut short, not verifying, disagreeing, not of this run's points.
     dropped: AtomicUsize,
+    /// Points whose line the study did not take (another key, cells refused): they are computed
+    /// again, so their old lines go from the file once every point has been looked up.
+    unused: Mutex<Vec<usize>>,
 }
 
 impl Journal {
@@ -70,8 +74,7 @@ impl Journal {
     /// results, in one line). With `resume` the points an earlier run finished are read (a
     /// journal of other work is refused); without, an existing journal is refused rather than
     /// overwritten. A missing journal starts empty either way.
-    pub fn open(path: &Path, identity: &str, resume: bool) -> Result<Journal, JournalError> {
-        let io = |source| JournalError::Io { path: path.to_owned(), source };
+    pub(crate) fn open(path: &Path, identity: &str, resume: bool) -> Result<Journal, JournalError> {
         let identity = identity.replace('\n', " ");
         let (done, dropped) = match path.symlink_metadata() {
             Err(_) => (BTreeMap::new(), 0),
@@ -81,39 +84,27 @@ impl Journal {
             Ok(_) if !resume => return Err(JournalError::Exists(path.to_owned())),
             Ok(_) => read_back(path, &identity)?,
         };
-        // what was read is written back whole, replacing the file at once: the lines dropped
-        // go, and the next point starts a line of its own
-        let mut text = format!("{IDENTITY}{identity}\n");
-        for (index, point) in &done {
-            text.push_str(&line(*index, &point.key, &point.cells));
-        }
-        crate::tempfiles::remove_stale(path);
-        let fresh = crate::tempfiles::beside(path);
-        std::fs::write(&fresh, text).map_err(io)?;
-        std::fs::rename(&fresh, path).map_err(io)?;
-        let file = std::fs::OpenOptions::new().append(true).open(path).map_err(io)?;
-        Ok(Journal { path: path.to_owned(), file: Mutex::new(file), done, dropped: AtomicUsize::new(dropped) })
+        // what was read is written back whole: the lines dropped go, and the next point starts a
+        // line of its own
+        studies::tempfiles::remove_stale(path);
+        let file = write_back(path, &identity, done.iter())?;
+        Ok(Journal {
+            path: path.to_owned(),
+            identity,
+            file: Mutex::new(file),
+            done,
+            dropped: AtomicUsize::new(dropped),
+            unused: Mutex::new(Vec::new()),
+        })
     }
 
     /// How many points an earlier run finished (before any is checked against its key).
-    pub fn resumed(&self) -> usize {
+    pub(crate) fn resumed(&self) -> usize {
         self.done.len()
     }
 
-    /// Point `index` as an earlier run finished it, if its line names `key` and `decode`
-    /// accepts its cells; otherwise the line is dropped (counted for [`Journal::say_dropped`])
-    /// and the point is to be computed again.
-    pub fn take<R>(&self, index: usize, key: &str, decode: impl Fn(&[String]) -> anyhow::Result<R>) -> Option<R> {
-        let point = self.done.get(&index)?;
-        let decoded = (point.key == key).then(|| decode(&point.cells).ok()).flatten();
-        if decoded.is_none() {
-            self.dropped.fetch_add(1, Ordering::Relaxed);
-        }
-        decoded
-    }
-
     /// Says on stderr, once, how many lines of the journal were not used, if any.
-    pub fn say_dropped(&self) {
+    pub(crate) fn say_dropped(&self) {
         let n = self.dropped.swap(0, Ordering::Relaxed);
         if n > 0 {
             eprintln!(
@@ -127,22 +118,35 @@ impl Journal {
     }
 
     /// Writes point `index`, which `key` names, with its cells.
-    pub fn record(&self, index: usize, key: &str, cells: &[String]) -> Result<(), JournalError> {
+    pub(crate) fn record(&self, index: usize, key: &str, cells: &[String]) -> Result<(), JournalError> {
         let text = line(index, key, cells);
         let mut file = self.file.lock().unwrap_or_else(|p| p.into_inner());
         // unbuffered: the line is the kernel's once written, so a killed process keeps it
         file.write_all(text.as_bytes()).map_err(|source| JournalError::Io { path: self.path.clone(), source })
     }
 
-    /// The journal's path.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// The work is complete: the journal goes.
-    pub fn finish(self) -> Result<(), JournalError> {
+    pub(crate) fn finish(self) -> Result<(), JournalError> {
         std::fs::remove_file(&self.path).map_err(|source| JournalError::Io { path: self.path, source })
     }
+}
+
+/// Replaces the journal at `path` at once (write and rename) by the identity line and the lines
+/// of `points`; the file open for appending the next points.
+fn write_back<'a>(
+    path: &Path,
+    identity: &str,
+    points: impl Iterator<Item = (&'a usize, &'a Point)>,
+) -> Result<File, JournalError> {
+    let io = |source| JournalError::Io { path: path.to_owned(), source };
+    let mut text = format!("{IDENTITY}{identity}\n");
+    for (index, point) in points {
+        text.push_str(&line(*index, &point.key, &point.cells));
+    }
+    let fresh = studies::tempfiles::beside(path);
+    std::fs::write(&fresh, text).map_err(io)?;
+    std::fs::rename(&fresh, path).map_err(io)?;
+    std::fs::OpenOptions::new().append(true).open(path).map_err(io)
 }
 
 /// The points of an earlier run of the work `identity` in the journal at `path`, and how many
@@ -224,7 +228,7 @@ fn line(index: usize, key: &str, cells: &[String]) -> String {
         text.push_str(&quoted(c));
     }
     text.push(',');
-    let digest = fmi2::digest::digest(text.as_bytes());
+    let digest = fmi::digest::digest(text.as_bytes());
     text.push_str(&format!("{digest:016x},{END}\n"));
     text
 }
@@ -234,7 +238,7 @@ fn parse(bytes: &[u8]) -> Option<(usize, Point)> {
     let text = std::str::from_utf8(bytes).ok()?.strip_suffix('\n')?.strip_suffix(END)?.strip_suffix(',')?;
     let (body, digest) = text.rsplit_once(',')?;
     let body_with_comma = &text[..body.len() + 1];
-    if u64::from_str_radix(digest, 16).ok()? != fmi2::digest::digest(body_with_comma.as_bytes()) || digest.len() != 16 {
+    if u64::from_str_radix(digest, 16).ok()? != fmi::digest::digest(body_with_comma.as_bytes()) || digest.len() != 16 {
         return None;
     }
     let mut cells = split(body).ok()?;
@@ -248,67 +252,68 @@ fn parse(bytes: &[u8]) -> Option<(usize, Point)> {
 }
 
 /// `<dir>/<name>.partial`.
-pub fn path(dir: &Path, name: &str) -> PathBuf {
+pub(crate) fn path(dir: &Path, name: &str) -> PathBuf {
     dir.join(format!("{name}.partial"))
 }
 
-/// `compute(i, &items[i])` for every item on `jobs` threads, the costliest first (`cost`: an
-/// estimate of the run time), results in order: each written to `journal` as it finishes
-/// (under the key `key` gives, as `encode` gives its cells) and taken from it where an earlier
-/// run finished it and `decode` accepts the item's cells. After Ctrl-C no item starts, a result finished meanwhile is not
-/// kept (it may have been cut short), and the whole is [`Interrupted`](crate::interrupt::Interrupted),
-/// naming the journal that keeps the rest for `--resume`.
-#[allow(clippy::too_many_arguments)]
-pub fn map_journaled<T, R>(
-    items: &[T],
-    jobs: Option<usize>,
-    cost: impl Fn(&T) -> f64,
-    journal: &Journal,
-    key: impl Fn(&T) -> String + Sync,
-    encode: impl Fn(&R) -> Vec<String> + Sync,
-    decode: impl Fn(&T, &[String]) -> anyhow::Result<R> + Sync,
-    compute: impl Fn(usize, &T) -> anyhow::Result<R> + Sync + Send,
-) -> anyhow::Result<Vec<R>>
-where
-    T: Sync,
-    R: Send,
-{
-    let mut earlier: Vec<Option<R>> =
-        items.iter().enumerate().map(|(i, t)| journal.take(i, &key(t), |cells| decode(t, cells))).collect();
-    journal.say_dropped();
-    let todo: Vec<usize> = (0..items.len()).filter(|&i| earlier[i].is_none()).collect();
-    let computed = crate::parallel::map_longest_first(
-        &todo,
-        jobs,
-        |&i| cost(&items[i]),
-        |_, &i| -> anyhow::Result<Option<R>> {
-            if crate::interrupt::interrupted() {
-                return Ok(None);
-            }
-            let result = compute(i, &items[i]);
-            if crate::interrupt::interrupted() {
-                return Ok(None);
-            }
-            let result = result?;
-            journal.record(i, &key(&items[i]), &encode(&result))?;
-            Ok(Some(result))
-        },
-    )?;
-    for (&i, result) in todo.iter().zip(computed) {
-        earlier[i] = result?;
+impl studies::points::Store for Journal {
+    fn earlier(&self, index: usize, key: &str) -> Option<Vec<String>> {
+        let point = self.done.get(&index)?;
+        if point.key != key {
+            self.refused(index);
+            return None;
+        }
+        Some(point.cells.clone())
     }
-    match earlier.into_iter().collect::<Option<Vec<R>>>() {
-        Some(all) => Ok(all),
-        None => Err(anyhow::Error::new(crate::interrupt::Interrupted).context(format!(
-            "the finished points are kept in {}; continue with the same command and --resume",
-            journal.path.display()
-        ))),
+
+    fn refused(&self, index: usize) {
+        self.dropped.fetch_add(1, Ordering::Relaxed);
+        self.unused.lock().unwrap_or_else(|p| p.into_inner()).push(index);
+    }
+
+    /// Says what was dropped, and takes the lines of the points computed again out of the file
+    /// (else their old line and the new one would disagree on the next resume).
+    fn looked_up(&self) {
+        self.say_dropped();
+        let unused = std::mem::take(&mut *self.unused.lock().unwrap_or_else(|p| p.into_inner()));
+        if unused.is_empty() {
+            return;
+        }
+        let kept = self.done.iter().filter(|(index, _)| !unused.contains(index));
+        // a journal that cannot be rewritten keeps its lines; the next resume drops them again
+        if let Ok(file) = write_back(&self.path, &self.identity, kept) {
+            *self.file.lock().unwrap_or_else(|p| p.into_inner()) = file;
+        }
+    }
+
+    fn resumed(&self) -> usize {
+        Journal::resumed(self)
+    }
+
+    fn record(&self, index: usize, key: &str, cells: &[String]) -> anyhow::Result<()> {
+        Ok(Journal::record(self, index, key, cells)?)
+    }
+}
+
+/// A study's error, with the way on when the caller stopped it: its finished points are in
+/// `journal`, and `--resume` continues.
+pub(crate) fn resumable(journal: &Journal) -> impl Fn(anyhow::Error) -> anyhow::Error + '_ {
+    move |e| {
+        if e.is::<studies::cancel::Cancelled>() {
+            e.context(format!(
+                "the finished points are kept in {}; continue with the same command and --resume",
+                journal.path.display()
+            ))
+        } else {
+            e
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use studies::points::Store;
 
     fn scratch(name: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("master-journal-{name}-{}", std::process::id()));
@@ -322,9 +327,15 @@ mod tests {
         vec![x.to_owned(), "with, comma".to_owned(), "NaN".to_owned()]
     }
 
-    fn decode(c: &[String]) -> anyhow::Result<Vec<String>> {
-        anyhow::ensure!(c.len() == 3, "{} cells", c.len());
-        Ok(c.to_vec())
+    /// The cells of point `index` under `key`, as the study's map looks them up (cells it
+    /// would refuse refused).
+    fn take(j: &Journal, index: usize, key: &str, accept: bool) -> Option<Vec<String>> {
+        let cells = j.earlier(index, key)?;
+        if !accept || cells.len() != 3 {
+            j.refused(index);
+            return None;
+        }
+        Some(cells)
     }
 
     /// Points come back as written; a line cut short by a kill is dropped (and does not swallow
@@ -346,14 +357,14 @@ mod tests {
         let j = Journal::open(&path, "work A", true).unwrap();
         assert_eq!(j.dropped.load(Ordering::Relaxed), 1);
         assert_eq!(j.resumed(), 2);
-        assert_eq!(j.take(0, "x=1", decode), Some(cells("a")));
-        assert_eq!(j.take(1, "x=2", decode), None);
-        assert_eq!(j.take(2, "x=3", decode), Some(cells("c")));
+        assert_eq!(take(&j, 0, "x=1", true), Some(cells("a")));
+        assert_eq!(take(&j, 1, "x=2", true), None);
+        assert_eq!(take(&j, 2, "x=3", true), Some(cells("c")));
         j.record(1, "x=2", &cells("b")).unwrap();
         drop(j);
         let j = Journal::open(&path, "work A", true).unwrap();
         assert_eq!((j.resumed(), j.dropped.load(Ordering::Relaxed)), (3, 0));
-        assert_eq!(j.take(1, "x=2", decode), Some(cells("b")));
+        assert_eq!(take(&j, 1, "x=2", true), Some(cells("b")));
         j.finish().unwrap();
         assert!(!path.exists());
     }
@@ -381,16 +392,21 @@ mod tests {
         let j = Journal::open(&path, "work", true).unwrap();
         // point 1 edited, point 3 twice with other values, the binary and the overlong lines
         assert_eq!(j.dropped.load(Ordering::Relaxed), 1 + 2 + 2, "{:?}", j.done.keys());
-        assert_eq!(j.take(0, "x=0", decode), Some(cells("a")));
-        assert_eq!(j.take(1, "x=1", decode), None);
-        assert_eq!(j.take(2, "x=9", decode), None, "a key of another grid");
-        assert_eq!(j.take(3, "x=3", decode), None);
-        assert_eq!(j.take(4, "x=4", |_| anyhow::bail!("refused")), None::<()>);
-        assert_eq!(j.take(5, "x=5", decode), Some(cells("f")));
+        assert_eq!(take(&j, 0, "x=0", true), Some(cells("a")));
+        assert_eq!(take(&j, 1, "x=1", true), None);
+        assert_eq!(take(&j, 2, "x=9", true), None, "a key of another grid");
+        assert_eq!(take(&j, 3, "x=3", true), None);
+        assert_eq!(take(&j, 4, "x=4", false), None);
+        assert_eq!(take(&j, 5, "x=5", true), Some(cells("f")));
+        // the points not taken (another key, refused cells) leave the file, and their new lines
+        // meet no old one on the next resume
+        j.looked_up();
+        j.record(2, "x=9", &cells("c9")).unwrap();
+        j.record(4, "x=4", &cells("e")).unwrap();
         drop(j);
-        // what the resumed run kept is written back alone
         let j = Journal::open(&path, "work", true).unwrap();
         assert_eq!((j.resumed(), j.dropped.load(Ordering::Relaxed)), (4, 0));
+        assert_eq!(take(&j, 2, "x=9", true), Some(cells("c9")));
         drop(j);
         // a file that is no journal at all
         std::fs::write(&path, b"\x00\x01\x02").unwrap();

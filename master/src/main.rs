@@ -6,10 +6,13 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use master::limits::{Limits, MAX_STEPS};
-use master::options::{MEMORY_MB, megabytes};
+use studies::limits::{Limits, MAX_STEPS};
+use studies::options::MEMORY_MB;
 
 mod commands;
+mod interrupt;
+mod journal;
+mod progress;
 
 #[derive(Parser)]
 #[command(
@@ -37,7 +40,7 @@ struct CapFlags {
     max_steps: u64,
     /// Memory one run may take, MB [default: what the machine has available]. The need is
     /// estimated from the scene before anything is built.
-    #[arg(long, global = true, value_name = "MB", value_parser = |t: &str| megabytes(t, MEMORY_MB))]
+    #[arg(long, global = true, value_name = "MB", value_parser = commands::scheme_args::memory_mb)]
     max_memory_mb: Option<u64>,
     /// Largest scene file read, bytes.
     #[arg(long, global = true, default_value_t = feedcore::scene::MAX_SCENE_BYTES, value_name = "BYTES")]
@@ -52,7 +55,8 @@ enum Command {
     Modes(commands::modes::Args),
     /// Model updating: scene keys fitted to measured natural frequencies by least squares.
     Calibrate(commands::calibrate::Args),
-    /// Stewart platform on a fixed cabin: added mass, static wrench, wrench range over one circle.
+    /// Stewart platform on a fixed cabin: added mass, static wrench, wrench range over one circle
+    /// (the cabin held at the scene's target pose, the motion sampled every `solver.dt_s`).
     Stewart(commands::stewart::Args),
     /// Simulate a scene with a coupling scheme of its FMUs, the monolithic, decoupled or cable-only
     /// model, or any SSP system of FMUs (--system).
@@ -95,7 +99,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    master::interrupt::install();
+    crate::interrupt::install();
     commands::set_caps(commands::Caps {
         run: Limits {
             max_steps: cli.caps.max_steps,
@@ -132,11 +136,7 @@ fn main() -> ExitCode {
             for cause in e.chain().skip(1) {
                 eprintln!("  caused by: {cause}");
             }
-            if master::interrupt::interrupted() {
-                ExitCode::from(master::interrupt::EXIT_CODE)
-            } else {
-                ExitCode::FAILURE
-            }
+            if studies::cancel::requested() { ExitCode::from(crate::interrupt::EXIT_CODE) } else { ExitCode::FAILURE }
         }
     }
 }

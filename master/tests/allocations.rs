@@ -8,8 +8,8 @@ mod common;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use master::cosim::{Coupled, FmuSystem, JacobianUpdate, Options, Scheme};
-use master::monolithic::Monolithic;
+use studies::cosim::{Coupled, FmuSystem, JacobianUpdate, Options, Scheme};
+use studies::monolithic::Monolithic;
 
 /// Counts the allocations of the thread that makes them.
 struct Counting;
@@ -90,7 +90,7 @@ fn the_lqg_law_steps_without_allocating() {
 #[test]
 fn the_co_simulation_steps_without_allocating() {
     let (scene, file) = common::scene("lt50m_C.toml", "allocations-cosim", |_| {});
-    let spec = master::system::scene_spec(&scene, &file).unwrap();
+    let spec = studies::system::scene_spec(&scene, &file).unwrap();
     schemes_step_without_allocating(&spec, "FMI 2.0");
     // the FMI 3.0 twins: the importer's plans and buffers are made once
     let mut spec3 = spec.clone();
@@ -100,8 +100,41 @@ fn the_co_simulation_steps_without_allocating() {
     schemes_step_without_allocating(&spec3, "FMI 3.0");
 }
 
+/// Units the master integrates (Model Exchange), with a Co-Simulation FMU: the ball's steps
+/// hold impacts (state events, the event iteration) and the loop's IJCSA differences through
+/// the unit; the integrator's buffers are made once, at set-up. Every scheme, FMI 2.0 and 3.0.
+#[test]
+fn model_exchange_units_step_without_allocating() {
+    for version in [2, 3] {
+        for which in ["ball", "loop"] {
+            let spec = common::me_system(which, version);
+            let label = format!("{which}, FMI {version}");
+            schemes_step_without_allocating(&spec, &label);
+            if which == "ball" {
+                for scheme in [Scheme::Jacobi, Scheme::GaussSeidel { reversed: false }] {
+                    let options = Options { scheme, ..Options::default() };
+                    let system = FmuSystem::load(&spec, &studies::system::needs(&options, false)).unwrap();
+                    let mut c = Coupled::new(system, options).unwrap();
+                    for _ in 0..100 {
+                        c.step(0.01).unwrap();
+                    }
+                    let events = |c: &Coupled<FmuSystem>| c.units().model_exchange_stats()[0].2.state_events;
+                    let before = events(&c);
+                    let n = allocations(|| {
+                        for _ in 0..100 {
+                            c.step(0.01).unwrap();
+                        }
+                    });
+                    assert_eq!(n, 0, "allocations in 100 macro steps of {} ({label})", scheme.name());
+                    assert!(events(&c) - before >= 3, "impacts in the steps counted ({label})");
+                }
+            }
+        }
+    }
+}
+
 /// The fixed-step schemes over `spec`, 100 macro steps each after 100 of warm-up.
-fn schemes_step_without_allocating(spec: &master::cosim::SystemSpec, version: &str) {
+fn schemes_step_without_allocating(spec: &studies::cosim::SystemSpec, version: &str) {
     for (scheme, jacobian) in [
         (Scheme::Ijcsa, JacobianUpdate::EveryStep),
         (Scheme::Ijcsa, JacobianUpdate::Reuse),
@@ -109,7 +142,7 @@ fn schemes_step_without_allocating(spec: &master::cosim::SystemSpec, version: &s
         (Scheme::Iterative, JacobianUpdate::EveryStep),
     ] {
         let options = Options { scheme, jacobian, ..Options::default() };
-        let system = FmuSystem::load(spec, &master::system::needs(&options, false)).unwrap();
+        let system = FmuSystem::load(spec, &studies::system::needs(&options, false)).unwrap();
         let mut c = Coupled::new(system, options).unwrap();
         for _ in 0..100 {
             c.step(0.01).unwrap();
@@ -126,17 +159,17 @@ fn schemes_step_without_allocating(spec: &master::cosim::SystemSpec, version: &s
 #[test]
 fn the_adaptive_macro_step_does_not_allocate() {
     let (scene, file) = common::scene("lt50m_C.toml", "allocations-adaptive", |_| {});
-    let spec = master::system::scene_spec(&scene, &file).unwrap();
+    let spec = studies::system::scene_spec(&scene, &file).unwrap();
     // the adaptive macro step: its estimate, controller and rollbacks
     let options = Options { scheme: Scheme::Ijcsa, ..Options::default() };
-    let system = FmuSystem::load(&spec, &master::system::needs(&options, true)).unwrap();
+    let system = FmuSystem::load(&spec, &studies::system::needs(&options, true)).unwrap();
     let mut c = Coupled::new(system, options).unwrap();
-    let adaptive = master::system::Adaptive {
-        tolerances: master::cosim::step_control::Tolerances { rtol: 1e-4, atol: 1e-7 },
+    let adaptive = studies::system::Adaptive {
+        tolerances: studies::cosim::step_control::Tolerances { rtol: 1e-4, atol: 1e-7 },
         h_min: 1e-5,
         h_max: 0.02,
         watch: Vec::new(),
-        estimate: master::cosim::error_estimate::Kind::Predictor,
+        estimate: studies::cosim::error_estimate::Kind::Predictor,
     };
     let mut ctl = adaptive.controller().unwrap();
     let tol = adaptive.tolerances;

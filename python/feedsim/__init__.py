@@ -1,8 +1,9 @@
 """feedsim from Python: the runs, statics and modes of the ``master`` tool, in-process.
 
 A scene is a path to a scene file (TOML) or a dict of the same keys. Options are the command
-line's, by their flag names with ``_`` for ``-`` (``t_end``, ``h_min``, ``iqn_reuse``, ...):
-``True`` gives a flag, a list a comma-separated value. Every number the functions return is
+line's, by their flag names with ``_`` for ``-`` (``t_end``, ``h_min``, ``iqn_reuse``, ...),
+with the same defaults and checked by the same checks (the library's, not the command line's
+parser): ``True`` gives a flag, a list a list option. Every number the functions return is
 the one the ``master`` command prints for the same scene and options.
 
 Errors: :class:`SceneError` (a ``ValueError``) for a scene that cannot be read or is not valid,
@@ -80,22 +81,6 @@ def _nonfinite(v: float) -> str:
     return "nan" if v != v else ("inf" if v > 0 else "-inf")
 
 
-def _argv(options: Mapping[str, Any]) -> list[str]:
-    """Command-line flags of keyword options: ``t_end=5`` → ``--t-end 5``."""
-    argv: list[str] = []
-    for key, v in options.items():
-        if v is None or v is False:
-            continue
-        flag = "--" + key.replace("_", "-")
-        if v is True:
-            argv.append(flag)
-        elif isinstance(v, (list, tuple)):
-            argv += [flag, ",".join(str(x) for x in v)]
-        else:
-            argv += [flag, repr(v) if isinstance(v, float) else str(v)]
-    return argv
-
-
 def _columns(csv: str) -> dict[str, Any]:
     """The CSV's columns as numpy arrays, in order: float64 where every cell is a number (as
     printed: round-trip exact; an empty cell is NaN), else the text (a system's String outputs)."""
@@ -119,10 +104,22 @@ class Result:
     """A finished run: ``summary`` (the keys of ``master run --json``), ``csv`` (the text of
     ``--out``), ``frame`` (a pandas DataFrame of the CSV's columns) and ``arrays()``."""
 
-    def __init__(self, summary: dict[str, Any], csv: str):
+    def __init__(self, summary: dict[str, Any], csv: str, net=None):
         self.summary = summary
         self.csv = csv
         self._frame = None
+        self._net = net
+
+    def net(self):
+        """The cable net at every sample of a run made with ``net=True``: a numpy array of shape
+        ``(samples, cables, elements + 1, 3)``, each cable's points (m, world frame) from its
+        anchor to its attachment point on the cabin, at the times of ``frame["t"]``."""
+        import numpy as np
+
+        if self._net is None:
+            raise ValueError("this run kept no net: run it with net=True (--scheme monolithic or cable)")
+        times, data, cables, points = self._net
+        return np.frombuffer(data, dtype="<f8").reshape(len(times), cables, points, 3)
 
     def arrays(self) -> dict[str, Any]:
         """The time histories as numpy arrays by column name (``t`` first), without pandas."""
@@ -150,6 +147,7 @@ def run(
     dt: float | None = None,
     t_end: float | None = None,
     progress: Callable[[float, float], Any] | None = None,
+    net: bool = False,
     **options,
 ) -> Result:
     """One run of a scene, as ``master run --scene F --scheme S``.
@@ -157,7 +155,8 @@ def run(
     ``scheme``: ``monolithic``, ``jacobi``, ``gauss-seidel``, ``gauss-seidel-reversed``,
     ``iterative``, ``ijcsa``, ``iqn-ils``, ``decoupled`` or ``cable``. ``dt`` and ``t_end``
     default to the scene's ``solver.dt_s`` and ``solver.t_end_s``. ``compensation="off"``: the
-    scene with its second level switched off (its uncompensated reference). ``options``: the
+    scene with its second level switched off (its uncompensated reference); ``wind_seed=N``:
+    another record of the scene's wind (``[wind] seed``). ``options``: the
     command line's scheme options (``adaptive=True``, ``rtol``, ``atol``, ``h_min``, ``h_max``,
     ``watch=[...]``, ``estimate``, ``tol``, ``max_iter``, ``relaxation``, ``jacobian``,
     ``extrapolation``, ``iqn_reuse``, ``iqn_filter``, ``iqn_relaxation``). The co-simulation
@@ -167,11 +166,14 @@ def run(
     ``progress(t, t_end)``, if given, is called about ten times a second of wall time with the
     simulated time reached; an exception it raises stops the run and propagates, and so does
     Ctrl-C (``KeyboardInterrupt``).
+
+    ``net=True`` (``monolithic`` and ``cable``) keeps the cable net at every sample:
+    :meth:`Result.net`.
     """
     path, toml, label = _source(scene)
-    argv = _argv({"scheme": scheme, "dt": dt, "t_end": t_end, **options})
-    summary, csv = _feedsim.run(path, toml, label, argv, progress)
-    return Result(json.loads(summary), csv)
+    options = {"scheme": scheme, "dt": dt, "t_end": t_end, **options}
+    summary, csv, kept = _feedsim.run(path, toml, label, options, progress, bool(net))
+    return Result(json.loads(summary), csv, kept)
 
 
 def run_system(path, scheme: str = "ijcsa", *, dt: float | None = None, t_end: float | None = None, **options) -> Result:
@@ -180,11 +182,12 @@ def run_system(path, scheme: str = "ijcsa", *, dt: float | None = None, t_end: f
     columns of its ``--out`` (``time``, with the adaptive step then ``h_s``, and every output as
     ``<component>.<variable>``). ``dt`` is the macro step (not with ``adaptive=True``); ``t_end``
     defaults to the system's DefaultExperiment stopTime. ``options``: the scheme options of
-    :func:`run`, and ``allow_external_fmus``, ``max_archive_entries``, ``max_unpacked_mb``."""
+    :func:`run`, and ``allow_external_fmus``, ``max_archive_entries``, ``max_unpacked_mb``; for
+    Model Exchange components ``interface`` (``"me"``, or ``"COMPONENT=me,..."``),
+    ``me_solver`` (``"dopri5"`` or ``"esdirk3"``), ``me_rtol``, ``me_atol``."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path: give the path of an .ssp or .ssd file, not {type(path).__name__}")
-    argv = _argv({"scheme": scheme, "dt": dt, "t_end": t_end, **options})
-    summary, csv = _feedsim.run_system(os.fspath(path), argv)
+    summary, csv = _feedsim.run_system(os.fspath(path), {"scheme": scheme, "dt": dt, "t_end": t_end, **options})
     return Result(json.loads(summary), csv)
 
 
@@ -231,8 +234,7 @@ def sweep(
         specs.append(f"{name}={text}")
     path, toml, label = _source(scene)
     flags = {"run": run, "t_end": t_end, "modes": modes, "jobs": jobs, "surface": surface, "tilt_share": tilt_share}
-    argv = [a for spec in specs for a in ("--grid", spec)] + _argv({**flags, **options})
-    columns, rows = _feedsim.sweep(path, toml, label, argv)
+    columns, rows = _feedsim.sweep(path, toml, label, specs, {**flags, **options})
     frame = pd.DataFrame(rows, columns=columns)
     for name in columns:
         if name == "feasible":

@@ -15,8 +15,11 @@ def run(
     label: str,
     argv: list[str],
     progress: Callable[[float, float], Any] | None = None,
-) -> tuple[str, str]:
-    """`master run`: (the --json summary, the --out CSV); `progress(t, t_end)` about every 0.1 s."""
+    net: bool = False,
+) -> tuple[str, str, tuple[list[float], bytes, int, int] | None]:
+    """`master run`: (the --json summary, the --out CSV, with `net` the net at every sample: its
+    times, every cable point as little-endian float64 x, y, z, the cables, the points per cable);
+    `progress(t, t_end)` about every 0.1 s."""
 
 def run_system(path: str, argv: list[str]) -> tuple[str, str]:
     """`master run --system`: (the --json summary, the --out CSV)."""

@@ -7,17 +7,20 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use clap::Parser;
 use feedcore::scene::{MAX_SCENE_BYTES, Scene, SceneError as InvalidScene, ValidScene};
-use master::limits::{Footprint, Limits, check_memory};
-use master::options::{CompensationArg, SchemeName, SchemeOptions, SystemFileArgs, check_dt, positive};
-use master::report::{Modal, Statics, run_summary, static_utilisation};
-use master::simulate::{Method, Run};
-use master::sweep;
-use master::system::SystemFile;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use studies::limits::{Footprint, Limits, check_memory};
+use studies::options::{
+    self as opt, Compensation, Named, SchemeName, SchemeOptions, SystemFiles, UNPACKED_MB, check_dt, positive,
+};
+use studies::report::{Modal, Statics, run_summary, static_utilisation};
+use studies::simulate::{Method, Run};
+use studies::stepping::{Unwatched, Watch};
+use studies::sweep;
+use studies::system::SystemFile;
 
 create_exception!(feedsim, SceneError, PyValueError, "A scene that cannot be read or is not valid.");
 create_exception!(feedsim, RunError, PyRuntimeError, "A run that cannot start or stopped.");
@@ -73,27 +76,109 @@ fn run_error(e: &(dyn std::error::Error + 'static)) -> PyErr {
     RunError::new_err(chain(e))
 }
 
-/// The method and its steps, as `master run` takes them (the same flags, the same checks).
-#[derive(clap::Args)]
-struct Stepping {
-    #[arg(long, value_enum)]
-    scheme: SchemeName,
-    #[arg(long, value_parser = positive)]
-    dt: Option<f64>,
-    #[arg(long, value_parser = positive)]
-    t_end: Option<f64>,
-    #[command(flatten)]
-    options: SchemeOptions,
+/// Keyword options, taken one by one by their command-line names (`_` for `-`): each value is
+/// read as the text a user would type and checked by the library's check of that option, so
+/// that a value refused here is refused by the command line with the same reason.
+struct Kwargs<'py> {
+    dict: Bound<'py, PyDict>,
 }
 
-/// The options of `master run --scene` the package passes on.
-#[derive(Parser)]
-#[command(name = "feedsim.run", no_binary_name = true)]
-struct RunArgs {
-    #[command(flatten)]
-    stepping: Stepping,
-    #[arg(long, value_enum, default_value_t = CompensationArg::On)]
-    compensation: CompensationArg,
+impl<'py> Kwargs<'py> {
+    fn new(dict: Bound<'py, PyDict>) -> Kwargs<'py> {
+        Kwargs { dict }
+    }
+
+    /// The text of option `name`, if given (`None` counts as not given).
+    fn text(&self, name: &str) -> PyResult<Option<String>> {
+        let Some(value) = self.dict.get_item(name)? else { return Ok(None) };
+        self.dict.del_item(name)?;
+        if value.is_none() {
+            return Ok(None);
+        }
+        if value.is_instance_of::<pyo3::types::PyBool>() {
+            return Err(invalid(name, &value.str()?.to_string(), "a flag takes True or False, not a value"));
+        }
+        Ok(Some(value.str()?.to_string()))
+    }
+
+    /// Option `name` checked by `check`.
+    fn take<T>(&self, name: &str, check: impl Fn(&str) -> Result<T, String>) -> PyResult<Option<T>> {
+        match self.text(name)? {
+            Some(text) => check(&text).map(Some).map_err(|reason| invalid(name, &text, &reason)),
+            None => Ok(None),
+        }
+    }
+
+    /// Option `name`, one of a library enum's names.
+    fn named<T: Named>(&self, name: &str) -> PyResult<Option<T>> {
+        self.take(name, T::parse)
+    }
+
+    /// A flag: `True` or `False` (or absent).
+    fn flag(&self, name: &str) -> PyResult<bool> {
+        let Some(value) = self.dict.get_item(name)? else { return Ok(false) };
+        self.dict.del_item(name)?;
+        if value.is_none() {
+            return Ok(false);
+        }
+        value.extract::<bool>().map_err(|_| invalid(name, &value.to_string(), "a flag takes True or False"))
+    }
+
+    /// A list option: a list of values, or one comma-separated string.
+    fn list(&self, name: &str) -> PyResult<Vec<String>> {
+        let Some(value) = self.dict.get_item(name)? else { return Ok(Vec::new()) };
+        self.dict.del_item(name)?;
+        if value.is_none() {
+            return Ok(Vec::new());
+        }
+        if let Ok(text) = value.extract::<String>() {
+            return Ok(text.split(',').map(str::to_owned).collect());
+        }
+        value.try_iter()?.map(|item| Ok(item?.str()?.to_string())).collect()
+    }
+
+    /// What is left is not an option of this function.
+    fn done(self) -> PyResult<()> {
+        match self.dict.keys().iter().next() {
+            Some(key) => Err(PyValueError::new_err(format!("unexpected argument '{key}' found"))),
+            None => Ok(()),
+        }
+    }
+
+    /// The scheme options among them, each at the library's default when not given.
+    fn scheme_options(&self) -> PyResult<SchemeOptions> {
+        let d = SchemeOptions::default();
+        Ok(SchemeOptions {
+            extrapolation: self.named("extrapolation")?,
+            tol: self.take("tol", positive)?.unwrap_or(d.tol),
+            max_iter: self.take("max_iter", opt::max_iter)?.unwrap_or(d.max_iter),
+            relaxation: self.take("relaxation", opt::relaxation)?.unwrap_or(d.relaxation),
+            jacobian: self.named("jacobian")?.unwrap_or(d.jacobian),
+            iqn_reuse: self.take("iqn_reuse", opt::whole)?.unwrap_or(d.iqn_reuse),
+            iqn_filter: self.take("iqn_filter", opt::below_one)?.unwrap_or(d.iqn_filter),
+            iqn_relaxation: self.take("iqn_relaxation", opt::factor)?.unwrap_or(d.iqn_relaxation),
+            adaptive: self.flag("adaptive")?,
+            rtol: self.take("rtol", opt::tolerance)?.unwrap_or(d.rtol),
+            atol: self.take("atol", positive)?.unwrap_or(d.atol),
+            h_min: self.take("h_min", positive)?.unwrap_or(d.h_min),
+            h_max: self.take("h_max", positive)?.unwrap_or(d.h_max),
+            watch: self.list("watch")?,
+            estimate: self.named("estimate")?,
+        })
+    }
+
+    /// The method and its steps: `scheme`, `dt`, `t_end` and the scheme options.
+    fn method(&self) -> PyResult<(SchemeName, Option<f64>, Option<f64>, SchemeOptions)> {
+        let scheme = self.named("scheme")?.ok_or_else(|| PyValueError::new_err("give a scheme"))?;
+        let dt = self.take("dt", positive)?;
+        let t_end = self.take("t_end", positive)?;
+        Ok((scheme, dt, t_end, self.scheme_options()?))
+    }
+}
+
+/// A value an option refuses, worded as the command line words it.
+fn invalid(name: &str, value: &str, reason: &str) -> PyErr {
+    PyValueError::new_err(format!("invalid value '{value}' for '{name}': {reason}"))
 }
 
 /// An option the library refuses (with its chain of causes).
@@ -101,41 +186,77 @@ fn option_value_error(e: &anyhow::Error) -> PyErr {
     PyValueError::new_err(format!("{e:#}"))
 }
 
-/// An option error as clap words it, without its usage lines.
-fn option_error(e: clap::Error) -> PyErr {
-    let text = e.render().to_string();
-    let first = text.lines().next().unwrap_or("").trim_start_matches("error: ").to_string();
-    PyValueError::new_err(first)
-}
+/// The net of a run at every sample: (times, every cable point's x, y, z as little-endian
+/// float64 bytes, cables, points per cable).
+type Net = (Vec<f64>, Vec<u8>, usize, usize);
 
-/// One run: (the `--json` summary, the `--out` CSV). `progress(t, t_end)` is called at most every
-/// [`PROGRESS_PERIOD`] of wall time; an exception it raises, or a pending signal (Ctrl-C), stops
-/// the run and is raised.
+/// One run: (the `--json` summary, the `--out` CSV, with `net` the net at every sample).
+/// `progress(t, t_end)` is called at most every [`PROGRESS_PERIOD`] of wall time; an exception
+/// it raises, or a pending signal (Ctrl-C), stops the run and is raised.
 #[pyfunction]
-#[pyo3(signature = (path, toml, label, argv, progress=None))]
+#[pyo3(signature = (path, toml, label, options, progress=None, net=false))]
 fn run(
     py: Python<'_>,
     path: Option<String>,
     toml: Option<String>,
     label: String,
-    argv: Vec<String>,
+    options: Bound<'_, PyDict>,
     progress: Option<Py<PyAny>>,
-) -> PyResult<(String, String)> {
+    net: bool,
+) -> PyResult<(String, String, Option<Net>)> {
     let source = Source::new(path, toml, label)?;
-    let RunArgs { stepping: args, compensation } = RunArgs::try_parse_from(&argv).map_err(option_error)?;
+    let kwargs = Kwargs::new(options);
+    let (scheme, dt, t_end, options) = kwargs.method()?;
+    let compensation = kwargs.named::<Compensation>("compensation")?.unwrap_or_default();
+    let wind_seed = kwargs.take("wind_seed", studies::options::seed)?;
+    kwargs.done()?;
     let scene = source.load().map_err(scene_error)?;
     let scene = compensation.apply(&scene).map_err(|e| option_value_error(&e))?;
-    let method = args.options.method(args.scheme).map_err(|e| option_value_error(&e))?;
-    check_dt(args.options.adaptive, args.dt).map_err(|e| option_value_error(&e))?;
-    let dt = args.dt.unwrap_or(scene.solver.dt_s);
-    let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
+    let scene = studies::options::with_wind_seed(&scene, wind_seed).map_err(|e| option_value_error(&e))?;
+    let method = options.method(scheme).map_err(|e| option_value_error(&e))?;
+    check_dt(options.adaptive, dt).map_err(|e| option_value_error(&e))?;
+    let dt = dt.unwrap_or(scene.solver.dt_s);
+    let t_end = t_end.unwrap_or(scene.solver.t_end_s);
+    if let Some(reason) = method.net_refusal().filter(|_| net) {
+        return Err(PyValueError::new_err(format!("net=True: {reason}")));
+    }
     let file = source.file();
-    py.detach(|| run_scene(&scene, &file, method, dt, t_end, progress))
+    py.detach(|| run_scene(&scene, &file, method, dt, t_end, progress, net))
 }
 
 /// How often a run looks at the interpreter (signals, the progress callback): rarely enough to
 /// cost nothing against the steps, often enough for Ctrl-C to feel immediate.
 const PROGRESS_PERIOD: Duration = Duration::from_millis(100);
+
+/// The interpreter's side of a run: a pending signal (Ctrl-C) or an exception raised by the
+/// progress callback stops it; both are looked at every [`PROGRESS_PERIOD`] of wall time.
+struct Interpreter {
+    progress: Option<Py<PyAny>>,
+    t_end: f64,
+    last: Instant,
+    raised: Option<PyErr>,
+}
+
+impl Watch for Interpreter {
+    fn stepped(&mut self, _: u64, t: f64) -> Result<(), String> {
+        if self.last.elapsed() < PROGRESS_PERIOD {
+            return Ok(());
+        }
+        self.last = Instant::now();
+        let looked = Python::attach(|py| {
+            py.check_signals()?;
+            if let Some(callback) = &self.progress {
+                callback.call1(py, (t, self.t_end))?;
+            }
+            Ok::<(), PyErr>(())
+        });
+        looked.map_err(|e| {
+            let text = e.to_string();
+            self.raised = Some(e);
+            text
+        })
+    }
+}
 
 fn run_scene(
     scene: &ValidScene,
@@ -144,30 +265,14 @@ fn run_scene(
     dt: f64,
     t_end: f64,
     progress: Option<Py<PyAny>>,
-) -> PyResult<(String, String)> {
+    net: bool,
+) -> PyResult<(String, String, Option<Net>)> {
     let run = Run::prepare(scene, file, method, dt, t_end, &Limits::default()).map_err(|e| run_error(&e))?;
-    let mut raised: Option<PyErr> = None;
-    let mut last = Instant::now();
-    let mut watch = |t: f64| -> Result<(), String> {
-        if last.elapsed() < PROGRESS_PERIOD {
-            return Ok(());
-        }
-        last = Instant::now();
-        let looked = Python::attach(|py| {
-            py.check_signals()?;
-            if let Some(callback) = &progress {
-                callback.call1(py, (t, t_end))?;
-            }
-            Ok::<(), PyErr>(())
-        });
-        looked.map_err(|e| {
-            let text = e.to_string();
-            raised = Some(e);
-            text
-        })
-    };
-    let trace = run.execute_watched(true, &mut watch);
-    if let Some(e) = raised {
+    let mut watch = Interpreter { progress, t_end, last: Instant::now(), raised: None };
+    let mut record = net.then(studies::net::NetRecord::default);
+    let sink = record.as_mut().map(|r| (r as &mut dyn studies::net::NetSink, 1));
+    let trace = run.execute_with_net(&mut watch, sink);
+    if let Some(e) = watch.raised {
         return Err(e);
     }
     let trace = trace.map_err(|e| run_error(&e))?;
@@ -176,7 +281,11 @@ fn run_scene(
     let mut csv = Vec::new();
     trace.write_csv(&mut csv, &scene.outputs.quantities).map_err(|e| run_error(&e))?;
     let csv = String::from_utf8(csv).map_err(|e| run_error(&e))?;
-    Ok((summary.to_string(), csv))
+    let net = record.map(|r| {
+        let bytes = r.positions.iter().flat_map(|x| x.to_le_bytes()).collect();
+        (r.times, bytes, r.cables, r.points_per_cable)
+    });
+    Ok((summary.to_string(), csv, net))
 }
 
 /// `master statics --json`.
@@ -207,79 +316,75 @@ fn modes(py: Python<'_>, path: Option<String>, toml: Option<String>, label: Stri
     })
 }
 
-/// The options of `master run --system` the package passes on.
-#[derive(Parser)]
-#[command(name = "feedsim.run_system", no_binary_name = true)]
-struct SystemArgs {
-    #[command(flatten)]
-    stepping: Stepping,
-    #[command(flatten)]
-    files: SystemFileArgs,
-}
-
 /// A run of an SSP system file: (the `--json` summary, the `--out` CSV).
 #[pyfunction]
-#[pyo3(signature = (path, argv))]
-fn run_system(py: Python<'_>, path: String, argv: Vec<String>) -> PyResult<(String, String)> {
-    let SystemArgs { stepping: args, files } = SystemArgs::try_parse_from(&argv).map_err(option_error)?;
-    let method = args.options.method(args.scheme).map_err(|e| option_value_error(&e))?;
+#[pyo3(signature = (path, options))]
+fn run_system(py: Python<'_>, path: String, options: Bound<'_, PyDict>) -> PyResult<(String, String)> {
+    let kwargs = Kwargs::new(options);
+    let (scheme, dt, t_end, options) = kwargs.method()?;
+    let defaults = SystemFiles::default();
+    let files = SystemFiles {
+        allow_external_fmus: kwargs.flag("allow_external_fmus")?,
+        max_archive_entries: kwargs.take("max_archive_entries", opt::whole)?,
+        max_unpacked_mb: kwargs.take("max_unpacked_mb", |t| opt::megabytes(t, UNPACKED_MB))?,
+        interface: kwargs
+            .list("interface")?
+            .iter()
+            .map(|t| opt::interface(t).map_err(|r| invalid("interface", t, &r)))
+            .collect::<PyResult<_>>()?,
+        me_solver: kwargs.named("me_solver")?.unwrap_or(defaults.me_solver),
+        me_rtol: kwargs.take("me_rtol", opt::tolerance)?.unwrap_or(defaults.me_rtol),
+        me_atol: kwargs.take("me_atol", positive)?.unwrap_or(defaults.me_atol),
+    };
+    kwargs.done()?;
+    let method = options.method(scheme).map_err(|e| option_value_error(&e))?;
     py.detach(|| {
         let file = Path::new(&path);
-        let system = SystemFile::prepare(file, method, args.dt, args.t_end, &files.limits(), &Limits::default())
+        let system = SystemFile::prepare(file, method, dt, t_end, &files.limits(), &Limits::default())
+            .and_then(|s| s.with_model_exchange(&files.model_exchange()))
             .map_err(|e| RunError::new_err(format!("{e:#}")))?;
         let mut csv = Vec::new();
-        let sinks = master::system::Sinks { csv: Some(&mut csv), real: None };
-        let outcome = system.execute(true, sinks).map_err(|e| run_error(&e))?;
+        let sinks = studies::system::Sinks { csv: Some(&mut csv), real: None };
+        let outcome = system.execute(&mut Unwatched, sinks).map_err(|e| run_error(&e))?;
         let csv = String::from_utf8(csv).map_err(|e| run_error(&e))?;
         Ok((system.summary(&outcome).to_string(), csv))
     })
 }
 
-/// The options of `master sweep` the package passes on.
-#[derive(Parser)]
-#[command(name = "feedsim.sweep", no_binary_name = true)]
-struct SweepArgs {
-    #[arg(long = "grid")]
-    grid: Vec<String>,
-    #[arg(long, allow_hyphen_values = true)]
-    surface: Option<String>,
-    #[arg(long, requires = "surface", allow_negative_numbers = true)]
-    tilt_share: Option<f64>,
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=10_000))]
-    modes: u32,
-    #[arg(long, value_enum)]
-    run: Option<SchemeName>,
-    #[arg(long, default_value_t = 2.0, value_parser = positive)]
-    t_end: f64,
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
-    jobs: Option<u16>,
-    #[command(flatten)]
-    options: SchemeOptions,
-}
-
 /// `master sweep` without its files: (the columns of sweep.csv, its rows as text).
 #[pyfunction]
-#[pyo3(name = "sweep", signature = (path, toml, label, argv))]
+#[pyo3(name = "sweep", signature = (path, toml, label, grid, options))]
 #[allow(clippy::type_complexity)]
 fn sweep_grid(
     py: Python<'_>,
     path: Option<String>,
     toml: Option<String>,
     label: String,
-    argv: Vec<String>,
+    grid: Vec<String>,
+    options: Bound<'_, PyDict>,
 ) -> PyResult<(Vec<String>, Vec<Vec<String>>)> {
     let source = Source::new(path, toml, label)?;
-    let args = SweepArgs::try_parse_from(&argv).map_err(option_error)?;
+    let kwargs = Kwargs::new(options);
+    let surface = kwargs.take("surface", |t| sweep::Surface::parse(t).map_err(|e| e.to_string()))?;
+    let tilt_share = kwargs.take("tilt_share", opt::finite)?;
+    if tilt_share.is_some() && surface.is_none() {
+        return Err(PyValueError::new_err("tilt_share needs a surface"));
+    }
+    let modes = kwargs.take("modes", sweep::mode_count)?.unwrap_or(sweep::DEFAULT_MODES);
+    let run = kwargs.named::<SchemeName>("run")?;
+    let t_end = kwargs.take("t_end", positive)?.unwrap_or(sweep::DEFAULT_RUN_S);
+    let jobs = kwargs.take("jobs", opt::jobs)?;
+    let options = kwargs.scheme_options()?;
+    kwargs.done()?;
     let scene = source.load().map_err(scene_error)?;
     let value_error = |e: &dyn std::fmt::Display| PyValueError::new_err(e.to_string());
-    let grid = sweep::Grid::parse(&args.grid).map_err(|e| value_error(&e))?;
-    let surface = args.surface.as_deref().map(sweep::Surface::parse).transpose().map_err(|e| value_error(&e))?;
-    let placement = sweep::Placement { surface, tilt_share: args.tilt_share };
-    let method = args.run.map(|s| args.options.method(s)).transpose().map_err(|e| option_value_error(&e))?;
+    let grid = sweep::Grid::parse(&grid).map_err(|e| value_error(&e))?;
+    let placement = sweep::Placement { surface, tilt_share };
+    let method = run.map(|s| options.method(s)).transpose().map_err(|e| option_value_error(&e))?;
     let limits = Limits::default();
     let request = sweep::Request {
-        modes: args.modes as usize,
-        run: method.clone().map(|m| (m, args.t_end)),
+        modes,
+        run: method.clone().map(|m| (m, t_end)),
         limits,
         utilisation: scene.cables.breaking_load_n.is_some(),
     };
@@ -288,12 +393,11 @@ fn sweep_grid(
         // every run's steps and what its method needs, at every step swept, before the first point
         if let Some(method) = method {
             for dt in grid.steps(scene.solver.dt_s) {
-                Run::prepare(&scene, &file, method.clone(), dt, args.t_end, &limits).map_err(|e| run_error(&e))?;
+                Run::prepare(&scene, &file, method.clone(), dt, t_end, &limits).map_err(|e| run_error(&e))?;
             }
         }
         let points: Vec<usize> = (0..grid.len()).collect();
-        let jobs = args.jobs.map(usize::from);
-        let rows = master::parallel::map_longest_first(
+        let rows = studies::parallel::map_longest_first(
             &points,
             jobs,
             |&index| grid.cost(index),

@@ -30,10 +30,10 @@ use std::path::Path;
 use feedcore::rigid::{MotionChange, rotation_of_quaternion_change};
 use feedcore::scene::{Scene, SceneError, Start, ValidScene};
 use feedcore::{Quat, Vec3};
-use fmi2::description::Causality;
-use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
-use fmi2::resources::{FileKind, FileParameter, KeptFile, SavedFile};
-use fmi2::{CoSimulationFlags, ModelDescription, Resource, Variable};
+use fmi::description::Causality;
+use fmi::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
+use fmi::resources::{FileKind, FileParameter, KeptFile, SavedFile};
+use fmi::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::Vector6;
 use serde::{Deserialize, Serialize};
 
@@ -48,7 +48,7 @@ pub const DEFAULT_SCENE: &str = "lt50m_C.toml";
 /// Identifies the variable table: change it whenever the table changes.
 pub const GUID: &str = "{3c1e9f27-84b5-4a6d-9e02-5f7d1b8c6a43}";
 /// Number of Real inputs: the cabin's motion.
-pub const INPUTS: usize = fmi2::table::count(vr::TABLE, Causality::Input);
+pub const INPUTS: usize = fmi::table::count(vr::TABLE, Causality::Input);
 
 /// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
 static SCENES: FileKind<ValidScene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
@@ -57,14 +57,14 @@ static SCENES: FileKind<ValidScene, SceneError> = FileKind::new(&feedcore::shipp
 /// the description and the names come from.
 pub mod vr {
     use feedcore::scene::LEGS;
-    use fmi2::table::Block;
+    use fmi::table::Block;
 
     const WXYZ: &[&str] = &["w", "x", "y", "z"];
 
     // The inputs' ranges lie far beyond any cabin on cables (FAST's reflector is 500 m across),
     // so that only a mistaken or hostile value is refused: positions within 10 km, speeds
     // 1 km/s, 1e5 in the accelerations' units; quaternion components within ±1.5 (normalized).
-    fmi2::variable_table! {
+    fmi::variable_table! {
         /// Real inputs, the cabin's motion.
         R = Block::input("cabin.r", 3, "m", "position of the cabin centre point, world frame").range(-1e4, 1e4),
         Q = Block::input("cabin.q", 4, "",
@@ -240,12 +240,12 @@ fn pose_mismatch(scene_name: &str, scene: &ValidScene, u: &[f64; INPUTS]) -> Opt
 
 /// The names of the outputs, in value-reference order.
 pub fn output_names() -> Vec<String> {
-    fmi2::table::names(vr::TABLE, Causality::Output)
+    fmi::table::names(vr::TABLE, Causality::Output)
 }
 
 /// The names of the inputs, in value-reference order from 0.
 pub fn input_names() -> Vec<String> {
-    fmi2::table::names(vr::TABLE, Causality::Input)
+    fmi::table::names(vr::TABLE, Causality::Input)
 }
 
 /// The cabin's motion the input values `u` give (the orientation normalized); refused when
@@ -494,7 +494,7 @@ impl Model for StewartFmu {
     fn description() -> Result<ModelDescription, ModelError> {
         let inputs = input_names();
         let rest = rest_inputs(SCENES.open(None, DEFAULT_SCENE)?.value());
-        let mut variables = fmi2::table::variables(vr::TABLE, |v| rest[v as usize]);
+        let mut variables = fmi::table::variables(vr::TABLE, |v| rest[v as usize]);
         // Direct feedthrough, exactly (see the module documentation); in initialization mode
         // the parameters that shape the platform's motion at the start count as well.
         let name = |i: usize| inputs[i].as_str();

@@ -1,9 +1,9 @@
-//! The FMU adapter (called in-process through the `fmi2::Model` trait) against the library and
+//! The FMU adapter (called in-process through the `fmi::Model` trait) against the library and
 //! against central differences.
 
 use feedcore::scene::{Scene, ValidScene};
-use fmi2::ModelInfo;
-use fmi2::export::Model;
+use fmi::ModelInfo;
+use fmi::export::Model;
 use stewart::{CabinMotion, Stewart};
 use stewart_fmu::{INPUTS, StewartFmu, vr};
 
@@ -57,10 +57,10 @@ fn set_rest_pose(m: &mut StewartFmu, name: &str) {
 /// — and every input declares a range that holds its start value.
 #[test]
 fn the_description_is_valid_and_reads_back_as_written() {
-    let xml = fmi2::package::checked_xml(&StewartFmu::description().unwrap()).unwrap();
-    let back = fmi2::xml::parse_model_description(&xml).unwrap();
-    for v in back.variables.iter().filter(|v| v.causality == fmi2::Causality::Input) {
-        let Some(fmi2::Value::Real(start)) = v.start else { panic!("{}: start {:?}", v.name, v.start) };
+    let xml = fmi::package::checked_xml(&StewartFmu::description().unwrap()).unwrap();
+    let back = fmi::xml::parse_model_description(&xml).unwrap();
+    for v in back.variables.iter().filter(|v| v.causality == fmi::Causality::Input) {
+        let Some(fmi::Value::Real(start)) = v.start else { panic!("{}: start {:?}", v.name, v.start) };
         assert!(v.min.is_some() && v.max.is_some() && v.outside_range(start).is_none(), "{}", v.name);
     }
 }
@@ -142,9 +142,9 @@ fn derivatives_and_dependencies_follow_the_standard() {
     let info = ModelInfo::new(StewartFmu::description().unwrap()).unwrap();
     let outputs: Vec<u32> = (vr::FORCE..vr::RADIUS).collect();
     let declared = |o: u32, i: u32, initial: bool| {
-        let v = info.lookup(fmi2::VarType::Real, o).unwrap();
+        let v = info.lookup(fmi::VarType::Real, o).unwrap();
         let deps = if initial { &v.initial_dependencies } else { &v.dependencies };
-        deps.as_ref().unwrap().contains(&info.lookup(fmi2::VarType::Real, i).unwrap().index)
+        deps.as_ref().unwrap().contains(&info.lookup(fmi::VarType::Real, i).unwrap().index)
     };
     let mut seen = std::collections::HashSet::new();
     let ideal = ideal_scene();

@@ -1,4 +1,5 @@
-/* Dahlquist's test equation with a forcing input: der(x) = -k x + u, exact for a held u. */
+/* Dahlquist's test equation with a forcing input: der(x) = -k x + u, exact for a held u
+ * (Co-Simulation), or integrated by the importer (Model Exchange: the state x). */
 #include <math.h>
 #include <stddef.h>
 
@@ -44,4 +45,17 @@ int model_step(Model *m, double t, double h, double *end) {
         m->x = m->x - gain * m->x + gain * m->u / m->k;
     }
     return 0;
+}
+
+Interfaces model_interfaces(void) {
+    return (Interfaces){.co_simulation = true, .model_exchange = true, .states = 1};
+}
+
+void model_get_states(const Model *m, double x[]) { x[0] = m->x; }
+
+void model_set_states(Model *m, const double x[]) { m->x = x[0]; }
+
+void model_derivatives(Model *m, double t, double dx[]) {
+    (void)t;
+    dx[0] = -m->k * m->x + m->u;
 }

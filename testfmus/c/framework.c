@@ -1,7 +1,8 @@
-/* The FMI 3.0 Co-Simulation functions of a test FMU over the model of model.h: every function
- * the standard declares is defined; those of Model Exchange, Scheduled Execution, event mode,
- * clocks and derivatives return fmi3Error with a message. Written for this workspace's tests
- * of its importer, independently of its Rust export layer. */
+/* The FMI 3.0 Co-Simulation and Model Exchange functions of a test FMU over the model of
+ * model.h: every function the standard declares is defined; those of an interface the model
+ * does not offer, of Scheduled Execution, of Co-Simulation's event mode, clocks and derivatives
+ * return fmi3Error with a message. Written for this workspace's tests of its importer,
+ * independently of its Rust export layer. */
 
 #include <math.h>
 #include <stdarg.h>
@@ -13,10 +14,13 @@
 
 #define EXPORT __attribute__((visibility("default")))
 
-typedef enum { INSTANTIATED, INITIALIZATION, STEP, TERMINATED, BROKEN } Phase;
+/* STEP: Co-Simulation's step mode; EVENT and CONTINUOUS: Model Exchange's event mode and
+ * continuous-time mode. */
+typedef enum { INSTANTIATED, INITIALIZATION, STEP, TERMINATED, BROKEN, EVENT, CONTINUOUS } Phase;
 
 typedef struct {
     Phase phase;
+    bool me; /* instantiated for Model Exchange */
     double time;
     bool ended; /* the model ended the simulation (terminateSimulation was reported) */
     bool early_return_allowed;
@@ -65,6 +69,24 @@ static size_t type_size(Type t) {
 
 static const char *TYPE_NAMES[] = {"Float64", "Int32", "Boolean", "String"};
 
+/* --- what a model without Model Exchange (or without Co-Simulation) leaves out ----------- */
+
+/* (weak functions, not constants: a compiler may fold a weak constant's default into this file) */
+#define WEAK __attribute__((weak))
+WEAK Interfaces model_interfaces(void) { return (Interfaces){.co_simulation = true}; }
+WEAK int model_step(Model *m, double t, double h, double *end) {
+    (void)m, (void)t, (void)h, (void)end;
+    return 0;
+}
+WEAK void model_get_states(const Model *m, double x[]) { (void)m, (void)x; }
+WEAK void model_set_states(Model *m, const double x[]) { (void)m, (void)x; }
+WEAK void model_derivatives(Model *m, double t, double dx[]) { (void)m, (void)t, (void)dx; }
+WEAK void model_indicators(Model *m, double t, double z[]) { (void)m, (void)t, (void)z; }
+WEAK void model_update(Model *m, double t, Update *u) {
+    (void)m, (void)t;
+    *u = (Update){0};
+}
+
 /* --- common functions ------------------------------------------------------------------- */
 
 EXPORT const char *fmi3GetVersion(void) { return "3.0"; }
@@ -75,6 +97,21 @@ EXPORT fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean on, siz
     if (!instance) return fmi3Error;
     ((Instance *)instance)->log_on = on;
     return fmi3OK;
+}
+
+static Instance *create(bool logging_on, bool early_return_allowed, bool me, fmi3InstanceEnvironment env,
+                        fmi3LogMessageCallback log) {
+    Instance *inst = calloc(1, sizeof *inst);
+    Model *m = calloc(1, MODEL_SIZE);
+    if (!inst || !m) {
+        free(inst);
+        free(m);
+        return NULL;
+    }
+    *inst = (Instance){.phase = INSTANTIATED, .me = me, .early_return_allowed = early_return_allowed,
+                       .log_on = logging_on, .log = log, .env = env, .model = m};
+    model_start(m);
+    return inst;
 }
 
 EXPORT fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3String resources,
@@ -94,30 +131,32 @@ EXPORT fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String toke
              token ? token : "(null)", MODEL_TOKEN);
         return NULL;
     }
+    if (!model_interfaces().co_simulation) {
+        fail(&probe, "fmi3InstantiateCoSimulation", "this FMU implements Model Exchange only");
+        return NULL;
+    }
     if (event_mode_used) {
         fail(&probe, "fmi3InstantiateCoSimulation", "this FMU has no event mode (hasEventMode = false)");
         return NULL;
     }
-    Instance *inst = calloc(1, sizeof *inst);
-    Model *m = calloc(1, MODEL_SIZE);
-    if (!inst || !m) {
-        free(inst);
-        free(m);
-        return NULL;
-    }
-    *inst = (Instance){.phase = INSTANTIATED, .early_return_allowed = early_return_allowed, .log_on = logging_on,
-                       .log = log, .env = env, .model = m};
-    model_start(m);
-    return inst;
+    return create(logging_on, early_return_allowed, false, env, log);
 }
 
 EXPORT fmi3Instance fmi3InstantiateModelExchange(fmi3String name, fmi3String token, fmi3String resources,
                                                  fmi3Boolean visible, fmi3Boolean logging_on,
                                                  fmi3InstanceEnvironment env, fmi3LogMessageCallback log) {
-    (void)name, (void)token, (void)resources, (void)visible, (void)logging_on;
+    (void)resources, (void)visible;
     Instance probe = {.log = log, .env = env};
-    fail(&probe, "fmi3InstantiateModelExchange", "this FMU implements Co-Simulation only");
-    return NULL;
+    if (!name || !token || strcmp(token, MODEL_TOKEN) != 0) {
+        fail(&probe, "fmi3InstantiateModelExchange", "instantiationToken `%s` is not this FMU's `%s`",
+             token ? token : "(null)", MODEL_TOKEN);
+        return NULL;
+    }
+    if (!model_interfaces().model_exchange) {
+        fail(&probe, "fmi3InstantiateModelExchange", "this FMU implements Co-Simulation only");
+        return NULL;
+    }
+    return create(logging_on, false, true, env, log);
 }
 
 EXPORT fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token, fmi3String resources,
@@ -159,14 +198,15 @@ EXPORT fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
     const char *why = model_check(inst->model);
     if (why) return fail(inst, "fmi3ExitInitializationMode", "%s", why);
     model_initialize(inst->model, inst->time);
-    inst->phase = STEP;
+    inst->phase = inst->me ? EVENT : STEP; /* Model Exchange: event mode, for the initial event */
     return fmi3OK;
 }
 
 EXPORT fmi3Status fmi3Terminate(fmi3Instance instance) {
     Instance *inst = instance;
     if (!inst) return fmi3Error;
-    if (inst->phase != STEP) return fail(inst, "fmi3Terminate", "not in step mode");
+    if (inst->phase != STEP && inst->phase != EVENT && inst->phase != CONTINUOUS)
+        return fail(inst, "fmi3Terminate", "not in step, event or continuous-time mode");
     inst->phase = TERMINATED;
     return fmi3OK;
 }
@@ -222,9 +262,13 @@ static fmi3Status set(Instance *inst, const char *function, Type type, const fmi
         if (!v || v->type != type)
             return fail(inst, function, "unknown value reference %u (no settable %s variable has it)", vrs[i],
                         TYPE_NAMES[type]);
-        bool allowed = v->role == INPUT || (v->role == TUNABLE && inst->phase == STEP) ||
+        bool discrete = v->role == DISCRETE_INPUT || (v->role == INPUT && type != FLOAT64);
+        bool allowed = (v->role == INPUT && !discrete) || (discrete && inst->phase != CONTINUOUS) ||
+                       (v->role == TUNABLE && (inst->phase == STEP || inst->phase == EVENT)) ||
                        ((v->role == PARAMETER || v->role == TUNABLE) &&
                         (inst->phase == INSTANTIATED || inst->phase == INITIALIZATION));
+        if (discrete && inst->phase == CONTINUOUS)
+            return fail(inst, function, "value reference %u: a discrete input, set in event mode only", vrs[i]);
         if (!allowed || inst->phase == TERMINATED || inst->phase == BROKEN)
             return fail(inst, function, "value reference %u cannot be set now", vrs[i]);
         if (k + v->count > n_values) return fail(inst, function, "nValues = %zu is too small", n_values);
@@ -382,7 +426,8 @@ EXPORT fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 t, fmi3Float64 h
     *terminate = false;
     *early_return = false;
     *last_successful_time = inst->time;
-    if (inst->phase != STEP || inst->ended) return fail(inst, "fmi3DoStep", "not in step mode, or ended");
+    if (inst->phase != STEP || inst->ended || inst->me)
+        return fail(inst, "fmi3DoStep", "not in step mode (or a Model Exchange instance), or ended");
     if (!(h > 0.0) || fabs(t - inst->time) > 1e-9 * fmax(1.0, fabs(t)))
         return fail(inst, "fmi3DoStep", "step from %g by %g, but the FMU is at %g", t, h, inst->time);
     double end = t + h;
@@ -398,6 +443,135 @@ EXPORT fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 t, fmi3Float64 h
     return fmi3OK;
 }
 
+/* --- Model Exchange ------------------------------------------------------------------------ */
+
+/* The instance, if it is of Model Exchange and in one of the phases given (a bit each). */
+static Instance *me(fmi3Instance instance, const char *function, unsigned phases) {
+    Instance *inst = instance;
+    if (!inst) return NULL;
+    if (!inst->me) {
+        fail(inst, function, "not a Model Exchange instance");
+        return NULL;
+    }
+    if (!(phases & (1u << inst->phase))) {
+        fail(inst, function, "not allowed in this mode (%d)", (int)inst->phase);
+        return NULL;
+    }
+    return inst;
+}
+
+#define IN(p) (1u << (p))
+#define MODES (IN(EVENT) | IN(CONTINUOUS))
+#define READABLE (IN(INITIALIZATION) | IN(EVENT) | IN(CONTINUOUS) | IN(TERMINATED))
+
+EXPORT fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
+    Instance *inst = me(instance, "fmi3EnterEventMode", MODES);
+    if (!inst) return fmi3Error;
+    inst->phase = EVENT;
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *again, fmi3Boolean *terminate,
+                                           fmi3Boolean *nominals_changed, fmi3Boolean *states_changed,
+                                           fmi3Boolean *next_defined, fmi3Float64 *next) {
+    Instance *inst = me(instance, "fmi3UpdateDiscreteStates", IN(EVENT));
+    if (!inst) return fmi3Error;
+    Update u = {0};
+    model_update(inst->model, inst->time, &u);
+    if (u.terminate) inst->ended = true;
+    *again = u.again;
+    *terminate = u.terminate;
+    *nominals_changed = false;
+    *states_changed = u.states_changed;
+    *next_defined = u.next_defined;
+    *next = u.next_defined ? u.next : 0.0;
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance) {
+    Instance *inst = me(instance, "fmi3EnterContinuousTimeMode", IN(EVENT));
+    if (!inst) return fmi3Error;
+    inst->phase = CONTINUOUS;
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance, fmi3Boolean no_prior, fmi3Boolean *event,
+                                              fmi3Boolean *terminate) {
+    (void)no_prior;
+    Instance *inst = me(instance, "fmi3CompletedIntegratorStep", IN(CONTINUOUS));
+    if (!inst) return fmi3Error;
+    *event = false;
+    *terminate = false;
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 t) {
+    Instance *inst = me(instance, "fmi3SetTime", MODES);
+    if (!inst) return fmi3Error;
+    inst->time = t;
+    return fmi3OK;
+}
+
+static size_t states(void) { return model_interfaces().states; }
+static size_t indicators(void) { return model_interfaces().indicators; }
+
+/* n must be the model's count of states (or indicators). */
+static Instance *counted(fmi3Instance instance, const char *function, unsigned phases, size_t n, size_t count) {
+    Instance *inst = me(instance, function, phases);
+    if (inst && n != count) {
+        fail(inst, function, "%zu values for %zu", n, count);
+        return NULL;
+    }
+    return inst;
+}
+
+EXPORT fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 x[], size_t n) {
+    Instance *inst = counted(instance, "fmi3SetContinuousStates", IN(CONTINUOUS), n, states());
+    if (!inst) return fmi3Error;
+    model_set_states(inst->model, x);
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 dx[], size_t n) {
+    Instance *inst = counted(instance, "fmi3GetContinuousStateDerivatives", READABLE, n, states());
+    if (!inst) return fmi3Error;
+    model_derivatives(inst->model, inst->time, dx);
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 z[], size_t n) {
+    Instance *inst = counted(instance, "fmi3GetEventIndicators", READABLE, n, indicators());
+    if (!inst) return fmi3Error;
+    model_indicators(inst->model, inst->time, z);
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 x[], size_t n) {
+    Instance *inst = counted(instance, "fmi3GetContinuousStates", READABLE, n, states());
+    if (!inst) return fmi3Error;
+    model_get_states(inst->model, x);
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 x[], size_t n) {
+    Instance *inst = counted(instance, "fmi3GetNominalsOfContinuousStates", READABLE, n, states());
+    if (!inst) return fmi3Error;
+    for (size_t i = 0; i < n; i++) x[i] = 1.0;
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *n) {
+    if (!me(instance, "fmi3GetNumberOfEventIndicators", ~0u)) return fmi3Error;
+    *n = indicators();
+    return fmi3OK;
+}
+
+EXPORT fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *n) {
+    if (!me(instance, "fmi3GetNumberOfContinuousStates", ~0u)) return fmi3Error;
+    *n = states();
+    return fmi3OK;
+}
+
 /* --- what these FMUs do not provide ------------------------------------------------------ */
 
 #define UNSUPPORTED(Name, Why, ...)                                                                            \
@@ -407,15 +581,11 @@ EXPORT fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 t, fmi3Float64 h
 #define UNSUPPORTED0(Name, Why)                                                                                \
     EXPORT fmi3Status Name(fmi3Instance instance) { return fail(instance, #Name, Why); }
 
-#define NO_EVENTS "this FMU has no event mode (hasEventMode = false)"
+#define NO_EVENTS "this FMU has no event mode in Co-Simulation (hasEventMode = false)"
 #define NO_CLOCKS "this FMU has no clocks"
-#define NO_ME "this FMU implements Co-Simulation only"
 
-UNSUPPORTED0(fmi3EnterEventMode, NO_EVENTS)
 UNSUPPORTED0(fmi3EnterStepMode, NO_EVENTS)
-UNSUPPORTED0(fmi3EvaluateDiscreteStates, NO_EVENTS)
-UNSUPPORTED(fmi3UpdateDiscreteStates, NO_EVENTS, fmi3Boolean *a, fmi3Boolean *b, fmi3Boolean *c, fmi3Boolean *d,
-            fmi3Boolean *e, fmi3Float64 *f)
+UNSUPPORTED0(fmi3EvaluateDiscreteStates, "this FMU has no clocks")
 UNSUPPORTED(fmi3GetNumberOfVariableDependencies, "no per-element dependencies", fmi3ValueReference vr, size_t *n)
 UNSUPPORTED(fmi3GetVariableDependencies, "no per-element dependencies", fmi3ValueReference vr, size_t a[],
             fmi3ValueReference b[], size_t c[], fmi3DependencyKind d[], size_t n)
@@ -438,17 +608,7 @@ UNSUPPORTED(fmi3SetIntervalFraction, NO_CLOCKS, const fmi3ValueReference v[], si
 UNSUPPORTED(fmi3SetShiftDecimal, NO_CLOCKS, const fmi3ValueReference v[], size_t n, const fmi3Float64 s[])
 UNSUPPORTED(fmi3SetShiftFraction, NO_CLOCKS, const fmi3ValueReference v[], size_t n, const fmi3UInt64 c[],
             const fmi3UInt64 r[])
-UNSUPPORTED0(fmi3EnterContinuousTimeMode, NO_ME)
-UNSUPPORTED(fmi3CompletedIntegratorStep, NO_ME, fmi3Boolean np, fmi3Boolean *e, fmi3Boolean *t)
-UNSUPPORTED(fmi3SetTime, NO_ME, fmi3Float64 t)
-UNSUPPORTED(fmi3SetContinuousStates, NO_ME, const fmi3Float64 x[], size_t n)
-UNSUPPORTED(fmi3GetContinuousStateDerivatives, NO_ME, fmi3Float64 x[], size_t n)
-UNSUPPORTED(fmi3GetEventIndicators, NO_ME, fmi3Float64 x[], size_t n)
-UNSUPPORTED(fmi3GetContinuousStates, NO_ME, fmi3Float64 x[], size_t n)
-UNSUPPORTED(fmi3GetNominalsOfContinuousStates, NO_ME, fmi3Float64 x[], size_t n)
-UNSUPPORTED(fmi3GetNumberOfEventIndicators, NO_ME, size_t *n)
-UNSUPPORTED(fmi3GetNumberOfContinuousStates, NO_ME, size_t *n)
 UNSUPPORTED(fmi3GetOutputDerivatives, "no output derivatives (maxOutputDerivativeOrder = 0)",
             const fmi3ValueReference v[], size_t n, const fmi3Int32 o[], fmi3Float64 x[], size_t nx)
-UNSUPPORTED(fmi3ActivateModelPartition, "this FMU implements Co-Simulation only", fmi3ValueReference c,
+UNSUPPORTED(fmi3ActivateModelPartition, "this FMU has no Scheduled Execution", fmi3ValueReference c,
             fmi3Float64 t)

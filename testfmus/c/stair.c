@@ -1,6 +1,6 @@
 /* A counter from 1, up by one every period; at final_count the model ends the simulation
  * (terminateSimulation, at the time of the final count: an early return where the importer
- * allows one). */
+ * allows one). As Model Exchange, each count is a time event. */
 #include <math.h>
 #include <stddef.h>
 
@@ -48,4 +48,17 @@ int model_step(Model *m, double t, double h, double *end) {
     }
     m->counter = count_at(m, t + h);
     return 0;
+}
+
+Interfaces model_interfaces(void) {
+    return (Interfaces){.co_simulation = true, .model_exchange = true};
+}
+
+void model_update(Model *m, double t, Update *u) {
+    m->counter = count_at(m, t);
+    *u = (Update){.terminate = m->counter >= m->final_count};
+    if (!u->terminate) {
+        u->next_defined = true;
+        u->next = m->counter * m->period;
+    }
 }

@@ -1,6 +1,6 @@
 /* The van der Pol oscillator with a forcing input, x0'' = mu (1 - x0^2) x0' - x0 + u, as
  * x0' = x1, x1' = mu (1 - x0^2) x1 - x0 + u; classic Runge-Kutta over equal substeps of at most
- * max_substep. */
+ * max_substep (Co-Simulation), or integrated by the importer (Model Exchange: the states x0, x1). */
 #include <math.h>
 #include <stddef.h>
 
@@ -73,4 +73,24 @@ int model_step(Model *m, double t, double h, double *end) {
     m->x0 = x[0];
     m->x1 = x[1];
     return 0;
+}
+
+Interfaces model_interfaces(void) {
+    return (Interfaces){.co_simulation = true, .model_exchange = true, .states = 2};
+}
+
+void model_get_states(const Model *m, double x[]) {
+    x[0] = m->x0;
+    x[1] = m->x1;
+}
+
+void model_set_states(Model *m, const double x[]) {
+    m->x0 = x[0];
+    m->x1 = x[1];
+}
+
+void model_derivatives(Model *m, double t, double dx[]) {
+    (void)t;
+    double x[2] = {m->x0, m->x1};
+    rate(m, x, dx);
 }

@@ -1,7 +1,9 @@
 """The FMI 3.0 test FMUs written in C (testfmus/c/): compiled with the system's C compiler and
 packed as .fmu archives, once per test session. They mirror a few of the Reference FMUs'
 models under the names of the zoo's FMI 2.0 FMUs (dahlquist, van_der_pol, feedthrough with an
-array, stair), so the zoo's systems and answers apply to them unchanged."""
+array, stair; the first two and stair offer Model Exchange too; bouncing_ball offers only
+Model Exchange), so the zoo's systems and answers apply to them unchanged; hostile_me is a
+careless Model Exchange FMU for the master's tests."""
 
 import os
 import pathlib
@@ -11,7 +13,7 @@ import zipfile
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 SOURCES = REPO / "testfmus" / "c"
-NAMES = ["dahlquist", "van_der_pol", "feedthrough", "stair"]
+NAMES = ["dahlquist", "van_der_pol", "feedthrough", "stair", "bouncing_ball", "hostile_me"]
 
 
 def build(out_dir):

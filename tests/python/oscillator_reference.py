@@ -1,4 +1,4 @@
-"""Independent references for the fmi2 test oscillator (m x'' + c x' + k x = F - m g [gravity]).
+"""Independent references for the fmi test oscillator (m x'' + c x' + k x = F - m g [gravity]).
 
 * trapezoid(): the exact discrete solution of the integrator the FMU uses (trapezoidal rule,
   `substeps` steps per communication step, input held over the step), written in matrix form.

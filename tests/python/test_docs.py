@@ -30,7 +30,7 @@ import sys
 import pytest
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
-PAGES = ["README.md", "fmi2/README.md", *sorted(str(p.relative_to(REPO)) for p in (REPO / "docs").glob("*.md"))]
+PAGES = ["README.md", "fmi/README.md", *sorted(str(p.relative_to(REPO)) for p in (REPO / "docs").glob("*.md"))]
 TARGET = os.environ.get("CARGO_TARGET_DIR", "target")
 MARKER = re.compile(r"<!--\s*example:\s*(?P<body>.*?)-->", re.S)
 FENCE = re.compile(r"^```")

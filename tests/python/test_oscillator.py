@@ -1,4 +1,4 @@
-"""Physics of the fmi2 test oscillator through fmpy, against closed-form and discrete references."""
+"""Physics of the fmi test oscillator through fmpy, against closed-form and discrete references."""
 
 import shutil
 import tempfile

@@ -2,6 +2,7 @@
 same CSV, the same --json, the same statics and modes; errors are exceptions naming the key."""
 
 import json
+import re
 import os
 import pathlib
 import subprocess
@@ -35,8 +36,17 @@ def stable(d):
     return {k: v for k, v in d.items() if k not in VOLATILE}
 
 
+def flags(options):
+    """The command line's flags for keyword options: ``t_end=5`` → ``--t-end 5``, ``True`` a flag."""
+    argv = []
+    for key, v in options.items():
+        flag = "--" + key.replace("_", "-")
+        argv += [flag] if v is True else [flag, repr(v) if isinstance(v, float) else str(v)]
+    return argv
+
+
 @pytest.mark.parametrize(
-    "scene, scheme, flags",
+    "scene, scheme, options",
     [
         (C, "ijcsa", {"t_end": 2.0}),
         (B, "iqn-ils", {"t_end": 1.0, "dt": 0.02}),
@@ -46,9 +56,9 @@ def stable(d):
     ],
     ids=["C-ijcsa", "B-iqn-dt", "C-monolithic-adaptive", "C-compensated", "C-compensation-off"],
 )
-def test_run_equals_the_command(tmp_path, scene, scheme, flags):
-    r = feedsim.run(scene, scheme, **flags)
-    argv = feedsim._argv(flags)
+def test_run_equals_the_command(tmp_path, scene, scheme, options):
+    r = feedsim.run(scene, scheme, **options)
+    argv = flags(options)
     csv = tmp_path / "out.csv"
     cli = json.loads(master("run", "--scene", scene, "--scheme", scheme, *argv, "--out", csv, "--json", "--quiet"))
     assert r.csv == csv.read_text()
@@ -188,22 +198,39 @@ def test_a_dask_sweep_equals_the_runs_one_by_one():
     assert parallel[0] != parallel[2]
 
 
-@pytest.mark.parametrize("flags", [{"dt": 0.01, "t_end": 1.0}, {"t_end": 1.0, "adaptive": True}], ids=["fixed", "adaptive"])
-def test_run_system_equals_the_command(tmp_path, flags):
+@pytest.mark.parametrize("options", [{"dt": 0.01, "t_end": 1.0}, {"t_end": 1.0, "adaptive": True}], ids=["fixed", "adaptive"])
+def test_run_system_equals_the_command(tmp_path, options):
     ssp = tmp_path / "C.ssp"
     master("export-ssp", "--scene", C, "--out", ssp)
-    r = feedsim.run_system(ssp, "ijcsa", **flags)
+    r = feedsim.run_system(ssp, "ijcsa", **options)
     csv = tmp_path / "out.csv"
-    argv = feedsim._argv(flags)
+    argv = flags(options)
     cli = json.loads(master("run", "--system", ssp, "--scheme", "ijcsa", *argv, "--out", csv, "--json", "--quiet"))
     assert r.csv == csv.read_text()
     assert stable(r.summary) == stable(cli)
     assert r.frame.columns[0] == "time" and "cable.cabin.r[1]" in r.frame.columns
     # the scene's run with the same scheme: the same cabin motion, bit for bit
-    if not flags.get("adaptive"):
+    if not options.get("adaptive"):
         scene = feedsim.run(C, "ijcsa", dt=0.01, t_end=1.0).frame
         dx = (r.frame["cable.cabin.r[1]"] - r.frame["cable.cabin.r[1]"][0]) * 1e3
         np.testing.assert_allclose(dx.to_numpy(), scene["dx_mm"].to_numpy(), rtol=0, atol=1e-12)
+
+
+def test_run_system_integrates_model_exchange_components_as_the_command(tmp_path):
+    """interface=, me_solver=, me_rtol=, me_atol= reach the master: the zoo's chain with d1 as
+    Model Exchange, the CSV of the command's run byte for byte, d1.x on 1 - e^-t to 1e-8."""
+    from zoo import pack
+
+    ssp = pack("chain", tmp_path)
+    options = {"dt": 0.1, "interface": "d1=me", "me_solver": "esdirk3", "me_rtol": 1e-10, "me_atol": 1e-12}
+    r = feedsim.run_system(ssp, "jacobi", **options)
+    csv = tmp_path / "out.csv"
+    cli = json.loads(master("run", "--system", ssp, "--scheme", "jacobi", *flags(options), "--out", csv,
+                            "--json", "--quiet"))
+    assert r.csv == csv.read_text() and stable(r.summary) == stable(cli)
+    assert [(m["component"], m["solver"]) for m in r.summary["model_exchange"]] == [("d1", "esdirk3")]
+    t = r.frame["time"].to_numpy()
+    assert np.max(np.abs(r.frame["d1.x"].to_numpy() - (1.0 - np.exp(-t)))) < 1e-8
 
 
 def test_run_system_errors():
@@ -246,3 +273,61 @@ def test_ctrl_c_stops_a_run():
     print(f"stopped {time.perf_counter() - t0:.2f} s after Ctrl-C")
     assert p.returncode != 0 and "KeyboardInterrupt" in err, err
     assert time.perf_counter() - t0 < 5.0
+
+
+# A value each option of a run refuses, by its keyword (the command line's flag with _ for -).
+REFUSED = {
+    "dt": "0",
+    "t_end": "-1",
+    "tol": "0",
+    "max_iter": "0",
+    "relaxation": "2",
+    "jacobian": "sometimes",
+    "extrapolation": "cubic",
+    "iqn_reuse": "-1",
+    "iqn_filter": "1",
+    "iqn_relaxation": "0",
+    "rtol": "2",
+    "atol": "-1",
+    "h_min": "0",
+    "h_max": "nan",
+    "estimate": "guess",
+    "compensation": "maybe",
+    "wind_seed": "-1",
+}
+
+
+def test_the_two_front_ends_take_the_same_options():
+    """The command line (clap) and the package (its own keyword code) read a run's options
+    through the same checks of the library: every option of `master run` but the command line's
+    own (files, printing, the system's) is a keyword of feedsim.run, and a value one refuses the
+    other refuses with the same reason. Their defaults are the library's on both sides (a Rust
+    test holds the flags' defaults to it)."""
+    help_text = master("run", "--help")
+    cli_only = {"scene", "system", "scheme", "out", "json", "plot", "quiet", "help", "vtk", "vtk-every", "adaptive",
+                "watch", "allow-external-fmus", "max-archive-entries", "max-unpacked-mb", "interface", "me-solver",
+                "me-rtol", "me-atol", "max-steps",
+                "max-memory-mb", "max-scene-bytes"}
+    options = set(re.findall(r"^\s+--([a-z][a-z0-9-]*)", help_text, re.M)) - cli_only
+    assert options == {k.replace("_", "-") for k in REFUSED}, options ^ {k.replace("_", "-") for k in REFUSED}
+    for key, bad in REFUSED.items():
+        out = subprocess.run([str(MASTER), "run", "--scene", str(C), "--scheme", "ijcsa", "--" + key.replace("_", "-"), bad],
+                             capture_output=True, text=True, cwd=REPO)
+        assert out.returncode != 0, key
+        with pytest.raises(ValueError) as e:
+            feedsim.run(C, "ijcsa", **{key: bad})
+        python = str(e.value)
+        assert f"'{bad}'" in python and key in python, python
+        cli = out.stderr.splitlines()[0]
+        if key in ("dt", "t_end"):
+            # the command line checks the step and the end time with the run's plan (which says
+            # where each came from: the flag or the scene); both name a positive number
+            assert "positive" in out.stderr and "positive" in python, (out.stderr, python)
+        elif "possible values" in out.stderr:
+            # a named choice: clap lists the names itself; the package names them as the library does
+            names = re.search(r"\[possible values: (.*)\]", out.stderr).group(1).split(", ")
+            assert all(n in python for n in names), (python, names)
+        else:
+            assert cli.split("': ", 1)[1] == python.split("': ", 1)[1], (cli, python)
+    with pytest.raises(ValueError, match="unexpected argument 'colour'"):
+        feedsim.run(C, "ijcsa", colour="red")

@@ -4,7 +4,7 @@
   finds both components and all 25 connections; each packed FMU is instantiated and initialized
   with its bound parameters. (fmpy's `simulate_ssp` cannot step LT50m: it starts every connector
   at 0, and a cabin attitude of four zeros is no rotation.)
-* A system of two fmi2 test oscillators coupled one way (b.F = a.x through a linear
+* A system of two fmi test oscillators coupled one way (b.F = a.x through a linear
   transformation of factor 1, which converts metres to newtons for the master's unit check;
   fmpy's `simulate_ssp` ignores transformations, hence factor 1): fmpy and `master run --system
   ... --scheme jacobi` give the same response. fmpy starts every connector at 0 while the master

@@ -260,7 +260,7 @@ impl<S: Units> Coupled<S> {
         // what `undo_step` restores besides the units
         self.keep(Slot::Step);
         let core = &mut self.core;
-        core.units.exchange_discrete().map_err(|e| core.unit_err(t, 0, e))?;
+        core.units.exchange_discrete().map_err(|(k, e)| core.unit_err(t, k, e))?;
         let report = self.scheme.step(core, t, h)?;
         if core.y.iter().any(|x| !x.is_finite()) {
             return Err(core.failed(t1, "an output is not finite (the coupled motion diverged)"));

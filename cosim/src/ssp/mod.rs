@@ -16,6 +16,13 @@ pub const ADAPTIVE_ANNOTATION: &str = "org.feedsim.adaptive";
 /// master may then take the first macro step in substeps ([`crate::Coupled::step_from_start`]).
 pub const START_ANNOTATION: &str = "org.feedsim.start";
 
+/// The type of this master's SSP annotation that says which interface of an FMU offering both
+/// a component should run as, in the `<ssd:Component>`'s `<ssd:Annotations>`: `<Interface
+/// implementation="ModelExchange"/>` (or `CoSimulation`). Unlike SSP's own `implementation`
+/// attribute, which every importer must obey (and one without Model Exchange must refuse), it
+/// is a preference the tools that do not know it skip: the system still runs in those.
+pub const INTERFACE_ANNOTATION: &str = "org.feedsim.interface";
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 

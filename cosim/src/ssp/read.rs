@@ -8,12 +8,14 @@
 //! Refused with a message: nested systems, connections to the system's own connectors,
 //! parameter mappings, enumeration and boolean/integer mapping transformations, duplicate
 //! component names; files outside the archive (or the `.ssd`'s folder) unless
-//! [`ReadLimits::allow_external`]. Of an archive only what the system names is unpacked. Annotations are
-//! ignored but this master's own ([`super::ADAPTIVE_ANNOTATION`]).
+//! [`ReadLimits::allow_external`]. Of an archive only what the system names is unpacked. A
+//! component's `implementation` (Model Exchange or Co-Simulation) is honoured. Annotations are
+//! ignored but this master's own ([`super::ADAPTIVE_ANNOTATION`], [`super::START_ANNOTATION`],
+//! [`super::INTERFACE_ANNOTATION`]).
 
 use std::path::{Path, PathBuf};
 
-use fmi2::VarType;
+use fmi::VarType;
 use roxmltree::{Document, Node};
 
 use crate::error::SetupError;
@@ -124,8 +126,8 @@ fn unpack_referenced<R: std::io::Read + std::io::Seek>(
     }
     let mut budget = limits.max_unpacked_bytes;
     let mut unpack = |name: &str, budget: &mut u64| -> Result<(), SetupError> {
-        fmi2::archive::unpack_entry(zip, name, dir, budget, limits.max_unpacked_bytes).map_err(|e| match e {
-            fmi2::archive::UnpackError::TooLarge { .. } => invalid(
+        fmi::archive::unpack_entry(zip, name, dir, budget, limits.max_unpacked_bytes).map_err(|e| match e {
+            fmi::archive::UnpackError::TooLarge { .. } => invalid(
                 archive,
                 format!(
                     "unpacking `{name}` exceeds the {} MB the system's entries may take together \
@@ -209,6 +211,39 @@ fn child<'a, 'i>(n: Node<'a, 'i>, name: &'static str) -> Option<Node<'a, 'i>> {
     children(n, name).next()
 }
 
+/// The interface a component is to run as: SSP's own `implementation` attribute
+/// (`ModelExchange` or `CoSimulation`: that one must be used; `any`, the default, leaves the
+/// choice to the master), or this master's annotation [`super::INTERFACE_ANNOTATION`] (`<Interface
+/// implementation="…"/>`, which other tools skip). Both, differing, is a contradiction.
+fn component_interface<'a, 'i>(
+    component: Node<'a, 'i>,
+) -> Result<Option<fmi::import::Interface>, (Node<'a, 'i>, String)> {
+    use fmi::import::Interface;
+    let parse = |n: Node<'a, 'i>| match n.attribute("implementation") {
+        None | Some("any") => Ok(None),
+        Some("ModelExchange") => Ok(Some(Interface::ModelExchange)),
+        Some("CoSimulation") => Ok(Some(Interface::CoSimulation)),
+        Some(other) => Err((n, format!("implementation `{other}`: ModelExchange, CoSimulation or any"))),
+    };
+    let standard = parse(component)?;
+    let mut ours = None;
+    let annotations = child(component, "Annotations").into_iter().flat_map(|a| children(a, "Annotation"));
+    for a in annotations.filter(|a| a.attribute("type") == Some(super::INTERFACE_ANNOTATION)) {
+        for i in children(a, "Interface") {
+            if i.attribute("implementation").is_none() {
+                return Err((i, "<Interface> without `implementation`".into()));
+            }
+            ours = parse(i)?;
+            if let (Some(s), Some(o)) = (standard, ours)
+                && s != o
+            {
+                return Err((i, format!("the annotation asks for {o:?}, the `implementation` attribute for {s:?}")));
+            }
+        }
+    }
+    Ok(standard.or(ours))
+}
+
 fn read_ssd(ssd: &Path, origin: &str, limits: &ReadLimits) -> Result<LoadedSsp, SetupError> {
     let text = std::fs::read_to_string(ssd).map_err(|e| invalid(ssd, format!("cannot read: {e}")))?;
     let doc = Document::parse(&text).map_err(|e| invalid(ssd, format!("not well-formed XML: {e}")))?;
@@ -263,7 +298,8 @@ fn read_ssd(ssd: &Path, origin: &str, limits: &ReadLimits) -> Result<LoadedSsp, 
             if spec.components.iter().any(|c| c.name == name) {
                 return Err(fail(e, format!("a second component named `{name}`: component names must be unique")));
             }
-            spec.components.push(Component { name: name.to_owned(), source: resolve(e, source)? });
+            let interface = component_interface(e).map_err(|(n, m)| fail(n, format!("component `{name}`: {m}")))?;
+            spec.components.push(Component { name: name.to_owned(), source: resolve(e, source)?, interface });
             if let Some(connectors) = child(e, "Connectors") {
                 for c in children(connectors, "Connector") {
                     let cname = c.attribute("name").ok_or_else(|| fail(c, "a connector without `name`".into()))?;
@@ -465,14 +501,14 @@ fn read_parameter_set(
         let text = v.attribute("value").ok_or_else(|| fail(v, format!("parameter `{target}`: no `value`")))?;
         let bad = |what: &str| fail(v, format!("parameter `{target}`: `{text}` is not {what}"));
         let value = Value::Typed(match v.tag_name().name() {
-            "Real" => fmi2::Value::Real(text.trim().parse().map_err(|_| bad("a Real"))?),
-            "Integer" => fmi2::Value::Integer(text.trim().parse().map_err(|_| bad("an Integer"))?),
-            "Boolean" => fmi2::Value::Boolean(match text.trim() {
+            "Real" => fmi::Value::Real(text.trim().parse().map_err(|_| bad("a Real"))?),
+            "Integer" => fmi::Value::Integer(text.trim().parse().map_err(|_| bad("an Integer"))?),
+            "Boolean" => fmi::Value::Boolean(match text.trim() {
                 "true" | "1" => true,
                 "false" | "0" => false,
                 _ => return Err(bad("a Boolean")),
             }),
-            "String" => fmi2::Value::String(text.to_owned()),
+            "String" => fmi::Value::String(text.to_owned()),
             other => return Err(fail(v, format!("parameter `{target}`: type <{other}> is not supported"))),
         });
         out.push(Parameter { target, value });
@@ -538,6 +574,65 @@ mod tests {
         }
         x.push_str("    </ssd:Elements>\n  </ssd:System>\n</ssd:SystemStructureDescription>\n");
         x
+    }
+
+    /// A component's interface: SSP's `implementation` attribute, or this master's annotation
+    /// (other annotations of the component left alone); `any` and nothing leave it open; a
+    /// contradiction or a value SSP does not define is refused naming the line.
+    #[test]
+    fn a_components_interface_is_read_from_its_attribute_or_our_annotation() {
+        use fmi::import::Interface::{CoSimulation, ModelExchange};
+        let dir = TempDir::new("interface").unwrap();
+        let ssd = dir.path().join("s.ssd");
+        let annotated = |kind: &str| {
+            format!(
+                "<ssd:Annotations><ssc:Annotation type=\"com.example.other\"><Interface implementation=\"nonsense\"/>\
+                 </ssc:Annotation><ssc:Annotation type=\"org.feedsim.interface\"><Interface implementation=\"{kind}\"/>\
+                 </ssc:Annotation></ssd:Annotations>"
+            )
+        };
+        let read = |components: &[(&str, &str)]| {
+            let mut text = description(&components.iter().map(|c| (c.0, "x.fmu")).collect::<Vec<_>>(), None);
+            for (name, extra) in components {
+                let open = format!("<ssd:Component name=\"{name}\" source=\"x.fmu\">");
+                let (attribute, inner) = extra.split_once('|').unwrap_or((extra, ""));
+                let with = format!("<ssd:Component name=\"{name}\" source=\"x.fmu\"{attribute}>{inner}");
+                text = text.replace(&open, &with);
+            }
+            std::fs::write(&ssd, text).unwrap();
+            load(&ssd)
+        };
+        let me = annotated("ModelExchange");
+        let spec = read(&[
+            ("a", ""),
+            ("b", " implementation=\"ModelExchange\""),
+            ("c", " implementation=\"CoSimulation\""),
+            ("d", " implementation=\"any\""),
+            ("e", &format!("|{me}")),
+            ("f", &format!(" implementation=\"ModelExchange\"|{me}")),
+            ("g", &format!("|{}", annotated("CoSimulation"))),
+        ])
+        .unwrap()
+        .spec;
+        let interfaces: Vec<_> = spec.components.iter().map(|c| c.interface).collect();
+        let expected = [
+            None,
+            Some(ModelExchange),
+            Some(CoSimulation),
+            None,
+            Some(ModelExchange),
+            Some(ModelExchange),
+            Some(CoSimulation),
+        ];
+        assert_eq!(interfaces, expected);
+        let e = read(&[("a", &format!(" implementation=\"CoSimulation\"|{me}"))]).err().unwrap().to_string();
+        assert!(
+            e.contains("line 5") && e.contains("component `a`") && e.contains("contradiction")
+                || e.contains("asks for"),
+            "{e}"
+        );
+        let e = read(&[("a", " implementation=\"ME\"")]).err().unwrap().to_string();
+        assert!(e.contains("implementation `ME`: ModelExchange, CoSimulation or any"), "{e}");
     }
 
     const SSV: &str = r#"<?xml version="1.0" encoding="UTF-8"?>

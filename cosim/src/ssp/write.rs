@@ -1,15 +1,15 @@
 //! Writing an SSP 1.0 archive: `SystemStructure.ssd` (components with their connectors and
 //! inline parameter values, connections, default experiment, and what an adaptive step should
 //! watch as this master's annotation) and the FMUs under `resources/`.
-//! The XML is small and flat, so it is written directly (with fmi2's attribute escaping)
+//! The XML is small and flat, so it is written directly (with fmi's attribute escaping)
 //! rather than through an XML library.
 
 use std::fmt::Write as _;
 use std::io::{Read, Seek, Write};
 use std::path::Path;
 
-use fmi2::VarType;
-use fmi2::xml::escape;
+use fmi::VarType;
+use fmi::xml::escape;
 
 use crate::error::SetupError;
 use crate::system::fmu::ResolvedConnection;
@@ -100,10 +100,10 @@ pub fn ssd_text(s: &SspSystem) -> String {
             let _ = writeln!(x, "                <ssv:Parameters>");
             for (name, value) in &c.parameters {
                 let (t, v) = match value {
-                    Value::Typed(fmi2::Value::Real(v)) => ("Real", format!("{v:?}")),
-                    Value::Typed(fmi2::Value::Integer(v)) => ("Integer", v.to_string()),
-                    Value::Typed(fmi2::Value::Boolean(v)) => ("Boolean", v.to_string()),
-                    Value::Typed(fmi2::Value::String(v)) | Value::Text(v) => ("String", escape(v)),
+                    Value::Typed(fmi::Value::Real(v)) => ("Real", format!("{v:?}")),
+                    Value::Typed(fmi::Value::Integer(v)) => ("Integer", v.to_string()),
+                    Value::Typed(fmi::Value::Boolean(v)) => ("Boolean", v.to_string()),
+                    Value::Typed(fmi::Value::String(v)) | Value::Text(v) => ("String", escape(v)),
                 };
                 let _ = writeln!(
                     x,

@@ -6,13 +6,14 @@
 //! pass over the (algebraic) loop until nothing changes any more, and only then calls
 //! fmi2ExitInitializationMode — so every FMU starts from inputs consistent with the others.
 
-use fmi2::import::{Capability, Fmu, FmuState, Instance, ScalarVariable};
-use fmi2::{Causality, VarType};
+use fmi::import::{Capability, Fmu, FmuState, Instance, ScalarVariable};
+use fmi::{Causality, VarType};
 
 use super::spec::{Connection, Endpoint, Linear, Matching, Parameter, SystemSpec, Value, prefix_rest};
 use super::{Capabilities, Layout, Slot, UnitError, UnitLayout, Units};
 use crate::error::SetupError;
 use crate::iqn::{Accelerator, IqnOptions};
+use crate::me::{MeStats, MeUnit};
 
 /// What the scheme to run needs from every FMU, checked before anything is instantiated.
 #[derive(Clone, Debug, Default)]
@@ -21,6 +22,18 @@ pub struct Needs {
     pub what: String,
     /// Get/set FMU state.
     pub rollback: bool,
+    /// How Model Exchange units are integrated.
+    pub model_exchange: crate::me::MeOptions,
+}
+
+impl FmuUnit {
+    /// Before a discrete input is set: event mode where the unit is of Model Exchange.
+    fn begin_input_event(&mut self) -> Result<(), UnitError> {
+        match self.me.as_mut() {
+            Some(me) => me.begin_input_event(&mut self.inst),
+            None => Ok(()),
+        }
+    }
 }
 
 struct FmuUnit {
@@ -37,6 +50,8 @@ struct FmuUnit {
     /// The inputs with a nonzero seed and their seeds (a step-map derivative asks the FMU
     /// about those only: a seed per input costs one known, not all of them).
     seeded: (Vec<u32>, Vec<f64>),
+    /// A Model Exchange FMU: the master's integration of it.
+    me: Option<Box<MeUnit>>,
 }
 
 /// A connection of Integer, Boolean or String variables, passed at communication points.
@@ -67,7 +82,7 @@ fn step_map_derivative(
     knowns: &[u32],
     seed: &[f64],
     out: &mut [f64],
-) -> Result<(), fmi2::import::Error> {
+) -> Result<(), fmi::import::Error> {
     inst.step_map_derivative(unknowns, knowns, seed, out)
 }
 
@@ -96,7 +111,7 @@ impl FmuSystem {
         let index = |name: &str, what: &str| component_index(spec, name, what);
         let fmu_err = |k: usize| {
             let component = spec.components[k].name.clone();
-            move |e: fmi2::import::Error| SetupError::Fmu { component: component.clone(), source: e }
+            move |e: fmi::import::Error| SetupError::Fmu { component: component.clone(), source: e }
         };
         let links = match_links(spec, &fmus)?;
 
@@ -106,12 +121,14 @@ impl FmuSystem {
             let mut inst = fmu.instantiate(&c.name, false).map_err(fmu_err(k))?;
             inst.setup_experiment(None, 0.0, None).map_err(fmu_err(k))?;
             let flags = &fmu.description().flags;
+            let me = fmu.interface() == fmi::import::Interface::ModelExchange;
             units.push(FmuUnit {
                 name: c.name.clone(),
                 caps: Capabilities {
                     rollback: flags.can_get_and_set_fmu_state,
-                    step_derivatives: provides_step_map_derivative(fmu),
-                    interpolates: flags.can_interpolate_inputs,
+                    step_derivatives: provides_step_map_derivative(fmu) && !me,
+                    // the master integrates it: it follows any input slope over the step
+                    interpolates: flags.can_interpolate_inputs || me,
                 },
                 inst,
                 inputs: Vec::new(),
@@ -119,6 +136,7 @@ impl FmuSystem {
                 states: [None, None],
                 ones: Vec::new(),
                 seeded: (Vec::new(), Vec::new()),
+                me: None,
             });
         }
         for p in &spec.parameters {
@@ -170,6 +188,9 @@ impl FmuSystem {
                 }
             }
             unit.ones = vec![1; unit.inputs.len()];
+            if unit.inst.fmu().interface() == fmi::import::Interface::ModelExchange {
+                unit.me = Some(Box::new(MeUnit::new(&unit.inst, &unit.inputs, needs.model_exchange)));
+            }
             layout.units.push(UnitLayout {
                 name: unit.name.clone(),
                 inputs: i0..layout.input_names.len(),
@@ -219,6 +240,15 @@ impl FmuSystem {
         system.initialize_loop()?;
         for (k, u) in system.units.iter_mut().enumerate() {
             u.inst.exit_initialization_mode().map_err(fmu_err(k))?;
+            if let Some(me) = u.me.as_mut() {
+                me.start(&mut u.inst, 0.0).map_err(|e| SetupError::Fmu {
+                    component: u.name.clone(),
+                    source: match e {
+                        UnitError::Fmi(e) => e,
+                        other => fmi::import::Error::Usage(other.to_string()),
+                    },
+                })?;
+            }
         }
         // Scales: per unit and unit of measure, the largest start value (at least 1).
         let mut u0 = vec![0.0; nu];
@@ -228,7 +258,7 @@ impl FmuSystem {
                 component: system.units[k].name.clone(),
                 source: match e {
                     UnitError::Fmi(e) => e,
-                    other => fmi2::import::Error::Usage(other.to_string()),
+                    other => fmi::import::Error::Usage(other.to_string()),
                 },
             })?;
         }
@@ -267,7 +297,7 @@ impl FmuSystem {
             component: units[k].name.clone(),
             source: match e {
                 UnitError::Fmi(e) => e,
-                other => fmi2::import::Error::Usage(other.to_string()),
+                other => fmi::import::Error::Usage(other.to_string()),
             },
         };
         let read_y = |s: &mut FmuSystem, y: &mut [f64]| -> Result<(), SetupError> {
@@ -321,39 +351,60 @@ impl FmuSystem {
         })
     }
 
-    /// Copies every non-Real connection; with `compare`, returns whether any input changed.
+    /// Copies every non-Real connection; with `compare`, returns whether any input changed. A
+    /// Model Exchange unit takes a changed value in event mode (an input event, FMI 2.0 and 3.0:
+    /// discrete inputs are not set in continuous-time mode), and an unchanged one not at all.
     fn exchange(&mut self, compare: bool) -> Result<bool, (usize, UnitError)> {
         let mut changed = false;
         for l in &self.discrete {
             let (a, b) = (l.from.0, l.to.0);
-            let e = |k: usize| move |e: fmi2::import::Error| (k, UnitError::Fmi(e));
-            match l.var_type {
+            let e = |k: usize| move |e: fmi::import::Error| (k, UnitError::Fmi(e));
+            // a Model Exchange unit's input is read to set it only if it changes
+            let me = self.units[b].me.is_some();
+            let look = compare || me;
+            let differs = match l.var_type {
                 VarType::Integer => {
                     let (mut x, mut old) = ([0], [0]);
                     self.units[a].inst.get_integer(&[l.from.1], &mut x).map_err(e(a))?;
-                    if compare {
+                    if look {
                         self.units[b].inst.get_integer(&[l.to.1], &mut old).map_err(e(b))?;
-                        changed |= x != old;
                     }
-                    self.units[b].inst.set_integer(&[l.to.1], &x).map_err(e(b))?;
+                    let differs = look && x != old;
+                    if differs || !me {
+                        self.units[b].begin_input_event().map_err(|e| (b, e))?;
+                        self.units[b].inst.set_integer(&[l.to.1], &x).map_err(e(b))?;
+                    }
+                    differs
                 }
                 VarType::Boolean => {
                     let (mut x, mut old) = ([false], [false]);
                     self.units[a].inst.get_boolean(&[l.from.1], &mut x).map_err(e(a))?;
-                    if compare {
+                    if look {
                         self.units[b].inst.get_boolean(&[l.to.1], &mut old).map_err(e(b))?;
-                        changed |= x != old;
                     }
-                    self.units[b].inst.set_boolean(&[l.to.1], &x).map_err(e(b))?;
+                    let differs = look && x != old;
+                    if differs || !me {
+                        self.units[b].begin_input_event().map_err(|e| (b, e))?;
+                        self.units[b].inst.set_boolean(&[l.to.1], &x).map_err(e(b))?;
+                    }
+                    differs
                 }
                 VarType::String => {
                     let x = self.units[a].inst.get_string(&[l.from.1]).map_err(e(a))?;
-                    if compare {
-                        changed |= self.units[b].inst.get_string(&[l.to.1]).map_err(e(b))? != x;
+                    let differs = look && self.units[b].inst.get_string(&[l.to.1]).map_err(e(b))? != x;
+                    if differs || !me {
+                        self.units[b].begin_input_event().map_err(|e| (b, e))?;
+                        self.units[b].inst.set_string(&[l.to.1], &[x[0].as_str()]).map_err(e(b))?;
                     }
-                    self.units[b].inst.set_string(&[l.to.1], &[x[0].as_str()]).map_err(e(b))?;
+                    differs
                 }
                 VarType::Real => unreachable!("Real connections are interface unknowns"),
+            };
+            changed |= compare && differs;
+        }
+        for (k, unit) in self.units.iter_mut().enumerate() {
+            if let Some(me) = unit.me.as_mut() {
+                me.end_input_event(&mut unit.inst).map_err(|e| (k, e))?;
             }
         }
         Ok(changed)
@@ -374,8 +425,14 @@ impl FmuSystem {
         self.units.iter_mut().map(|u| (u.name.as_str(), &mut u.inst))
     }
 
+    /// What the integration of each Model Exchange unit did so far: (component, solver, stats).
+    pub fn model_exchange_stats(&self) -> Vec<(String, &'static str, MeStats)> {
+        let me = |u: &FmuUnit| u.me.as_ref().map(|m| (u.name.clone(), m.method_name(), m.stats));
+        self.units.iter().filter_map(me).collect()
+    }
+
     /// Serialized states of every FMU (for checks of bit-exact rollback).
-    pub fn serialized_states(&mut self) -> Result<Vec<Vec<u8>>, fmi2::import::Error> {
+    pub fn serialized_states(&mut self) -> Result<Vec<Vec<u8>>, fmi::import::Error> {
         let mut out = Vec::new();
         for u in &mut self.units {
             let s = u.inst.get_state()?;
@@ -399,7 +456,7 @@ impl FmuSystem {
 fn observed_outputs<'a>(
     observed: &'a [String],
     component: &'a str,
-    description: &'a fmi2::ModelDescription,
+    description: &'a fmi::ModelDescription,
 ) -> impl Iterator<Item = &'a ScalarVariable> + 'a {
     description.variables.iter().filter(move |v| {
         v.var_type == VarType::Real
@@ -419,9 +476,9 @@ fn load_fmus(spec: &SystemSpec, needs: &Needs) -> Result<Vec<Fmu>, SetupError> {
     for c in &spec.components {
         let path = &c.source;
         let fmu = if path.is_dir() {
-            Fmu::load_unpacked(path)
+            Fmu::load_unpacked_as(path, c.interface)
         } else if path.is_file() {
-            Fmu::load(path)
+            Fmu::load_as(path, c.interface)
         } else {
             return Err(SetupError::File {
                 path: path.clone(),
@@ -627,7 +684,7 @@ fn check_link(origin: &str, from: &str, to: &str, l: &Link, c: &Connection) -> R
 
 enum SetValueError {
     Value(String),
-    Fmu(fmi2::import::Error),
+    Fmu(fmi::import::Error),
 }
 
 fn set_value(inst: &mut Instance, v: &ScalarVariable, value: &Value) -> Result<(), SetValueError> {
@@ -642,24 +699,24 @@ fn set_value(inst: &mut Instance, v: &ScalarVariable, value: &Value) -> Result<(
         }
     };
     let r = match (v.var_type, value) {
-        (VarType::Real, fmi2::Value::Real(x)) => inst.set_real(&vr, &[*x]),
-        (VarType::Real, fmi2::Value::Integer(x)) => inst.set_real(&vr, &[f64::from(*x)]),
-        (VarType::Integer, fmi2::Value::Integer(x)) => inst.set_integer(&vr, &[*x]),
-        (VarType::Boolean, fmi2::Value::Boolean(x)) => inst.set_boolean(&vr, &[*x]),
-        (VarType::String, fmi2::Value::String(x)) => inst.set_string(&vr, &[x.as_str()]),
+        (VarType::Real, fmi::Value::Real(x)) => inst.set_real(&vr, &[*x]),
+        (VarType::Real, fmi::Value::Integer(x)) => inst.set_real(&vr, &[f64::from(*x)]),
+        (VarType::Integer, fmi::Value::Integer(x)) => inst.set_integer(&vr, &[*x]),
+        (VarType::Boolean, fmi::Value::Boolean(x)) => inst.set_boolean(&vr, &[*x]),
+        (VarType::String, fmi::Value::String(x)) => inst.set_string(&vr, &[x.as_str()]),
         _ => return Err(mismatch()),
     };
     r.map_err(SetValueError::Fmu)
 }
 
 /// A parameter's text as a value of the variable's type.
-fn typed(text: &str, var_type: VarType) -> Result<fmi2::Value, String> {
+fn typed(text: &str, var_type: VarType) -> Result<fmi::Value, String> {
     let bad = |e: &dyn std::fmt::Display| format!("not {}: {e}", article(var_type));
     Ok(match var_type {
-        VarType::Real => fmi2::Value::Real(text.trim().parse().map_err(|e| bad(&e))?),
-        VarType::Integer => fmi2::Value::Integer(text.trim().parse().map_err(|e| bad(&e))?),
-        VarType::Boolean => fmi2::Value::Boolean(text.trim().parse().map_err(|e| bad(&e))?),
-        VarType::String => fmi2::Value::String(text.to_owned()),
+        VarType::Real => fmi::Value::Real(text.trim().parse().map_err(|e| bad(&e))?),
+        VarType::Integer => fmi::Value::Integer(text.trim().parse().map_err(|e| bad(&e))?),
+        VarType::Boolean => fmi::Value::Boolean(text.trim().parse().map_err(|e| bad(&e))?),
+        VarType::String => fmi::Value::String(text.to_owned()),
     })
 }
 
@@ -671,12 +728,12 @@ fn article(t: VarType) -> String {
 
 /// The FMU's end ends the run (FMI 2.0: fmi2Discard from doStep; FMI 3.0: terminateSimulation
 /// or an early return); anything else is a failure.
-fn step_error(inst: &mut Instance, e: fmi2::import::Error) -> UnitError {
-    if let fmi2::import::Error::Ended { time, terminated, .. } = e {
+fn step_error(inst: &mut Instance, e: fmi::import::Error) -> UnitError {
+    if let fmi::import::Error::Ended { time, terminated, .. } = e {
         let signal = if terminated { "fmi3DoStep: terminateSimulation" } else { "fmi3DoStep: earlyReturn" };
         return UnitError::Ended { last_successful_time: Some(time).filter(|t| t.is_finite()), terminated, signal };
     }
-    if e.status() == Some(fmi2::ffi::Status::Discard) {
+    if e.status() == Some(fmi::ffi::Status::Discard) {
         let terminated = inst.terminated().unwrap_or(false);
         let last_successful_time = inst.last_successful_time().ok().filter(|t| t.is_finite());
         let signal = if terminated { "fmi2Discard, fmi2Terminated" } else { "fmi2Discard" };
@@ -696,16 +753,26 @@ impl Units for FmuSystem {
 
     fn set_inputs(&mut self, k: usize, u: &[f64]) -> Result<(), UnitError> {
         let unit = &mut self.units[k];
+        if let Some(me) = unit.me.as_mut() {
+            return me.set_inputs(&mut unit.inst, u);
+        }
         Ok(unit.inst.set_real(&unit.inputs, u)?)
     }
 
     fn set_input_slopes(&mut self, k: usize, slopes: &[f64]) -> Result<(), UnitError> {
         let unit = &mut self.units[k];
+        if let Some(me) = unit.me.as_mut() {
+            me.slopes_set(slopes);
+            return Ok(());
+        }
         Ok(unit.inst.set_real_input_derivatives(&unit.inputs, &unit.ones, slopes)?)
     }
 
     fn do_step(&mut self, k: usize, t: f64, h: f64) -> Result<(), UnitError> {
         let unit = &mut self.units[k];
+        if let Some(me) = unit.me.as_mut() {
+            return me.advance(&mut unit.inst, t, h);
+        }
         unit.inst.do_step(t, h).map_err(|e| step_error(&mut unit.inst, e))
     }
 
@@ -721,6 +788,9 @@ impl Units for FmuSystem {
             Some(s) => unit.inst.update_state(s)?,
             None => *state = Some(unit.inst.get_state()?),
         }
+        if let Some(me) = unit.me.as_mut() {
+            me.save(slot as usize);
+        }
         Ok(())
     }
 
@@ -729,7 +799,11 @@ impl Units for FmuSystem {
         let s = unit.states[slot as usize]
             .as_ref()
             .ok_or_else(|| UnitError::Other(format!("no state saved in the {slot:?} slot to restore")))?;
-        Ok(unit.inst.set_state(s)?)
+        unit.inst.set_state(s)?;
+        if let Some(me) = unit.me.as_mut() {
+            me.restore(slot as usize);
+        }
+        Ok(())
     }
 
     fn step_derivative(&mut self, k: usize, seed: &[f64], out: &mut [f64]) -> Result<(), UnitError> {
@@ -746,7 +820,7 @@ impl Units for FmuSystem {
         Ok(step_map_derivative(&mut unit.inst, &unit.outputs, knowns, seeds, out)?)
     }
 
-    fn exchange_discrete(&mut self) -> Result<(), UnitError> {
-        self.exchange(false).map(|_| ()).map_err(|(_, e)| e)
+    fn exchange_discrete(&mut self) -> Result<(), (usize, UnitError)> {
+        self.exchange(false).map(|_| ())
     }
 }

@@ -188,7 +188,7 @@ pub enum UnitError {
         .last_successful_time.map_or(String::new(), |t| format!(" at its last successful time {t} s")))]
     Ended { last_successful_time: Option<f64>, terminated: bool, signal: &'static str },
     #[error(transparent)]
-    Fmi(#[from] fmi2::import::Error),
+    Fmi(#[from] fmi::import::Error),
     /// Any other failure of an in-process unit.
     #[error("{0}")]
     Other(String),
@@ -212,8 +212,9 @@ pub trait Units {
     fn restore_state(&mut self, k: usize, slot: Slot) -> Result<(), UnitError>;
     /// `out = ∂Y_k/∂U_k · seed` of the step just taken (needs `step_derivatives`).
     fn step_derivative(&mut self, k: usize, seed: &[f64], out: &mut [f64]) -> Result<(), UnitError>;
-    /// Passes the values of non-Real connections from outputs to inputs (at a communication point).
-    fn exchange_discrete(&mut self) -> Result<(), UnitError> {
+    /// Passes the values of non-Real connections from outputs to inputs (at a communication
+    /// point); a failure names the unit it concerns.
+    fn exchange_discrete(&mut self) -> Result<(), (usize, UnitError)> {
         Ok(())
     }
 }

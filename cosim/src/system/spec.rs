@@ -10,6 +10,9 @@ pub struct Component {
     pub name: String,
     /// The `.fmu` archive, or a directory holding an unpacked FMU.
     pub source: PathBuf,
+    /// The interface to run it as (`None`: Co-Simulation where the FMU offers it, else Model
+    /// Exchange).
+    pub interface: Option<fmi::import::Interface>,
 }
 
 /// A variable of a component.
@@ -61,14 +64,14 @@ pub struct Connection {
 /// A parameter value: typed (SSP), or text converted to the variable's type (scene).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Value {
-    Typed(fmi2::Value),
+    Typed(fmi::Value),
     Text(String),
 }
 
 impl std::fmt::Display for Value {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Value::Typed(fmi2::Value::String(x)) | Value::Text(x) => write!(f, "\"{x}\""),
+            Value::Typed(fmi::Value::String(x)) | Value::Text(x) => write!(f, "\"{x}\""),
             Value::Typed(v) => write!(f, "{v}"),
         }
     }
@@ -84,7 +87,7 @@ pub struct Parameter {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Connector {
     pub endpoint: Endpoint,
-    pub var_type: fmi2::VarType,
+    pub var_type: fmi::VarType,
     pub unit: Option<String>,
 }
 

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use feedcore::scene::{Scene, ValidScene};
-use master::calibrate::{Key, MAX_MEASURED_BYTES, Problem, TensionBound, get_key, read_measured};
-use master::table::Table;
 use serde_json::json;
+use studies::calibrate::{Key, MAX_MEASURED_BYTES, Problem, TensionBound, get_key, read_measured};
+use studies::table::Table;
 
 use super::output::{Outputs, run_inputs};
 use super::{CmdResult, load_scene};

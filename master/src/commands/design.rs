@@ -331,7 +331,7 @@ fn evaluate(scene: &ValidScene, designed: &feedcore::scene::Scene, args: &Args) 
         return Ok(Vec::new());
     }
     let lqg = designed.clone().validated(scene.file()).context("the designed scene")?;
-    let off = master::options::CompensationArg::Off.apply(scene)?;
+    let off = studies::options::Compensation::Off.apply(scene)?;
     let mut variants = vec![
         ("LQG (designed)".to_string(), lqg.clone()),
         (format!("{} (as given)", scene.name), scene.clone()),
@@ -343,14 +343,14 @@ fn evaluate(scene: &ValidScene, designed: &feedcore::scene::Scene, args: &Args) 
         variants.push((format!("LQG, delay ×{f}"), lqg.edited(|s| s.control.iter_mut().for_each(|c| c.delay_s *= f))?));
     }
     for f in [0.8, 1.2] {
-        variants.push((format!("LQG, platform mass ×{f}"), lqg.edited(|s| master::sweep::scale_platform_mass(s, f))?));
+        variants.push((format!("LQG, platform mass ×{f}"), lqg.edited(|s| studies::sweep::scale_platform_mass(s, f))?));
     }
     let h = monolithic::feed::step_for(scene);
-    let steps = super::compensation::checked_steps(scene, h, args.t_end, "an evaluation run")?;
+    let steps = studies::compensation::checked_steps(scene, h, args.t_end, "an evaluation run", &super::caps().run)?;
     let seeds = |v: usize| if v < 3 { args.evaluate.clone() } else { vec![args.evaluate[0]] };
     let runs: Vec<(usize, u64)> = (0..variants.len()).flat_map(|v| seeds(v).into_iter().map(move |s| (v, s))).collect();
     eprintln!("{}: {} runs of {} s …", scene.name, runs.len(), args.t_end);
-    let results = master::parallel::map_in_order(&runs, args.jobs.map(usize::from), |_, &(v, seed)| {
+    let results = studies::parallel::map_in_order(&runs, args.jobs.map(usize::from), |_, &(v, seed)| {
         let seeded = variants[v].1.edited(|s| {
             if let Some(w) = s.wind.as_mut() {
                 w.seed = seed;
@@ -441,9 +441,9 @@ fn bound_plot(name: &str, cells: &[study::Cell], rates: &[f64]) -> anyhow::Resul
             .draw()
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         for (i, &r) in rates.iter().enumerate() {
-            master::plot::palette_line(&mut chart, i, points(r), &format!("fixes at {r} Hz"))?;
+            studies::plot::palette_line(&mut chart, i, points(r), &format!("fixes at {r} Hz"))?;
         }
-        master::plot::legend(&mut chart, 13)?;
+        studies::plot::legend(&mut chart, 13)?;
         root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
     }
     Ok(svg)

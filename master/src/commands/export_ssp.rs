@@ -16,8 +16,9 @@ use anyhow::Context;
 use cosim::ssp::write::{SspComponent, SspConnector, SspSystem, with_resource, write_archive};
 use cosim::system::fmu::resolve;
 use cosim::system::spec::Value;
-use master::system::scene_spec;
+use studies::system::scene_spec;
 
+use super::args::SceneFile;
 use super::output::{Outputs, run_inputs};
 use super::{CmdResult, load_scene};
 
@@ -26,9 +27,8 @@ pub(crate) const SCENE_RESOURCE: &str = "exported_scene.toml";
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML) whose [system] is exported.
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
     /// The SSP archive to write (`.ssp`).
     #[arg(long)]
     pub(crate) out: PathBuf,
@@ -56,10 +56,10 @@ fn fmi3_twin(fmu: &std::path::Path) -> anyhow::Result<PathBuf> {
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
-    let mut outputs = Outputs::new(run_inputs(&args.scene, &scene));
+    let scene = load_scene(&args.file.scene)?;
+    let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
     let id = outputs.declare("--out", &args.out, Some("ssp"))?;
-    let mut spec = scene_spec(&scene, &args.scene)?;
+    let mut spec = scene_spec(&scene, &args.file.scene)?;
     if args.fmi == 3 {
         for c in &mut spec.components {
             c.source = fmi3_twin(&c.source)?;
@@ -67,7 +67,8 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let sys = scene.system.as_ref().expect("scene_spec needs a [system]");
     let resolved = resolve(&spec)?;
-    let scene_bytes = std::fs::read(&args.scene).with_context(|| format!("{}: cannot read", args.scene.display()))?;
+    let scene_bytes =
+        std::fs::read(&args.file.scene).with_context(|| format!("{}: cannot read", args.file.scene.display()))?;
     let mut components = Vec::new();
     for c in &spec.components {
         let reads_scene =
@@ -96,7 +97,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             add(&p.target.variable, "parameter", *var_type);
             let key = format!("{}.{}", c.name, p.target.variable);
             let value = if sys.parameters.get(&key).is_some_and(|v| v == "@scene") {
-                Value::Typed(fmi2::Value::String(SCENE_RESOURCE.into()))
+                Value::Typed(fmi::Value::String(SCENE_RESOURCE.into()))
             } else {
                 p.value.clone()
             };
@@ -112,7 +113,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         stop_time: scene.solver.t_end_s,
         // an adaptive run of the archive watches what one of the scene does, and a fixed-step
         // run takes its first step as the scene's does
-        watch: master::simulate::CABIN_POSE.map(String::from).to_vec(),
+        watch: studies::simulate::CABIN_POSE.map(String::from).to_vec(),
         kink_at_start: spec.kink_at_start,
     };
     let archive = write_archive(Cursor::new(Vec::new()), &system).context("packing the archive")?.into_inner();

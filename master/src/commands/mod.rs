@@ -7,8 +7,9 @@ use std::sync::OnceLock;
 
 use anyhow::Context;
 use feedcore::scene::{Scene, SceneErrorKind, ValidScene};
-use master::limits::Limits;
+use studies::limits::Limits;
 
+pub(crate) mod args;
 pub(crate) mod bench;
 pub(crate) mod calibrate;
 pub(crate) mod compare;
@@ -23,7 +24,7 @@ pub(crate) mod reproduce;
 pub(crate) mod run;
 pub(crate) mod run_system;
 pub(crate) mod scaling;
-pub(crate) use master::options as scheme_args;
+pub(crate) mod scheme_args;
 pub(crate) mod stability;
 pub(crate) mod statics;
 pub(crate) mod stewart;
@@ -39,7 +40,7 @@ pub(crate) type BoxResult = Result<(), Box<dyn std::error::Error>>;
 
 /// A [`BoxResult`] as a [`CmdResult`] (the message chain kept as text).
 pub(crate) fn boxed(r: BoxResult) -> CmdResult {
-    r.map_err(|e| anyhow::Error::new(master::simulate::Detached::of(&*e)))
+    r.map_err(|e| anyhow::Error::new(studies::simulate::Detached::of(&*e)))
 }
 
 /// Caps from the global flags (`--max-steps`, `--max-memory-mb`, `--max-scene-bytes`).
@@ -63,19 +64,7 @@ pub(crate) fn caps() -> Caps {
 /// The digest of a scene as parsed: parts of one sweep, and a journal and the work it belongs
 /// to, must share it.
 pub(crate) fn fingerprint(scene: &ValidScene) -> String {
-    format!("{:016x}", fmi2::digest::digest(scene.to_toml().as_bytes()))
-}
-
-/// One run of a scene within the caps of the command line (what `master run` checks).
-pub(crate) fn simulate(
-    scene: &ValidScene,
-    scene_file: &Path,
-    method: master::simulate::Method,
-    dt: f64,
-    t_end: f64,
-    quiet: bool,
-) -> Result<master::simulate::Trace, master::simulate::RunError> {
-    master::simulate::Run::prepare(scene, scene_file, method, dt, t_end, &caps().run)?.execute(quiet)
+    format!("{:016x}", fmi::digest::digest(scene.to_toml().as_bytes()))
 }
 
 /// Reads a scene within the size cap; a file over it names the flag that raises it.

@@ -82,7 +82,7 @@ impl Outputs {
             bail!("{flag} {shown}: is a directory; give a file name");
         }
         path.file_name().with_context(|| format!("{flag} {shown}: no file name"))?;
-        let temp = master::tempfiles::beside(path);
+        let temp = studies::tempfiles::beside(path);
         self.files.push(Planned { flag: flag.to_string(), path: path.to_owned(), temp });
         Ok(OutputId(self.files.len() - 1))
     }
@@ -95,7 +95,7 @@ impl Outputs {
             let shown = f.path.display();
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("{} {shown}: cannot create the directory {}", f.flag, dir.display()))?;
-            master::tempfiles::remove_stale(&f.path);
+            studies::tempfiles::remove_stale(&f.path);
             File::create(&f.temp).with_context(|| format!("{} {shown}: cannot write in {}", f.flag, dir.display()))?;
         }
         self.opened = true;

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use fmi2::export::Model;
+use fmi::export::Model;
 
 use super::BoxResult as CmdResult;
 
@@ -23,14 +23,14 @@ pub(crate) struct Exportable {
     /// Cargo package of the cdylib (its library is `lib<package>.so`).
     pub package: &'static str,
     /// Writes `<out>/<modelIdentifier>.fmu` from the library; returns the archive path.
-    pub write: fn(&Path, &Path) -> Result<PathBuf, fmi2::package::PackageError>,
+    pub write: fn(&Path, &Path) -> Result<PathBuf, fmi::package::PackageError>,
     /// The same as FMI 3.0.
-    pub write3: fn(&Path, &Path) -> Result<PathBuf, fmi2::package::PackageError>,
+    pub write3: fn(&Path, &Path) -> Result<PathBuf, fmi::package::PackageError>,
 }
 
 impl Exportable {
     pub(crate) const fn of<M: Model>(package: &'static str) -> Exportable {
-        Exportable { package, write: fmi2::package::package_model::<M>, write3: fmi2::package::package_model3::<M> }
+        Exportable { package, write: fmi::package::package_model::<M>, write3: fmi::package::package_model3::<M> }
     }
 }
 
@@ -39,7 +39,7 @@ pub(crate) const FMI3_DIR: &str = "fmi3";
 
 /// Every FMU of the workspace: one line per model (its `Model` type and its cdylib package).
 pub(crate) const EXPORTABLE: &[Exportable] = &[
-    Exportable::of::<fmi2_testmodel::Oscillator>("fmi2_testmodel"),
+    Exportable::of::<fmi_testmodel::Oscillator>("fmi_testmodel"),
     Exportable::of::<cable_fmu::CableFmu>("cable_fmu_cdylib"),
     Exportable::of::<stewart_fmu::StewartFmu>("stewart_fmu_cdylib"),
     // The zoo: small FMUs that know nothing of the LT50m system (testfmus/, docs/systems.md).

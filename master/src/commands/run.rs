@@ -5,12 +5,15 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use master::limits::num;
-use master::plot::{History, time_history};
-use master::simulate::{Run, Trace};
+use studies::limits::num;
+use studies::plot::{History, time_history};
+use studies::simulate::{Run, Trace};
 
+use studies::vtk::RunSeries;
+
+use super::args::Quiet;
 use super::output::{OutputId, Outputs, run_inputs};
-use super::scheme_args::{CompensationArg, SchemeName, SchemeOptions};
+use super::scheme_args::{Compensation, SchemeName, SchemeOptions, named};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
@@ -23,7 +26,7 @@ pub(crate) struct Args {
     #[arg(long)]
     pub(crate) system: Option<PathBuf>,
     /// Method.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = named::<SchemeName>())]
     pub(crate) scheme: SchemeName,
     /// Macro step (s); default: the scene's solver.dt_s. The end time must be a whole number of
     /// steps. Not with --adaptive.
@@ -45,21 +48,29 @@ pub(crate) struct Args {
     /// Draw the cabin-centre displacement (X, Y, Z panels, like the paper's Figs. 4–5) as SVG.
     #[arg(long)]
     pub(crate) plot: Option<PathBuf>,
-    /// No progress bar (it is also off when stderr is not a terminal).
-    #[arg(long)]
-    pub(crate) quiet: bool,
+    /// Write the net for ParaView into this folder (created if missing; --scheme monolithic or
+    /// cable): `<scene>.pvd` and one `<scene>/<scene>_<k>.vtu` per written sample — the cables as lines
+    /// with their element tensions, the displacement from the start at every point, the cabin,
+    /// the platform with its legs, the feed point; docs/scenes.md.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) vtk: Option<PathBuf>,
+    /// With --vtk: write every K-th output sample (from the first).
+    #[arg(long, value_name = "K", requires = "vtk", default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..))]
+    pub(crate) vtk_every: u64,
     /// The second level (scenes with [control]): `off` runs the same scene with its compensation
     /// switched off, the uncompensated reference of its feed error.
-    #[arg(long, value_enum, default_value_t = CompensationArg::On)]
-    pub(crate) compensation: CompensationArg,
+    #[arg(long, default_value = "on", value_parser = named::<Compensation>())]
+    pub(crate) compensation: Compensation,
     /// The seed of the scene's wind record (`[wind] seed`), instead of the scene's: the same
     /// spectrum, another record.
-    #[arg(long)]
+    #[arg(long, value_parser = studies::options::seed)]
     pub(crate) wind_seed: Option<u64>,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
     #[command(flatten)]
-    pub(crate) system_files: master::options::SystemFileArgs,
+    pub(crate) system_files: super::scheme_args::SystemFileArgs,
+    #[command(flatten)]
+    pub(crate) quiet: Quiet,
 }
 
 /// The displacement histories as three stacked panels, into output `id`.
@@ -72,24 +83,26 @@ pub(crate) fn plot_traces(outputs: &Outputs, id: OutputId, traces: &[&Trace], ti
 pub(crate) fn run(args: &Args) -> CmdResult {
     let scene_file = match (&args.scene, &args.system) {
         (Some(f), _) => f,
-        (None, Some(system)) => return super::run_system::run(args, system),
+        (None, Some(system)) => {
+            if args.vtk.is_some() {
+                bail!(
+                    "--vtk writes the cable net of a scene's run (--scene with --scheme monolithic or cable); a system \
+                     of FMUs has no net the master can see"
+                );
+            }
+            return super::run_system::run(args, system);
+        }
         (None, None) => bail!("give --scene or --system"),
     };
-    if let Some(option) = args.system_files.given() {
-        bail!("{option} applies to --system (an SSP archive or .ssd); a --scene names its FMUs in [system]");
+    if let Some(option) = args.system_files.files().given() {
+        bail!("--{option} applies to --system (an SSP archive or .ssd); a --scene names its FMUs in [system]");
     }
-    let mut scene = args.compensation.apply(&load_scene(scene_file)?)?;
-    if let Some(seed) = args.wind_seed {
-        if scene.wind.is_none() {
-            bail!("--wind-seed: {} has no [wind] section, so there is no wind record to draw", scene.file());
-        }
-        scene = scene.edited(|s| s.wind.iter_mut().for_each(|w| w.seed = seed))?;
-    }
+    let scene = studies::options::with_wind_seed(&args.compensation.apply(&load_scene(scene_file)?)?, args.wind_seed)?;
     let method = args.options.method(args.scheme)?;
-    master::options::check_dt(args.options.adaptive, args.dt)?;
+    studies::options::check_dt(args.options.adaptive, args.dt)?;
     let dt = args.dt.unwrap_or(scene.solver.dt_s);
     let t_end = args.t_end.unwrap_or(scene.solver.t_end_s);
-    let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
+    let quiet = args.quiet.quiet || args.json || !std::io::stderr().is_terminal();
     // everything the run needs is checked before its first step
     let run = Run::prepare(&scene, scene_file, method, dt, t_end, &caps().run).with_context(|| {
         let from =
@@ -104,10 +117,27 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let mut outputs = Outputs::new(run_inputs(scene_file, &scene));
     let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+    let mut series = match &args.vtk {
+        Some(dir) => {
+            if let Some(reason) = run.method().net_refusal() {
+                bail!("--vtk {}: {reason}", dir.display());
+            }
+            if let Some((flag, _)) = [("--out", &args.out), ("--plot", &args.plot)]
+                .into_iter()
+                .find(|(_, p)| p.as_deref() == Some(dir.as_path()))
+            {
+                bail!("--vtk {}: the same path as {flag}; give the VTK files a folder of their own", dir.display());
+            }
+            let layout = studies::net::Layout::of(&scene);
+            Some(RunSeries::create(dir, &scene.name, &layout).with_context(|| format!("--vtk {}", dir.display()))?)
+        }
+        None => None,
+    };
     outputs.open()?;
 
-    let trace = run.execute(quiet)?;
-    let utilisation = master::report::static_utilisation(&scene)?;
+    let net = series.as_mut().map(|s| (s as &mut dyn studies::net::NetSink, args.vtk_every));
+    let trace = run.execute_with_net(&mut crate::progress::Progress::new(quiet), net)?;
+    let utilisation = studies::report::static_utilisation(&scene)?;
     if let Some(id) = csv {
         outputs.write(id, |w| trace.write_csv(w, &scene.outputs.quantities))?;
     }
@@ -120,6 +150,13 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         let title = format!("{}: cabin-centre response, {} at {steps}", scene.name, trace.method);
         plot_traces(&outputs, id, &[&trace], &title)?;
     }
+    let vtk = match (series, &args.vtk) {
+        (Some(series), Some(dir)) => {
+            let files = series.series.len();
+            Some((series.series.commit().with_context(|| format!("--vtk {}", dir.display()))?, files))
+        }
+        _ => None,
+    };
     outputs.commit()?;
 
     let mut out = std::io::stdout().lock();
@@ -140,7 +177,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         );
     }
     if args.json {
-        let s = master::report::run_summary(&scene, &trace, utilisation.as_deref());
+        let s = studies::report::run_summary(&scene, &trace, utilisation.as_deref());
         writeln!(out, "{}", serde_json::to_string_pretty(&s)?)?;
         return Ok(());
     }
@@ -206,6 +243,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     if let Some(p) = &args.plot {
         writeln!(out, "plot: {}", p.display())?;
+    }
+    if let Some((index, files)) = &vtk {
+        writeln!(out, "net for ParaView: {} ({files} files)", index.display())?;
     }
     Ok(())
 }

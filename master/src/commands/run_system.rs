@@ -8,33 +8,38 @@ use std::io::{IsTerminal, Write};
 use std::path::Path;
 
 use anyhow::{Context, bail};
-use master::plot::{Line, PALETTE, Panel, stacked};
-use master::system::{RealHistory, Sinks, SystemFile};
+use studies::plot::{Line, PALETTE, Panel, stacked};
+use studies::system::{RealHistory, Sinks, SystemFile};
 
 use super::output::Outputs;
 use super::run::Args;
 use super::{CmdResult, caps};
 
 pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
-    if args.compensation != super::scheme_args::CompensationArg::On {
+    if args.compensation != super::scheme_args::Compensation::On {
         bail!("--compensation applies to a --scene with [control]; a --system runs its FMUs as they are");
     }
     if args.wind_seed.is_some() {
         bail!("--wind-seed applies to a --scene with [wind]; a --system runs its FMUs as they are");
     }
+    if args.wind_seed.is_some() {
+        bail!("--wind-seed applies to a --scene with [wind]; a --system runs its FMUs as they are");
+    }
     let method = args.options.method(args.scheme)?;
-    let system = SystemFile::prepare(file, method, args.dt, args.t_end, &args.system_files.limits(), &caps().run)?;
+    let files = args.system_files.files();
+    let system = SystemFile::prepare(file, method, args.dt, args.t_end, &files.limits(), &caps().run)?
+        .with_model_exchange(&files.model_exchange())?;
     let (dt, t_end, adaptive) = (system.dt, system.t_end, system.adaptive());
     let mut outputs = Outputs::new(system.inputs());
     let csv = args.out.as_ref().map(|p| outputs.declare("--out", p, None)).transpose()?;
     let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
     outputs.open()?;
 
-    let quiet = args.quiet || args.json || !std::io::stderr().is_terminal();
+    let quiet = args.quiet.quiet || args.json || !std::io::stderr().is_terminal();
     let mut writer = csv.map(|id| outputs.stream(id)).transpose()?;
     let mut history = RealHistory::default();
     let sinks = Sinks { csv: writer.as_mut().map(|w| w as &mut dyn Write), real: svg.map(|_| &mut history) };
-    let outcome = system.execute(quiet, sinks)?;
+    let outcome = system.execute(&mut crate::progress::Progress::new(quiet), sinks)?;
     if let (Some(id), Some(w)) = (csv, writer) {
         outputs.finish(id, w)?;
     }
@@ -72,6 +77,20 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
             out,
             "adaptive step: {} tries rejected, h from {:.3e} to {:.3e} s",
             outcome.rejected_steps, outcome.h_min_used, outcome.h_max_used
+        )?;
+    }
+    for (component, solver, s) in &outcome.model_exchange {
+        writeln!(
+            out,
+            "component `{component}` (Model Exchange, {solver}): {} integrator steps, {} rejected, {} events \
+             ({} state, {} time, {} step), {} derivative evaluations",
+            s.steps,
+            s.rejected,
+            s.state_events + s.time_events + s.step_events,
+            s.state_events,
+            s.time_events,
+            s.step_events,
+            s.evaluations
         )?;
     }
     if let Some(p) = &args.out {

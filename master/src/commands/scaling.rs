@@ -12,12 +12,12 @@ use std::process::Command;
 
 use anyhow::{Context, bail};
 use feedcore::scene::ValidScene;
-use master::plot::{PALETTE, PlotError};
-use master::simulate::Run;
 use plotters::prelude::*;
+use studies::plot::{PALETTE, PlotError};
+use studies::simulate::Run;
 
 use super::output::{Outputs, run_inputs};
-use super::scheme_args::{SchemeName, SchemeOptions, positive};
+use super::scheme_args::{SchemeName, named, positive};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
@@ -33,7 +33,7 @@ pub(crate) struct Args {
           value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     pub(crate) elements: Vec<u32>,
     /// Methods (as `master run --scheme`, default options).
-    #[arg(long, value_enum, value_delimiter = ',', default_value = "cable,monolithic,ijcsa")]
+    #[arg(long, value_parser = named::<SchemeName>(), value_delimiter = ',', default_value = "cable,monolithic,ijcsa")]
     pub(crate) schemes: Vec<SchemeName>,
     /// Simulated time of the full runs (s).
     #[arg(long, default_value_t = 100.0, value_parser = positive, allow_negative_numbers = true)]
@@ -126,7 +126,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     }
     let exe = std::env::current_exe().context("locating the master executable")?;
     let limits = caps().run;
-    let options = SchemeOptions::default();
+    let options = studies::options::SchemeOptions::default();
     // every run is checked before the first one starts; each is a process of its own, which
     // reads its scene from a file of this command's, removed when it ends
     let case_scenes = RemovedOnDrop(std::env::temp_dir().join(format!("master-scaling-{}", std::process::id())));
@@ -145,7 +145,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             let dt = variant.solver.dt_s;
             for t_end in [dt, args.t_end] {
                 Run::prepare(&variant, &path, method.clone(), dt, t_end, &limits).with_context(|| {
-                    format!("{} with {n} elements per cable, {} s", scheme.as_str(), master::limits::num(t_end))
+                    format!("{} with {n} elements per cable, {} s", scheme.as_str(), studies::limits::num(t_end))
                 })?;
             }
             cases.push(Case { scheme, elements: n, file: path, dt });
@@ -243,7 +243,7 @@ fn draw(rows: &[Row], schemes: &[&str]) -> Result<String, PlotError> {
                 |f: fn(&Row) -> f64| rows.iter().filter(|r| r.0 == *s).map(|r| (r.1 as f64, f(r))).collect::<Vec<_>>();
             c.draw_series(LineSeries::new(pts(|r| r.4), color.stroke_width(2)))?
                 .label(*s)
-                .legend(master::plot::line_key(color.stroke_width(2)));
+                .legend(studies::plot::line_key(color.stroke_width(2)));
             c.draw_series(DashedLineSeries::new(pts(|r| r.2), 6, 4, color.stroke_width(2)))?;
             c.draw_series(pts(|r| r.4).into_iter().map(|p| Circle::new(p, 3, color.filled())))?;
         }

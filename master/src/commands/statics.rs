@@ -6,17 +6,18 @@ use std::path::PathBuf;
 use anyhow::Context;
 use cable::statics::CableState;
 use feedcore::scene::ELASTIC_STRAIN_LIMIT;
-use master::limits::{Footprint, check_memory};
-use master::report::Statics;
-use master::table::Table;
+use studies::limits::{Footprint, check_memory};
+use studies::report::Statics;
+use studies::table::Table;
 
+use super::args::SceneFile;
+use super::output::{Outputs, run_inputs};
 use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML), e.g. scenes/lt50m_C.toml.
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
     /// Print JSON instead of a table: cabin_position [x, y, z] (m), cabin_orientation
     /// [w, x, y, z] (unit quaternion, body to world), and per cable unstretched_length_m,
     /// tension_anchor_n, tension_cabin_n, slack, nearly_slack, state, lowest_point_z_m, and
@@ -24,14 +25,27 @@ pub(crate) struct Args {
     /// overloaded, and strain (of the larger end tension; the text warns beyond 1 %).
     #[arg(long)]
     pub(crate) json: bool,
+    /// Draw the net at the equilibrium as SVG: an oblique view, plan, front and side and a
+    /// close-up of the cabin and the platform, each element coloured by its tension (colour
+    /// bar), slack elements dashed, slack and nearly slack cables labelled.
+    #[arg(long)]
+    pub(crate) plot: Option<PathBuf>,
 }
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
+    let scene = load_scene(&args.file.scene)?;
+    let mut outputs = Outputs::new(run_inputs(&args.file.scene, &scene));
+    let svg = args.plot.as_ref().map(|p| outputs.declare("--plot", p, Some("svg"))).transpose()?;
+    outputs.open()?;
     let mut out = std::io::stdout().lock();
     check_memory(&scene, Footprint::CableModel, 0, &caps().run)
-        .with_context(|| format!("{}: the form-finding cannot start", args.scene.display()))?;
+        .with_context(|| format!("{}: the form-finding cannot start", args.file.scene.display()))?;
     let statics = Statics::of(&scene)?;
+    if let Some(id) = svg {
+        let figure = studies::view3d::statics_figure(&statics).context("drawing the net")?;
+        outputs.write(id, |w| w.write_all(figure.as_bytes()))?;
+    }
+    outputs.commit()?;
     let (net, eq) = (&statics.net, &statics.equilibrium);
     let q = eq.orientation;
     let utilisation = |c: &cable::statics::CableReport| statics.utilisation(c);
@@ -40,7 +54,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         writeln!(out, "{}", serde_json::to_string_pretty(&statics.json())?)?;
         return Ok(());
     }
-    writeln!(out, "Form-finding statics: {} ({})", scene.name, args.scene.display())?;
+    writeln!(out, "Form-finding statics: {} ({})", scene.name, args.file.scene.display())?;
     writeln!(
         out,
         "cabin centre point at ({:.4}, {:.4}, {:.4}) m, orientation (w, x, y, z) = ({:.9}, {:.9}, {:.9}, {:.9})",
@@ -104,6 +118,9 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             out,
             "warning: cables {overloaded:?} carry more than their breaking load {b} N (cables.breaking_load_n)"
         )?;
+    }
+    if let Some(p) = &args.plot {
+        writeln!(out, "plot: {}", p.display())?;
     }
     Ok(())
 }

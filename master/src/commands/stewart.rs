@@ -2,21 +2,19 @@
 //! mass, static wrench, and the wrench and actuator-force range over one circle of the platform.
 
 use std::io::Write;
-use std::path::PathBuf;
 
-use master::table::Table;
 use nalgebra::Vector6;
 use serde_json::json;
 use stewart::{CabinMotion, Stewart};
+use studies::table::Table;
 
+use super::args::SceneFile;
 use super::{CmdResult, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
-    /// Scene file (TOML), e.g. scenes/lt50m_B.toml. The cabin is held at the scene's target pose
-    /// and the platform runs the scene's motion, sampled every `solver.dt_s`.
-    #[arg(long)]
-    pub(crate) scene: PathBuf,
+    #[command(flatten)]
+    pub(crate) file: SceneFile,
     /// Print JSON instead of tables. Keys (world frame; 6-vectors and matrix rows/columns are
     /// force then moment, moments about the cabin centre point; SI units): added_mass (6×6, the
     /// locked spatial mass matrix, = −∂wrench/∂(a, α)), static_wrench (platform at rest at its
@@ -31,7 +29,7 @@ pub(crate) struct Args {
 const LABELS: [&str; 6] = ["Fx N", "Fy N", "Fz N", "Mx N·m", "My N·m", "Mz N·m"];
 
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let scene = load_scene(&args.scene)?;
+    let scene = load_scene(&args.file.scene)?;
     let mut out = std::io::stdout().lock();
     let st = Stewart::from_scene(&scene)?;
     let (position, orientation) = (scene.target_position(), scene.target_orientation());
@@ -69,7 +67,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         return Ok(());
     }
 
-    writeln!(out, "Stewart platform on a fixed cabin: {} ({})", scene.name, args.scene.display())?;
+    writeln!(out, "Stewart platform on a fixed cabin: {} ({})", scene.name, args.file.scene.display())?;
     writeln!(
         out,
         "cabin centre point at ({:.4}, {:.4}, {:.4}) m; moving mass {:.1} kg; world frame, moments about the cabin centre point",

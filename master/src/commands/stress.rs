@@ -3,16 +3,16 @@
 //! still — each with what bounds it: drift, constraint residual, the response's growth, the
 //! agreement of IJCSA with the monolithic model. (The cable-only and free-body stress tests are
 //! in the test suite.)
+//! The cases are the library's ([`studies::stress`]).
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
-use feedcore::scene::{Scene, Start};
-use master::cosim::{Options, Scheme};
-use master::simulate::{Method, Trace};
-use master::table::Table;
+use studies::stress::{self, Scenes};
 
-use super::{CmdResult, load_scene, simulate};
+use crate::progress::Shown;
+
+use super::{CmdResult, caps, load_scene};
 
 #[derive(clap::Args)]
 pub(crate) struct Args {
@@ -27,146 +27,13 @@ pub(crate) struct Args {
     pub(crate) quick: bool,
 }
 
-fn ijcsa() -> Method {
-    Method::Cosim(Options { scheme: Scheme::Ijcsa, ..Options::default() })
-}
-
-/// Peak |displacement| (mm) in the first and in the last third of a run.
-fn thirds(t: &Trace) -> (f64, f64) {
-    let n = t.disp_mm.len();
-    let peak = |r: std::ops::Range<usize>| t.disp_mm[r].iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
-    (peak(0..n / 3), peak(2 * n / 3..n))
-}
-
-/// RMS (mm) of the displacement's components above 0.2 Hz — the cabin's own modes (≥ 0.19 Hz)
-/// on top of the 0.03 Hz response to the circle — from a Hann-windowed discrete Fourier
-/// transform (the window keeps the large slow part from leaking upwards).
-fn fast_part(t: &Trace) -> f64 {
-    let n = t.disp_mm.len();
-    let dt = t.t[1] - t.t[0];
-    let hann: Vec<f64> =
-        (0..n).map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / (n - 1) as f64).cos()).collect();
-    let power: f64 = hann.iter().map(|w| w * w).sum::<f64>() / n as f64;
-    let mut total = 0.0;
-    for k in 0..3 {
-        let x: Vec<f64> = (0..n).map(|i| t.disp_mm[i][k] * hann[i]).collect();
-        for m in 1..n / 2 {
-            if (m as f64) / (n as f64 * dt) < 0.2 {
-                continue;
-            }
-            let (mut re, mut im) = (0.0, 0.0);
-            let w = 2.0 * std::f64::consts::PI * m as f64 / n as f64;
-            for (i, xi) in x.iter().enumerate() {
-                let (s, c) = (w * i as f64).sin_cos();
-                re += xi * c;
-                im -= xi * s;
-            }
-            total += 2.0 * (re * re + im * im) / (n as f64 * n as f64);
-        }
-    }
-    (total / power).sqrt()
-}
-
 pub(crate) fn run(args: &Args) -> CmdResult {
-    let quiet = !std::io::stderr().is_terminal();
-    let scale = if args.quick { 1.0 / 50.0 } else { 1.0 };
-    // the durations run, as the labels say them (shortened with --quick)
-    let long = |t: f64| master::limits::num(t * scale);
-    let short = |t: f64| master::limits::num(t * scale.max(0.1));
-    let c = load_scene(&args.scene_c)?;
-    let b = load_scene(&args.scene_b)?;
-    let mut table = Table::new(["case", "result", "figures"]);
-    let mut failures = 0;
-    let mut report = |case: &str, r: anyhow::Result<String>| {
-        match r {
-            Ok(figures) => table.row([case.to_string(), "ok".into(), figures]),
-            Err(e) => {
-                failures += 1;
-                table.row([case.to_string(), "FAILED".into(), format!("{e:#}")]);
-            }
-        }
-        eprintln!("{case}: done");
-    };
-    report(
-        &format!("{} s, ijcsa, C", long(1000.0)),
-        (|| {
-            let t = simulate(&c, &args.scene_c, ijcsa(), 0.01, 1000.0 * scale, quiet)?;
-            let (early, late) = thirds(&t);
-            Ok(format!(
-                "peak first third {early:.3} mm, last third {late:.3} mm; {:.2} iterations/step; {:.1} s wall",
-                t.mean_iterations(),
-                t.wall_time_s
-            ))
-        })(),
-    );
-    report(
-        &format!("{} s, monolithic, C", long(1000.0)),
-        (|| {
-            let t = simulate(&c, &args.scene_c, Method::Monolithic, 0.01, 1000.0 * scale, quiet)?;
-            let (early, late) = thirds(&t);
-            Ok(format!(
-                "constraint residual ≤ {:.1e} m; peak first third {early:.3} mm, last third {late:.3} mm; {:.1} s wall",
-                t.constraint_residual(),
-                t.wall_time_s
-            ))
-        })(),
-    );
-    for (case, edit) in [
-        ("E × 10, C", &(|s: &mut Scene| s.cables.youngs_modulus_pa *= 10.0) as &dyn Fn(&mut Scene)),
-        ("50 elements per cable, C", &|s: &mut Scene| s.cables.elements = 50),
-    ] {
-        report(
-            &format!("{case}, {} s", short(20.0)),
-            (|| {
-                let (v, f) = (c.edited(edit)?, &args.scene_c);
-                let m = simulate(&v, f, Method::Monolithic, 0.01, 20.0 * scale.max(0.1), quiet)?;
-                let j = simulate(&v, f, ijcsa(), 0.01, 20.0 * scale.max(0.1), quiet)?;
-                Ok(format!(
-                    "peak {:.3} mm; ijcsa − monolithic {:.2e} mm; {:.2} iterations/step; constraint residual ≤ {:.1e} m",
-                    m.peak_mm(),
-                    j.error_against(&m).0,
-                    j.mean_iterations(),
-                    m.constraint_residual()
-                ))
-            })(),
-        );
-    }
-    report(
-        &format!("B: cable 4 nearly slack, ijcsa {} s", long(100.0)),
-        (|| {
-            let t = simulate(&b, &args.scene_b, ijcsa(), 0.01, 100.0 * scale, quiet)?;
-            let (early, late) = thirds(&t);
-            Ok(format!(
-                "peak first third {early:.3} mm, last third {late:.3} mm; {:.2} iterations/step",
-                t.mean_iterations()
-            ))
-        })(),
-    );
-    report(
-        &format!("abrupt against ramp start (5 s), monolithic, C, {} s", short(60.0)),
-        (|| {
-            let a = simulate(&c, &args.scene_c, Method::Monolithic, 0.01, 60.0 * scale.max(0.1), quiet)?;
-            let v = c.edited(|s| s.motion.start = Start::Ramp)?;
-            let r = simulate(&v, &args.scene_c, Method::Monolithic, 0.01, 60.0 * scale.max(0.1), quiet)?;
-            Ok(format!(
-                "vibration above 0.2 Hz (RMS): abrupt {:.2e} mm, ramp {:.2e} mm; peaks {:.3} / {:.3} mm",
-                fast_part(&a),
-                fast_part(&r),
-                a.peak_mm(),
-                r.peak_mm()
-            ))
-        })(),
-    );
-    report(
-        &format!("platform held still, ijcsa and monolithic, B, {} s", long(100.0)),
-        (|| {
-            let v = b.edited(|s| s.motion.speed_m_s = 0.0)?;
-            let j = simulate(&v, &args.scene_b, ijcsa(), 0.01, 100.0 * scale, quiet)?;
-            let m = simulate(&v, &args.scene_b, Method::Monolithic, 0.01, 100.0 * scale, quiet)?;
-            Ok(format!("drift: ijcsa {:.1e} mm, monolithic {:.1e} mm", j.peak_mm(), m.peak_mm()))
-        })(),
-    );
-    write!(std::io::stdout().lock(), "{}", table.render())?;
+    let (c, b) = (load_scene(&args.scene_c)?, load_scene(&args.scene_b)?);
+    let scenes = Scenes { c: &c, c_file: &args.scene_c, b: &b, b_file: &args.scene_b };
+    let shown = Shown { lines: true, bars: std::io::stderr().is_terminal() };
+    let cases = stress::run(scenes, args.quick, &caps().run, &shown);
+    write!(std::io::stdout().lock(), "{}", cases.table().render())?;
+    let failures = cases.failures();
     if failures > 0 {
         anyhow::bail!("{failures} stress case(s) failed");
     }

@@ -10,18 +10,20 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::time::Instant;
 
+use crate::journal::{self, Journal};
 use anyhow::Context;
 use cable::model::CableCabin;
-use master::journal::{self, Journal};
-use master::limits::{Footprint, check_memory_of};
-use master::parallel;
-use master::simulate::Run;
-use master::sweep::table::{self, Table};
-use master::sweep::{self, Grid, Placement, Request, Shard, Surface, map};
-use master::table::Table as TextTable;
+use studies::limits::{Footprint, check_memory_of};
+use studies::parallel;
+use studies::points::Codec;
+use studies::simulate::Run;
+use studies::sweep::table::{self, Table};
+use studies::sweep::{self, Grid, Placement, Request, Shard, Surface, map};
+use studies::table::Table as TextTable;
 
+use super::args::{Quiet, Workers};
 use super::output::{OutputId, Outputs, run_inputs};
-use super::scheme_args::{SchemeName, SchemeOptions, positive};
+use super::scheme_args::{SchemeName, SchemeOptions, named, positive};
 use super::{CmdResult, caps, fingerprint, load_scene};
 
 #[derive(clap::Args)]
@@ -41,17 +43,17 @@ pub(crate) struct Args {
     pub(crate) surface: Option<String>,
     /// With --surface: tilt the cabin towards the sphere's axis by this share of the point's
     /// angle from the axis (FAST's cables take 14° of 40°: 0.35). Default: the scene's orientation.
-    #[arg(long, requires = "surface", value_parser = finite, allow_negative_numbers = true)]
+    #[arg(long, requires = "surface", value_parser = studies::options::finite, allow_negative_numbers = true)]
     pub(crate) tilt_share: Option<f64>,
     /// Natural frequencies per point (0: none).
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(0..=10_000))]
-    pub(crate) modes: u32,
+    #[arg(long, default_value_t = sweep::DEFAULT_MODES, value_parser = sweep::mode_count)]
+    pub(crate) modes: usize,
     /// A short coupled run at every point with this method; it reports the peak cabin
     /// displacement, iterations per step and run time.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = named::<SchemeName>())]
     pub(crate) run: Option<SchemeName>,
     /// Simulated time of each coupled run (s); a whole number of every step swept.
-    #[arg(long, default_value_t = 2.0, value_parser = positive, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = sweep::DEFAULT_RUN_S, value_parser = positive, allow_negative_numbers = true)]
     pub(crate) t_end: f64,
     /// Run part i of n only (0 ≤ i < n; points i, i + n, ...) and write sweep.part-i-of-n.csv.
     #[arg(long, value_name = "i/n")]
@@ -59,15 +61,9 @@ pub(crate) struct Args {
     /// Join shard files (or directories holding sweep.part-*.csv) into sweep.csv and sweep.svg.
     #[arg(long, num_args = 1.., value_name = "PART", conflicts_with_all = ["scene", "grid", "shard", "run"])]
     pub(crate) merge: Vec<PathBuf>,
-    /// Worker threads (default: one per core).
-    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
-    pub(crate) jobs: Option<u16>,
     /// Output directory.
     #[arg(long, default_value = "out/sweep")]
     pub(crate) out: PathBuf,
-    /// No progress lines.
-    #[arg(long)]
-    pub(crate) quiet: bool,
     /// Continue a sweep that was interrupted or killed: the points its journal in --out
     /// (`sweep.csv.partial`, written as each point finishes) holds are not computed again, and
     /// the table is the uninterrupted one (but for wall times).
@@ -75,16 +71,13 @@ pub(crate) struct Args {
     pub(crate) resume: bool,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
+    #[command(flatten)]
+    pub(crate) quiet: Quiet,
+    #[command(flatten)]
+    pub(crate) workers: Workers,
 }
 
 /// A finite number.
-fn finite(text: &str) -> Result<f64, String> {
-    match text.parse::<f64>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(format!("`{text}`: give a finite number")),
-    }
-}
-
 pub(crate) fn run(args: &Args) -> CmdResult {
     if !args.merge.is_empty() {
         return merge(args);
@@ -98,12 +91,12 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let method = args.run.map(|s| args.options.method(s)).transpose()?;
     let limits = caps().run;
     let request = Request {
-        modes: args.modes as usize,
+        modes: args.modes,
         run: method.clone().map(|m| (m, args.t_end)),
         limits,
         utilisation: scene.cables.breaking_load_n.is_some(),
     };
-    let jobs = args.jobs.map(usize::from);
+    let jobs = args.workers.jobs;
     let points: Vec<usize> = (0..grid.len()).filter(|i| shard.contains(*i)).collect();
     // every run's steps and what its method needs, at every step swept (the points differ
     // from the scene only in pose and masses)
@@ -152,7 +145,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let csv_name = csv_path.file_name().map_or("sweep.csv".into(), |n| n.to_string_lossy().into_owned());
     let journal = Journal::open(&journal::path(&args.out, &csv_name), &identity, args.resume)?;
 
-    let quiet = args.quiet || !std::io::stderr().is_terminal();
+    let quiet = args.quiet.quiet || !std::io::stderr().is_terminal();
     eprintln!(
         "{}: {} of {} points (shard {shard}) on {workers} threads{}",
         scene.name,
@@ -163,27 +156,24 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     let done = std::sync::atomic::AtomicUsize::new(0);
     let start = Instant::now();
     let cost = |&index: &usize| grid.cost(index);
-    let cells = journal::map_journaled(
-        &points,
-        jobs,
-        cost,
-        &journal,
-        |&index| sweep::point_key(index, &grid.point(index)),
-        |cells: &Vec<String>| cells.clone(),
-        |&index, cells| {
+    let codec = Codec {
+        key: |&index: &usize| sweep::point_key(index, &grid.point(index)),
+        encode: |cells: &Vec<String>| cells.clone(),
+        decode: |&index: &usize, cells: &[String]| {
             sweep::check_cells(&columns, index, &grid.point(index), cells).map_err(anyhow::Error::msg)?;
             Ok(cells.to_vec())
         },
-        |_, &index| {
-            let values = grid.point(index);
-            let outcome = sweep::evaluate(&scene, scene_file, &placement, &request, &values);
-            let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            if !quiet {
-                eprintln!("[{k}/{}] point {index}: {}", points.len(), brief(&outcome));
-            }
-            Ok(sweep::cells(index, &values, &request, &outcome))
-        },
-    )?;
+    };
+    let cells = studies::points::map(&points, jobs, cost, &journal, codec, |_, &index| {
+        let values = grid.point(index);
+        let outcome = sweep::evaluate(&scene, scene_file, &placement, &request, &values);
+        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        if !quiet {
+            eprintln!("[{k}/{}] point {index}: {}", points.len(), brief(&outcome));
+        }
+        Ok(sweep::cells(index, &values, &request, &outcome))
+    })
+    .map_err(journal::resumable(&journal))?;
     let rows: Vec<(usize, Vec<String>)> = points.iter().copied().zip(cells).collect();
     let wall = start.elapsed().as_secs_f64();
     let t = Table { header, columns, rows: rows.into_iter().collect() };

@@ -206,7 +206,7 @@ fn mutated_ssp_archives_run_or_are_refused_cleanly() {
 }
 
 /// A serialized state of `fmu` after one step of its scene C.
-fn state_after_a_step(fmu: &fmi2::import::Fmu, scene: &Path) -> (fmi2::import::Instance, Vec<u8>, Vec<f64>) {
+fn state_after_a_step(fmu: &fmi::import::Fmu, scene: &Path) -> (fmi::import::Instance, Vec<u8>, Vec<f64>) {
     let mut i = fmu.instantiate("mutants", false).unwrap();
     i.setup_experiment(None, 0.0, None).unwrap();
     let vr = fmu.value_reference("scene").unwrap();
@@ -214,7 +214,7 @@ fn state_after_a_step(fmu: &fmi2::import::Fmu, scene: &Path) -> (fmi2::import::I
     i.enter_initialization_mode().unwrap();
     i.exit_initialization_mode().unwrap();
     i.do_step(0.0, 0.01).unwrap();
-    let outputs = i.value_references(fmi2::Causality::Output, fmi2::VarType::Real);
+    let outputs = i.value_references(fmi::Causality::Output, fmi::VarType::Real);
     let mut y = vec![0.0; outputs.len()];
     i.get_real(&outputs, &mut y).unwrap();
     let state = i.get_state().unwrap();
@@ -229,13 +229,13 @@ fn mutated_fmu_states_are_refused_with_the_reason() {
     std::fs::create_dir_all(&dir).unwrap();
     let mut counts = std::collections::BTreeMap::<String, usize>::new();
     for name in ["cable_fmu", "stewart_fmu"] {
-        let fmu = fmi2::import::Fmu::load(&common::fmu_dir().join(format!("{name}.fmu"))).unwrap();
+        let fmu = fmi::import::Fmu::load(&common::fmu_dir().join(format!("{name}.fmu"))).unwrap();
         // the scene by an absolute name of the same length as scene B's copy beside it
         let (c, b) = (dir.join("scene_C.toml"), dir.join("scene_B.toml"));
         std::fs::copy(common::scene_path("lt50m_C.toml"), &c).unwrap();
         std::fs::copy(common::scene_path("lt50m_B.toml"), &b).unwrap();
         let (mut inst, bytes, y) = state_after_a_step(&fmu, &c);
-        let outputs = inst.value_references(fmi2::Causality::Output, fmi2::VarType::Real);
+        let outputs = inst.value_references(fmi::Causality::Output, fmi::VarType::Real);
         let mut refused = |label: String, bad: &[u8], why: &str, at_set: bool| {
             let result = inst.deserialize_state(bad).and_then(|s| {
                 let r = inst.set_state(&s);
@@ -263,7 +263,7 @@ fn mutated_fmu_states_are_refused_with_the_reason() {
         let at = body.windows(from.len()).position(|w| w == from).expect("the state names its scene");
         let mut forged = body.to_vec();
         forged[at..at + to.len()].copy_from_slice(to);
-        let forged = [forged.as_slice(), &fmi2::digest::digest(&forged).to_le_bytes()].concat();
+        let forged = [forged.as_slice(), &fmi::digest::digest(&forged).to_le_bytes()].concat();
         refused("scene name edited, digest fitted".into(), &forged, "is not the file the state was saved with", true);
         // intact: restored bit for bit (into a fresh instance, after other steps)
         let (mut other, _, _) = state_after_a_step(&fmu, &c);

@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use feedcore::scene::{Scene, ValidScene};
-use master::calibrate::{frequencies, with_key, with_keys};
 use serde_json::Value;
+use studies::calibrate::{frequencies, with_key, with_keys};
 
 use crate::master;
 
@@ -181,7 +181,7 @@ fn a_tension_statement_is_kept() {
     let fit = calibrate(&[b], m, &out, "anchors.radius_m", &["--tension", "lt50m_B:4>=195"]);
     let radius = fit["fitted"]["anchors.radius_m"].as_f64().unwrap();
     let updated = Scene::load(out.join("lt50m_B.toml")).unwrap();
-    let model = cable::model::CableCabin::build(&master::calibrate::modal_scene(&updated).unwrap(), 0).unwrap();
+    let model = cable::model::CableCabin::build(&studies::calibrate::modal_scene(&updated).unwrap(), 0).unwrap();
     let cable4 = &model.equilibrium.cables[4];
     let low = cable4.tension_anchor.min(cable4.tension_cabin);
     assert!((195.0..197.0).contains(&low), "cable 4 at the fit: {low} N");
@@ -274,7 +274,7 @@ fn the_fast_scenes_damp_their_first_mode_as_measured() {
 /// measured shapes (the cabin's part), each mode finds its computed twin and the truth is found.
 #[test]
 fn measured_shapes_undo_a_swap_of_modes() {
-    use master::calibrate::cabin_modes;
+    use studies::calibrate::cabin_modes;
     let d = dir("swap");
     let (b, file) = scene("lt50m_B.toml");
     let truth = with_key(&b, &file, "anchors.radius_m", 31.5).unwrap();

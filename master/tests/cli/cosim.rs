@@ -2,8 +2,8 @@
 
 use crate::common;
 
-use master::cosim::{Coupled, Extrapolation, FmuSystem, JacobianUpdate, Options, Scheme, Units};
-use master::simulate::{Method, Trace, simulate};
+use studies::cosim::{Coupled, Extrapolation, FmuSystem, JacobianUpdate, Options, Scheme, Units};
+use studies::simulate::{Method, Trace, simulate};
 
 fn options(scheme: Scheme) -> Options {
     Options { scheme, ..Options::default() }
@@ -27,7 +27,7 @@ fn held_still_every_stable_method_stays_at_rest() {
         Method::Cosim(options(Scheme::IqnIls)),
         Method::Decoupled(options(Scheme::Jacobi)),
     ] {
-        let t = simulate(&scene, &file, method, 0.01, 100.0, true).unwrap();
+        let t = simulate(&scene, &file, method, 0.01, 100.0).unwrap();
         let drift = largest_displacement(&t);
         eprintln!("{}: drift over 100 s {drift:.2e} m", t.method);
         assert!(drift <= 1e-9, "{}: {drift:e} m", t.method);
@@ -40,7 +40,7 @@ fn held_still_every_stable_method_stays_at_rest() {
 fn explicit_schemes_report_their_instability() {
     let (scene, file) = common::scene("lt50m_C.toml", "explicit", |_| {});
     for scheme in [Scheme::Jacobi, Scheme::GaussSeidel { reversed: false }, Scheme::GaussSeidel { reversed: true }] {
-        let e = simulate(&scene, &file, Method::Cosim(options(scheme)), 0.01, 5.0, true).unwrap_err().to_string();
+        let e = simulate(&scene, &file, Method::Cosim(options(scheme)), 0.01, 5.0).unwrap_err().to_string();
         eprintln!("{}: {e}", scheme.name());
         assert!(e.contains("unstable") && e.contains("stopped at t ="), "{e}");
     }
@@ -54,7 +54,7 @@ fn ijcsa_agrees_with_the_monolithic_model() {
     for name in ["lt50m_C.toml", "lt50m_B.toml"] {
         let (scene, file) = common::scene(name, "ijcsa", |_| {});
         let t_end = 10.0;
-        let run = |m: Method, h: f64| simulate(&scene, &file, m, h, t_end, true).unwrap();
+        let run = |m: Method, h: f64| simulate(&scene, &file, m, h, t_end).unwrap();
         let (mono, mono_fine) = (run(Method::Monolithic, 0.01), run(Method::Monolithic, 0.0025));
         let ijcsa = run(Method::Cosim(options(Scheme::Ijcsa)), 0.01);
         let ijcsa_fine = run(Method::Cosim(options(Scheme::Ijcsa)), 0.0025);
@@ -87,7 +87,7 @@ fn ijcsa_agrees_with_the_monolithic_model() {
 fn ijcsa_with_a_reused_jacobian_keeps_the_answer_and_the_iterations() {
     for name in ["lt50m_C.toml", "lt50m_B.toml"] {
         let (scene, file) = common::scene(name, "reuse", |_| {});
-        let run = |m: Method| simulate(&scene, &file, m, 0.01, 10.0, true).unwrap();
+        let run = |m: Method| simulate(&scene, &file, m, 0.01, 10.0).unwrap();
         let mono = run(Method::Monolithic);
         let exact = run(Method::Cosim(options(Scheme::Ijcsa)));
         let mut o = options(Scheme::Ijcsa);
@@ -115,8 +115,8 @@ fn ijcsa_with_a_reused_jacobian_keeps_the_answer_and_the_iterations() {
 #[test]
 fn iterative_converges_to_the_ijcsa_solution() {
     let (scene, file) = common::scene("lt50m_C.toml", "iter", |s| s.motion.start = feedcore::scene::Start::Ramp);
-    let it = simulate(&scene, &file, Method::Cosim(options(Scheme::Iterative)), 0.01, 2.0, true).unwrap();
-    let nj = simulate(&scene, &file, Method::Cosim(options(Scheme::Ijcsa)), 0.01, 2.0, true).unwrap();
+    let it = simulate(&scene, &file, Method::Cosim(options(Scheme::Iterative)), 0.01, 2.0).unwrap();
+    let nj = simulate(&scene, &file, Method::Cosim(options(Scheme::Ijcsa)), 0.01, 2.0).unwrap();
     let gap = it.error_against(&nj).0;
     eprintln!("iterative: {:.1} iterations per step, {gap:.2e} mm from ijcsa", it.mean_iterations());
     assert!(gap < 1e-5 * nj.peak_mm().max(1e-3) + 1e-6);
@@ -129,7 +129,7 @@ fn non_convergence_names_time_residual_and_variable() {
     let (scene, file) = common::scene("lt50m_C.toml", "limit", |_| {});
     let mut o = options(Scheme::Iterative);
     o.max_iter = 3;
-    let e = simulate(&scene, &file, Method::Cosim(o), 0.01, 1.0, true).unwrap_err().to_string();
+    let e = simulate(&scene, &file, Method::Cosim(o), 0.01, 1.0).unwrap_err().to_string();
     assert!(
         e.contains("did not converge in 3 iterations") && e.contains("t = 0.010000") && e.contains("residual"),
         "{e}"
@@ -143,7 +143,7 @@ fn non_convergence_names_time_residual_and_variable() {
 fn iqn_ils_agrees_with_the_monolithic_model() {
     for name in ["lt50m_C.toml", "lt50m_B.toml"] {
         let (scene, file) = common::scene(name, "iqn", |_| {});
-        let run = |m: Method, h: f64| simulate(&scene, &file, m, h, 10.0, true).unwrap();
+        let run = |m: Method, h: f64| simulate(&scene, &file, m, h, 10.0).unwrap();
         let (mono, mono_fine) = (run(Method::Monolithic, 0.01), run(Method::Monolithic, 0.0025));
         let iqn = run(Method::Cosim(options(Scheme::IqnIls)), 0.01);
         let own = mono.error_against(&mono_fine).0;
@@ -172,7 +172,7 @@ fn heavy_platform_iqn_ils_converges_where_the_fixed_point_fails() {
             part.inertia_axial_kg_m2 *= 5.0;
         }
     });
-    let run = |scheme| simulate(&scene, &file, Method::Cosim(options(scheme)), 0.01, 2.0, true);
+    let run = |scheme| simulate(&scene, &file, Method::Cosim(options(scheme)), 0.01, 2.0);
     // the relaxed fixed point runs away within the first step (the FMU gets a cabin attitude
     // that is no rotation any more)
     let e = run(Scheme::Iterative).unwrap_err().to_string();
@@ -190,8 +190,8 @@ fn heavy_platform_iqn_ils_converges_where_the_fixed_point_fails() {
 }
 
 fn fmu_system(scene: &feedcore::scene::ValidScene, file: &std::path::Path, o: Options) -> Coupled<FmuSystem> {
-    let spec = master::system::scene_spec(scene, file).unwrap();
-    Coupled::new(FmuSystem::load(&spec, &master::system::needs(&o, true)).unwrap(), o).unwrap()
+    let spec = studies::system::scene_spec(scene, file).unwrap();
+    Coupled::new(FmuSystem::load(&spec, &studies::system::needs(&o, true)).unwrap(), o).unwrap()
 }
 
 /// Undoing a step (what a rejected adaptive step does) restores every FMU bit for bit: the
@@ -302,12 +302,12 @@ fn exported_ssp_runs_bit_for_bit_like_the_scene() {
     let mut from_scene = fmu_system(&scene, &file, o);
     let loaded = cosim::ssp::read::load(&ssp).unwrap();
     let mut from_ssp =
-        Coupled::new(FmuSystem::load(&loaded.spec, &master::system::needs(&o, false)).unwrap(), o).unwrap();
+        Coupled::new(FmuSystem::load(&loaded.spec, &studies::system::needs(&o, false)).unwrap(), o).unwrap();
     assert_eq!(from_ssp.units().layout(), from_scene.units().layout());
     let all = |c: &mut Coupled<FmuSystem>| -> Vec<f64> {
         let mut v = Vec::new();
         for (_, inst) in c.units_mut().instances() {
-            let vrs = inst.value_references(fmi2::Causality::Output, fmi2::VarType::Real);
+            let vrs = inst.value_references(fmi::Causality::Output, fmi::VarType::Real);
             let mut y = vec![0.0; vrs.len()];
             inst.get_real(&vrs, &mut y).unwrap();
             v.extend(y);

@@ -2,8 +2,8 @@
 //! its CSV columns, and limits reported when reached.
 
 use feedcore::scene::{Control, SensorKind, TargetKind, ValidScene};
-use master::cosim::{Options, Scheme};
-use master::simulate::{Method, Trace, simulate};
+use studies::cosim::{Options, Scheme};
+use studies::simulate::{Method, Trace, simulate};
 
 use crate::{common, master};
 
@@ -214,7 +214,7 @@ fn with_wind_ijcsa_agrees_with_the_monolithic_model() {
     let (scene, file) = common::scene("lt50m_C_sampled.toml", "wind", |_| {});
     assert!(scene.wind.is_some());
     let h = scene.control.as_ref().unwrap().sample_period().unwrap() / 8.0;
-    let run = |m: Method| simulate(&scene, &file, m, h, 10.0, true).unwrap();
+    let run = |m: Method| simulate(&scene, &file, m, h, 10.0).unwrap();
     let mono = run(Method::Monolithic);
     let ijcsa = run(Method::Cosim(Options { scheme: Scheme::Ijcsa, ..Options::default() }));
     let (cabin_peak, feed_peak) = (mono.peak_mm(), mono.feed.as_ref().unwrap().summary.peak_mm);
@@ -241,7 +241,7 @@ fn with_an_inertial_unit_the_schemes_converge_to_the_monolithic_model() {
     let (scene, file) = common::scene("lt50m_C_total_station.toml", "imu", |_| {});
     let (period, key) = scene.control.as_ref().unwrap().shortest_period().unwrap();
     assert_eq!(key, "imu.rate_hz");
-    let run = |m: Method, h: f64| simulate(&scene, &file, m, h, 4.0, true).unwrap();
+    let run = |m: Method, h: f64| simulate(&scene, &file, m, h, 4.0).unwrap();
     let references = [period / 4.0, period / 8.0].map(|h| (h, run(Method::Monolithic, h)));
     let gaps = |scheme: Scheme, h: f64| {
         let mono = &references.iter().find(|(x, _)| *x == h).expect("a reference at h").1;
@@ -282,7 +282,7 @@ fn with_three_filter_stages_the_schemes_converge_at_second_order() {
         })
     };
     let gap = |(scene, file): &(ValidScene, std::path::PathBuf), scheme: Scheme, h: f64| {
-        let run = |m: Method| simulate(scene, file, m, h, 4.0, true).unwrap();
+        let run = |m: Method| simulate(scene, file, m, h, 4.0).unwrap();
         let (mono, co) = (run(Method::Monolithic), run(Method::Cosim(Options { scheme, ..Options::default() })));
         let (cabin_peak, feed_peak) = (mono.peak_mm(), mono.feed.as_ref().unwrap().summary.peak_mm);
         assert!(cabin_peak > 1.0 && feed_peak > 0.5, "the wind must move the cabin and the feed");
@@ -317,7 +317,7 @@ fn ijcsa_agrees_with_the_monolithic_model_on_a_sampled_compensation() {
         c.circle_speed_m_s = Some(0.02);
     });
     let h = scene.control.as_ref().unwrap().sample_period().unwrap() / 8.0;
-    let run = |m: Method| simulate(&scene, &file, m, h, 4.0, true).unwrap();
+    let run = |m: Method| simulate(&scene, &file, m, h, 4.0).unwrap();
     let mono = run(Method::Monolithic);
     let ijcsa = run(Method::Cosim(Options { scheme: Scheme::Ijcsa, ..Options::default() }));
     let (cabin_peak, feed_peak) = (mono.peak_mm(), mono.feed.as_ref().unwrap().summary.peak_mm);

@@ -56,7 +56,7 @@ fn fmi3_fmus_run_the_system_bit_for_bit_like_fmi2() {
         z.by_name("resources/cable.fmu").unwrap().read_to_end(&mut bytes).unwrap();
         let path = ssp.with_extension("cable.fmu");
         std::fs::write(&path, bytes).unwrap();
-        fmi2::import::Fmu::load(&path).unwrap().fmi_major_version()
+        fmi::import::Fmu::load(&path).unwrap().fmi_major_version()
     };
     assert_eq!((fmu(&v2), fmu(&v3)), (2, 3), "the archives hold the FMUs of the version asked for");
     let both = mixed(&v2, &v3);
@@ -89,7 +89,7 @@ fn export_ssp_fmi3_names_a_missing_twin() {
 /// they keep their values.
 #[test]
 fn a_set_of_some_elements_of_an_array_keeps_the_others() {
-    let fmu = fmi2::import::Fmu::load(&common::fmu_dir().join("fmi3/cable_fmu.fmu")).unwrap();
+    let fmu = fmi::import::Fmu::load(&common::fmu_dir().join("fmi3/cable_fmu.fmu")).unwrap();
     let f = ["wrench.f[1]", "wrench.f[2]", "wrench.f[3]"].map(|n| fmu.value_reference(n).unwrap());
     let mut i = fmu.instantiate("partial", false).unwrap();
     i.setup_experiment(None, 0.0, None).unwrap();

@@ -14,9 +14,11 @@
 //! * `step_map`: IJCSA with the FMUs' step-map extension against finite differences;
 //! * `ssp_system`: SSP systems of FMUs that know nothing of the project's physics;
 //! * `fmi3`: the LT50m system of FMI 3.0 FMUs, and of both versions, against FMI 2.0;
+//! * `model_exchange`: hostile Model Exchange FMUs, and the rollback of units the master integrates;
 //! * `sweep`: sweeps and their shards against the library, point by point;
 //! * `calibrate`: model updating against modes of scenes with known keys;
-//! * `resume`: long commands killed halfway and continued with --resume.
+//! * `resume`: long commands killed halfway and continued with --resume;
+//! * `net`: the net in space: its figure, its VTK series and mode shapes, bad `--vtk` targets.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -30,7 +32,9 @@ mod design;
 mod feed;
 mod fmi3;
 mod misuse;
+mod model_exchange;
 mod mutants;
+mod net;
 mod package;
 mod plots;
 mod reproduce;

@@ -305,7 +305,7 @@ fn the_memory_estimate_bounds_the_measured_peak() {
             assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
             let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
             let measured = v["peak_memory_bytes"].as_u64().expect("Linux reports VmHWM");
-            let (estimate, _) = master::limits::memory_needed(&scene, master::limits::Footprint::CableModel, count);
+            let (estimate, _) = studies::limits::memory_needed(&scene, studies::limits::Footprint::CableModel, count);
             assert_eq!(v["memory_estimate_bytes"].as_u64(), Some(estimate));
             eprintln!(
                 "{elements} elements, {count} modes: estimate {:.1} MB, measured {:.1} MB",

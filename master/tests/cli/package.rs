@@ -3,18 +3,18 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use fmi2::import::Fmu;
+use fmi::import::Fmu;
 
-/// Where cargo put `libfmi2_testmodel.so` for this build: beside `master`, or in `deps/`.
+/// Where cargo put `libfmi_testmodel.so` for this build: beside `master`, or in `deps/`.
 fn lib_dir() -> PathBuf {
     let exe = Path::new(env!("CARGO_BIN_EXE_master"));
     let dir = exe.parent().unwrap();
     for d in [dir.to_owned(), dir.join("deps")] {
-        if d.join("libfmi2_testmodel.so").is_file() {
+        if d.join("libfmi_testmodel.so").is_file() {
             return d;
         }
     }
-    panic!("libfmi2_testmodel.so not found beside {}", exe.display());
+    panic!("libfmi_testmodel.so not found beside {}", exe.display());
 }
 
 fn scratch(name: &str) -> PathBuf {
@@ -60,7 +60,7 @@ fn a_missing_library_names_the_cargo_command() {
     assert!(!r.status.success());
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(
-        err.contains("libfmi2_testmodel.so not found: build it with `cargo build --release -p fmi2_testmodel`"),
+        err.contains("libfmi_testmodel.so not found: build it with `cargo build --release -p fmi_testmodel`"),
         "{err}"
     );
     assert!(!out.join("oscillator.fmu").exists());

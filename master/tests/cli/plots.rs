@@ -1,10 +1,10 @@
 //! The figures read back with an XML parser: every series present, axes labelled, the
 //! decimation bounding the size while keeping the peaks, the stability categories coloured.
 
-use master::plot::{
+use roxmltree::Document;
+use studies::plot::{
     CATEGORY_COLORS, Cell, History, MapPanel, PALETTE, Precision, stability_map, time_history, work_precision,
 };
-use roxmltree::Document;
 
 /// All text of the figure's `<text>` elements.
 fn texts(doc: &Document) -> Vec<String> {

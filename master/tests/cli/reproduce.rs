@@ -4,8 +4,8 @@
 use crate::common;
 
 use feedcore::scene::Start;
-use master::cosim::{Extrapolation, JacobianUpdate, Options, Relaxation, Scheme};
-use master::simulate::{Method, simulate};
+use studies::cosim::{Extrapolation, JacobianUpdate, Options, Relaxation, Scheme};
+use studies::simulate::{Method, simulate};
 
 fn ijcsa() -> Method {
     Method::Cosim(Options {
@@ -29,8 +29,8 @@ fn the_consistent_start_agrees_between_ijcsa_and_the_monolithic_model() {
     let (abrupt, abrupt_file) = common::scene("lt50m_C.toml", "start-abrupt", |_| {});
     let (scene, file) = common::scene("lt50m_C.toml", "start-consistent", |s| s.motion.start = Start::Consistent);
     let t_end = 2.0;
-    let run = |m: Method, h: f64| simulate(&scene, &file, m, h, t_end, true).unwrap();
-    let reference = simulate(&abrupt, &abrupt_file, Method::Monolithic, 0.01, t_end, true).unwrap();
+    let run = |m: Method, h: f64| simulate(&scene, &file, m, h, t_end).unwrap();
+    let reference = simulate(&abrupt, &abrupt_file, Method::Monolithic, 0.01, t_end).unwrap();
     let (mono, mono_fine) = (run(Method::Monolithic, 0.01), run(Method::Monolithic, 0.0025));
     let (nj, nj_fine) = (run(ijcsa(), 0.01), run(ijcsa(), 0.0025));
     let effect = mono.error_against(&reference).0;

@@ -11,8 +11,8 @@ use crate::{MASTER, common, master};
 /// A journal line signed as the journal signs it (the FNV-1a digest of the cells before it):
 /// what a careless edit that also mended the digest would leave.
 fn signed(cells: &[String]) -> String {
-    let mut body: String = cells.iter().map(|c| format!("{},", master::sweep::table::quoted(c))).collect();
-    let digest = fmi2::digest::digest(body.as_bytes());
+    let mut body: String = cells.iter().map(|c| format!("{},", studies::sweep::table::quoted(c))).collect();
+    let digest = fmi::digest::digest(body.as_bytes());
     body.push_str(&format!("{digest:016x},\u{1e}\n"));
     body
 }
@@ -25,7 +25,7 @@ pub(crate) fn vandalize(journal: &Path) -> &'static str {
     let text = std::fs::read_to_string(journal).unwrap();
     let whole: Vec<&str> = text.split_inclusive('\n').filter(|l| l.ends_with("\u{1e}\n")).collect();
     let last = *whole.last().expect("a finished point");
-    let mut cells = master::sweep::table::split(last.trim_end_matches('\n')).unwrap();
+    let mut cells = studies::sweep::table::split(last.trim_end_matches('\n')).unwrap();
     let n = cells.len();
     assert!(n >= 6, "index, key, two cells at least, digest, end: {last:?}");
     cells[n - 4] = "inf".into();
@@ -69,7 +69,7 @@ fn without(csv: &Path, drop: &str) -> Vec<String> {
     let skip = header.iter().position(|h| *h == drop);
     text.lines()
         .map(|l| {
-            let cells = master::sweep::table::split(l).unwrap();
+            let cells = studies::sweep::table::split(l).unwrap();
             cells
                 .iter()
                 .enumerate()

@@ -18,10 +18,10 @@
 
 use cable::element::Bar;
 use feedcore::scene::Scene;
-use master::cosim::{Options, Scheme};
-use master::simulate::{Method, simulate};
-use master::sweep::scale_platform_mass;
 use monolithic::Monolithic;
+use studies::cosim::{Options, Scheme};
+use studies::simulate::{Method, simulate};
+use studies::sweep::scale_platform_mass;
 
 /// The platform `f` times heavier, on a circle of radius `r` at speed `v`.
 fn heavier_and_wider(s: &mut Scene) {
@@ -72,10 +72,10 @@ fn a_cable_goes_slack_and_taut_again_and_ijcsa_follows_the_monolithic_model() {
     assert!(taut_at_end > 0.0, "and be taut again");
 
     let options = Options { scheme: Scheme::Ijcsa, ..Options::default() };
-    let run = |h: f64| simulate(&scene, &file, Method::Cosim(options), h, t_end, true).unwrap();
+    let run = |h: f64| simulate(&scene, &file, Method::Cosim(options), h, t_end).unwrap();
     let (ijcsa, ijcsa_fine) = (run(h), run(h / 4.0));
     // gaps at the common sample times (every 0.01 s), split by the state of cable 5
-    let gaps = |ij: &master::simulate::Trace, mono: &[(nalgebra::Vector3<f64>, bool)], per: usize| {
+    let gaps = |ij: &studies::simulate::Trace, mono: &[(nalgebra::Vector3<f64>, bool)], per: usize| {
         let (mut slack, mut taut) = (0.0f64, 0.0f64);
         for (s, t) in ij.t.iter().enumerate().skip(1) {
             let k = (t / h).round() as usize;

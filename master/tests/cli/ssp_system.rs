@@ -1,11 +1,11 @@
-//! SSP 1.0 systems of FMUs that know nothing of this project's physics (the fmi2 test
+//! SSP 1.0 systems of FMUs that know nothing of this project's physics (the fmi test
 //! oscillator): hand-written `.ssd`/`.ssv` files read, checked and run by the master.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-use master::cosim::{Coupled, FmuSystem, Needs, Options, Scheme, SetupError};
+use studies::cosim::{Coupled, FmuSystem, Needs, Options, Scheme, SetupError};
 
 /// The oscillator FMU, packaged once per test binary.
 fn oscillator() -> &'static Path {
@@ -15,11 +15,11 @@ fn oscillator() -> &'static Path {
         let deps = exe.parent().unwrap();
         let lib = [deps, deps.parent().unwrap()]
             .iter()
-            .map(|d| d.join("libfmi2_testmodel.so"))
+            .map(|d| d.join("libfmi_testmodel.so"))
             .find(|p| p.is_file())
-            .expect("libfmi2_testmodel.so: run `cargo build --release --workspace` first");
+            .expect("libfmi_testmodel.so: run `cargo build --release --workspace` first");
         let dir = std::env::temp_dir().join(format!("master-ssp-tests-{}", std::process::id()));
-        fmi2::package::package_model::<fmi2_testmodel::Oscillator>(&dir, &lib).unwrap()
+        fmi::package::package_model::<fmi_testmodel::Oscillator>(&dir, &lib).unwrap()
     })
 }
 
@@ -99,7 +99,7 @@ fn test_dir(tag: &str) -> PathBuf {
 #[test]
 fn ssp_pair_runs_like_a_hand_written_loop() {
     let ssd = pair_ssd(&test_dir("pair"), "");
-    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    let loaded = studies::cosim::ssp::read::load(&ssd).unwrap();
     assert_eq!(loaded.stop_time, Some(2.0));
     let (h, steps) = (0.01, 200);
     let jacobi = Options { scheme: Scheme::Jacobi, ..Options::default() };
@@ -117,7 +117,7 @@ fn ssp_pair_runs_like_a_hand_written_loop() {
     let (xa, xb) = (master_x(&mut c, "a"), master_x(&mut c, "b"));
 
     // by hand
-    let fmu = fmi2::import::Fmu::load(oscillator()).unwrap();
+    let fmu = fmi::import::Fmu::load(oscillator()).unwrap();
     let vr = |n: &str| fmu.value_reference(n).unwrap();
     let mut a = fmu.instantiate("a", false).unwrap();
     let mut b = fmu.instantiate("b", false).unwrap();
@@ -132,7 +132,7 @@ fn ssp_pair_runs_like_a_hand_written_loop() {
     for i in [&mut a, &mut b] {
         i.enter_initialization_mode().unwrap();
     }
-    let x = |i: &mut fmi2::import::Instance| {
+    let x = |i: &mut fmi::import::Instance| {
         let mut v = [0.0];
         i.get_real(&[vr("x")], &mut v).unwrap();
         v[0]
@@ -158,9 +158,12 @@ fn ssp_pair_runs_like_a_hand_written_loop() {
     // the implicit schemes converge to one solution
     let run = |scheme| {
         let o = Options { scheme, tol: 1e-12, ..Options::default() };
-        let mut c =
-            Coupled::new(FmuSystem::load(&loaded.spec, &Needs { what: "test".into(), rollback: true }).unwrap(), o)
-                .unwrap();
+        let mut c = Coupled::new(
+            FmuSystem::load(&loaded.spec, &Needs { what: "test".into(), rollback: true, ..Default::default() })
+                .unwrap(),
+            o,
+        )
+        .unwrap();
         for _ in 0..steps {
             c.step(h).unwrap();
         }
@@ -183,7 +186,7 @@ fn unit_mismatches_are_refused() {
     let text = std::fs::read_to_string(&ssd).unwrap();
     let broken = text.replace(r#"<ssc:LinearTransformation factor="15"/>"#, "");
     std::fs::write(&ssd, broken).unwrap();
-    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    let loaded = studies::cosim::ssp::read::load(&ssd).unwrap();
     let e = FmuSystem::load(&loaded.spec, &Needs::default()).err().expect("refused").to_string();
     assert!(e.contains("`a.x` → `b.F`") && e.contains("`m` → `N`") && e.contains("LinearTransformation"), "{e}");
 
@@ -194,7 +197,7 @@ fn unit_mismatches_are_refused() {
         text.replace(r#"kind="output"><ssc:Real unit="m"/>"#, r#"kind="output"><ssc:Real unit="mm"/>"#),
     )
     .unwrap();
-    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
+    let loaded = studies::cosim::ssp::read::load(&ssd).unwrap();
     let e = FmuSystem::load(&loaded.spec, &Needs::default()).err().expect("refused").to_string();
     assert!(e.contains("connector `a.x`") && e.contains("`mm`") && e.contains("`m`"), "{e}");
 }
@@ -207,7 +210,7 @@ fn a_scheme_an_fmu_cannot_support_is_refused_up_front() {
     let ssd = pair_ssd(&dir, "");
     // an unpacked copy of the oscillator that declares no state access
     let unpacked = dir.join("stateless");
-    let fmu = fmi2::import::Fmu::load(oscillator()).unwrap();
+    let fmu = fmi::import::Fmu::load(oscillator()).unwrap();
     copy_dir(fmu.root(), &unpacked);
     let md = unpacked.join("modelDescription.xml");
     let text = std::fs::read_to_string(&md).unwrap();
@@ -216,8 +219,8 @@ fn a_scheme_an_fmu_cannot_support_is_refused_up_front() {
     let text = std::fs::read_to_string(&ssd).unwrap();
     std::fs::write(&ssd, text.replace(r#"name="b" source="oscillator.fmu""#, r#"name="b" source="stateless""#))
         .unwrap();
-    let loaded = master::cosim::ssp::read::load(&ssd).unwrap();
-    let needs = Needs { what: "scheme iqn-ils".into(), rollback: true };
+    let loaded = studies::cosim::ssp::read::load(&ssd).unwrap();
+    let needs = Needs { what: "scheme iqn-ils".into(), rollback: true, ..Default::default() };
     match FmuSystem::load(&loaded.spec, &needs) {
         Err(e @ SetupError::Capability { .. }) => {
             let m = e.to_string();

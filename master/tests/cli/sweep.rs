@@ -8,9 +8,9 @@ use cable::model::CableCabin;
 use cable::net::CableNet;
 use cable::statics::form_find;
 use feedcore::scene::Scene;
-use master::simulate::{Method, simulate};
-use master::sweep::table::Table;
-use master::sweep::{Axis, Placement, point_scene, scale_platform_mass};
+use studies::simulate::{Method, simulate};
+use studies::sweep::table::Table;
+use studies::sweep::{Axis, Placement, point_scene, scale_platform_mass};
 
 use crate::master;
 
@@ -138,7 +138,7 @@ fn coupled_runs_per_point_are_the_librarys() {
         let f: f64 = cell(&t, i, "mass_factor").parse().unwrap();
         let dt: f64 = cell(&t, i, "dt_s").parse().unwrap();
         let s = base.edited(|s| scale_platform_mass(s, f)).unwrap();
-        let trace = simulate(&s, Path::new(&scene), Method::Monolithic, dt, 0.3, true).unwrap();
+        let trace = simulate(&s, Path::new(&scene), Method::Monolithic, dt, 0.3).unwrap();
         assert_eq!(cell(&t, i, "run_peak_mm"), format!("{:?}", trace.peak_mm()), "point {i}");
         assert_eq!(cell(&t, i, "run_iterations"), format!("{:?}", trace.mean_iterations()));
         assert_eq!(trace.steps, (0.3 / dt).round() as u64);
@@ -235,11 +235,11 @@ fn scene_variants_are_handed_over_without_files() {
 /// model of the same variant as closely as on the scene itself, and both differ from the file's.
 #[test]
 fn the_fmus_run_the_variant_held_in_memory() {
-    use master::simulate::{Method, simulate};
+    use studies::simulate::{Method, simulate};
     let (base, file) = crate::common::scene("lt50m_C.toml", "in-memory", |_| {});
-    let heavy = base.edited(|s| master::sweep::scale_platform_mass(s, 2.0)).unwrap();
-    let ijcsa = Method::Cosim(master::cosim::Options { tol: 1e-10, ..Default::default() });
-    let run = |s: &feedcore::scene::ValidScene, m: Method| simulate(s, &file, m, 0.01, 2.0, true).unwrap();
+    let heavy = base.edited(|s| studies::sweep::scale_platform_mass(s, 2.0)).unwrap();
+    let ijcsa = Method::Cosim(studies::cosim::Options { tol: 1e-10, ..Default::default() });
+    let run = |s: &feedcore::scene::ValidScene, m: Method| simulate(s, &file, m, 0.01, 2.0).unwrap();
     let (mono, cosim) = (run(&heavy, Method::Monolithic), run(&heavy, ijcsa.clone()));
     let base_mono = run(&base, Method::Monolithic);
     let (agree, moved) = (cosim.error_against(&mono).0, base_mono.error_against(&mono).0);
@@ -255,7 +255,7 @@ fn rows_but_wall(csv: &std::path::Path) -> Vec<Vec<String>> {
     let keep: Vec<usize> = (0..header.len()).filter(|&i| !header[i].ends_with("wall_s")).collect();
     let mut rows = vec![keep.iter().map(|&i| header[i].to_string()).collect::<Vec<_>>()];
     for line in lines {
-        let cells = master::sweep::table::split(line).unwrap();
+        let cells = studies::sweep::table::split(line).unwrap();
         rows.push(keep.iter().map(|&i| cells[i].clone()).collect());
     }
     rows

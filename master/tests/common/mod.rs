@@ -6,10 +6,13 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use feedcore::scene::{Scene, ValidScene};
+use fmi::import::Interface;
+use studies::cosim::SystemSpec;
+use studies::cosim::system::spec::{Component, Connection, Endpoint, Linear, Matching, Parameter, Value};
 
 /// The directory holding `lib<crate>.so`: next to the test binary's `deps/` (cargo puts both
 /// in `target/<profile>/`).
-fn library(name: &str) -> PathBuf {
+pub(crate) fn library(name: &str) -> PathBuf {
     let exe = std::env::current_exe().unwrap();
     let deps = exe.parent().unwrap();
     for dir in [deps, deps.parent().unwrap()] {
@@ -27,12 +30,88 @@ pub(crate) fn fmu_dir() -> &'static Path {
     DIR.get_or_init(|| {
         let dir = std::env::temp_dir().join(format!("master-tests-{}", std::process::id()));
         let (cable, stewart) = (library("cable_fmu_cdylib"), library("stewart_fmu_cdylib"));
-        fmi2::package::package_model::<cable_fmu::CableFmu>(&dir, &cable).unwrap();
-        fmi2::package::package_model::<stewart_fmu::StewartFmu>(&dir, &stewart).unwrap();
-        fmi2::package::package_model3::<cable_fmu::CableFmu>(&dir.join("fmi3"), &cable).unwrap();
-        fmi2::package::package_model3::<stewart_fmu::StewartFmu>(&dir.join("fmi3"), &stewart).unwrap();
+        fmi::package::package_model::<cable_fmu::CableFmu>(&dir, &cable).unwrap();
+        fmi::package::package_model::<stewart_fmu::StewartFmu>(&dir, &stewart).unwrap();
+        fmi::package::package_model3::<cable_fmu::CableFmu>(&dir.join("fmi3"), &cable).unwrap();
+        fmi::package::package_model3::<stewart_fmu::StewartFmu>(&dir.join("fmi3"), &stewart).unwrap();
         dir
     })
+}
+
+/// The zoo's FMUs the Model Exchange tests use, and the hostile one, packaged once per test
+/// binary; their FMI 3.0 versions in `fmi3/` below.
+pub(crate) fn zoo_dir() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::env::temp_dir().join(format!("master-tests-zoo-{}", std::process::id()));
+        fn both<M: fmi::export::Model>(dir: &Path, lib: &str) {
+            let lib = library(lib);
+            fmi::package::package_model::<M>(dir, &lib).unwrap();
+            fmi::package::package_model3::<M>(&dir.join("fmi3"), &lib).unwrap();
+        }
+        both::<zoo_fmus::dahlquist::DahlquistFmu>(&dir, "zoo_dahlquist");
+        both::<zoo_fmus::feedthrough::FeedthroughFmu>(&dir, "zoo_feedthrough");
+        both::<zoo_fmus::bouncing_ball::BouncingBallFmu>(&dir, "zoo_bouncing_ball");
+        both::<zoo_fmus::hostile::HostileFmu>(&dir, "zoo_hostile_me");
+        dir
+    })
+}
+
+/// The chain of docs/systems.md with `d1` as Model Exchange, or the loop with `d` as Model
+/// Exchange, or the bouncing ball (Model Exchange, state events) into a feedthrough; FMI
+/// `version`.
+pub(crate) fn me_system(which: &str, version: u8) -> SystemSpec {
+    let zoo = if version == 3 { zoo_dir().join("fmi3") } else { zoo_dir().to_owned() };
+    let component = |name: &str, fmu: &str, me: bool| Component {
+        name: name.into(),
+        source: zoo.join(format!("{fmu}.fmu")),
+        interface: me.then_some(Interface::ModelExchange),
+    };
+    let e = |c: &str, v: &str| Endpoint { component: c.into(), variable: v.into() };
+    let connect = |from: Endpoint, to: Endpoint, factor: Option<f64>| Connection {
+        from,
+        to,
+        matching: Matching::Exact,
+        transform: factor.map(|factor| Linear { factor, offset: 0.0 }),
+    };
+    let real = |c: &str, v: &str, x: f64| Parameter { target: e(c, v), value: Value::Typed(fmi::Value::Real(x)) };
+    let (components, connections, parameters) = match which {
+        "chain" => (
+            vec![
+                component("d1", "dahlquist", true),
+                component("f", "feedthrough", false),
+                component("d2", "dahlquist", false),
+            ],
+            vec![
+                connect(e("d1", "x"), e("f", "real_continuous_in"), None),
+                connect(e("f", "real_continuous_out"), e("d2", "u"), None),
+            ],
+            vec![real("d1", "x0", 0.0), real("d1", "u", 1.0), real("d2", "k", 2.0), real("d2", "x0", 0.0)],
+        ),
+        "loop" => (
+            vec![component("d", "dahlquist", true), component("f", "feedthrough", false)],
+            vec![
+                connect(e("d", "der_x"), e("f", "real_continuous_in"), Some(-2.0)),
+                connect(e("f", "real_continuous_out"), e("d", "u"), None),
+            ],
+            vec![],
+        ),
+        _ => (
+            vec![component("ball", "bouncing_ball", true), component("f", "feedthrough", false)],
+            vec![connect(e("ball", "h"), e("f", "real_continuous_in"), None)],
+            vec![],
+        ),
+    };
+    SystemSpec {
+        origin: format!("{which} (FMI {version})"),
+        components,
+        connections,
+        parameters,
+        connectors: Vec::new(),
+        observed: Vec::new(),
+        watch: Vec::new(),
+        kink_at_start: false,
+    }
 }
 
 pub(crate) fn scene_path(name: &str) -> PathBuf {

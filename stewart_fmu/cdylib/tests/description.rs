@@ -1,13 +1,13 @@
 //! stewart_fmu's modelDescription.xml as the exporter writes it reads back, through the
 //! importer's parser, as exactly the description the model declares (validated and normalized).
 
-use fmi2::export::Model;
+use fmi::export::Model;
 
 #[test]
 fn the_model_description_reads_back_equal() {
-    let declared = fmi2::ModelInfo::new(stewart_fmu::StewartFmu::description().unwrap()).unwrap();
-    let text = fmi2::xml::model_description_xml(&declared.description).unwrap();
-    let read = fmi2::xml::parse_model_description(&text).unwrap();
+    let declared = fmi::ModelInfo::new(stewart_fmu::StewartFmu::description().unwrap()).unwrap();
+    let text = fmi::xml::model_description_xml(&declared.description).unwrap();
+    let read = fmi::xml::parse_model_description(&text).unwrap();
     assert_eq!(read, declared.description);
     assert_eq!(
         read.variables.len(),

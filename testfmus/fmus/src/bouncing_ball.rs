@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use fmi2::export::{Model, ModelError, StepOutcome};
-use fmi2::{Causality, ModelDescription, VarType, Variability, Variable};
+use fmi::export::{Model, ModelError, StepOutcome};
+use fmi::{Causality, ModelDescription, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 use zoo_models::{Ball, BouncingBall};
 
@@ -18,6 +18,8 @@ pub mod vr {
     pub const V_MIN: u32 = 4;
     pub const H0: u32 = 5;
     pub const V0: u32 = 6;
+    pub const DER_H: u32 = 7;
+    pub const DER_V: u32 = 8;
     /// Integer.
     pub const BOUNCES: u32 = 0;
     /// Boolean.
@@ -69,15 +71,50 @@ impl Model for BouncingBallFmu {
                 .describe("a slower rebound leaves the ball resting"),
             Variable::parameter("h0", vr::H0, 1.0, false).unit("m").describe("initial height"),
             Variable::parameter("v0", vr::V0, 0.0, false).unit("m/s").describe("initial velocity"),
+            Variable::new("der_h", vr::DER_H, VarType::Real, Causality::Local, Variability::Continuous)
+                .unit("m/s")
+                .describe("dh/dt (Model Exchange)"),
+            Variable::new("der_v", vr::DER_V, VarType::Real, Causality::Local, Variability::Continuous)
+                .unit("m/s2")
+                .describe("dv/dt (Model Exchange): -g in flight, 0 at rest"),
         ];
-        Ok(crate::description(
+        let d = crate::description(
             "bouncing_ball",
-            "{b9475902-b0c4-431e-9086-7816531d035b}",
-            "A bouncing ball: exact parabolas, impacts located inside the step",
+            "{b9475902-b0c4-431e-9086-7816531d035c}",
+            "A bouncing ball: exact parabolas, impacts located inside the step (Co-Simulation), or the \
+             height as event indicator (Model Exchange)",
             false,
             (3.0, 0.01),
             variables,
-        ))
+        );
+        Ok(crate::with_model_exchange(d, &[(vr::H, vr::DER_H), (vr::V, vr::DER_V)], &[vr::H]))
+    }
+
+    fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), ModelError> {
+        (self.ball.h, self.ball.v) = (x[0], x[1]);
+        Ok(())
+    }
+
+    /// The height: an impact is its crossing of zero.
+    fn event_indicators(&mut self, z: &mut [f64]) -> Result<(), ModelError> {
+        z[0] = self.ball().h;
+        Ok(())
+    }
+
+    /// At an impact (on or below the ground, moving down) the ball rebounds with `e` times its
+    /// speed, or rests for good when the rebound is slower than `v_min`.
+    fn update_discrete_states(&mut self, _t: f64) -> Result<fmi::export::DiscreteUpdate, ModelError> {
+        let b = &mut self.ball;
+        let impact = !b.resting && b.h <= 0.0 && b.v < 0.0;
+        if impact {
+            b.h = 0.0;
+            b.v *= -self.e;
+            b.bounces += 1;
+            if b.v <= self.v_min {
+                (b.v, b.resting) = (0.0, true);
+            }
+        }
+        Ok(fmi::export::DiscreteUpdate { states_changed: impact, ..Default::default() })
     }
 
     fn instantiate(_resources: Option<&Path>) -> Result<Self, ModelError> {
@@ -109,6 +146,9 @@ impl Model for BouncingBallFmu {
             vr::V_MIN => self.v_min,
             vr::H0 => self.h0,
             vr::V0 => self.v0,
+            vr::DER_H => ball.v,
+            vr::DER_V if ball.resting => 0.0,
+            vr::DER_V => -self.g,
             _ => return Err(format!("unknown value reference {vr}").into()),
         })
     }

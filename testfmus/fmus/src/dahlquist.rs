@@ -1,12 +1,13 @@
-//! `dahlquist`: `ẋ = −k x + u`, stepped exactly with `u` held over the step.
+//! `dahlquist`: `ẋ = −k x + u`, stepped exactly with `u` held over the step (Co-Simulation),
+//! or integrated by the importer (Model Exchange: the state `x`, its derivative `der_x`).
 //!
 //! `x` does not respond to `u` at a communication point (it is a state); `der_x = −k x + u`
 //! does, at once: declared in `<ModelStructure>` and given by `fmi2GetDirectionalDerivative`.
 
 use std::path::Path;
 
-use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
-use fmi2::{ModelDescription, Variable};
+use fmi::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
+use fmi::{ModelDescription, Variable};
 use serde::{Deserialize, Serialize};
 use zoo_models::Dahlquist;
 
@@ -73,14 +74,20 @@ impl Model for DahlquistFmu {
             Variable::parameter("k", vr::K, 1.0, true).describe("rate constant (1/s)"),
             Variable::parameter("x0", vr::X0, 1.0, false).describe("initial state"),
         ];
-        Ok(crate::description(
+        let d = crate::description(
             "dahlquist",
             "{a4945425-c098-4172-b0a6-1030caf5f9ea}",
             "Dahlquist's test equation with a forcing input: der(x) = -k x + u, exact for a held u",
             true,
             (10.0, 0.1),
             variables,
-        ))
+        );
+        Ok(crate::with_model_exchange(d, &[(vr::X, vr::DER_X)], &[]))
+    }
+
+    fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), ModelError> {
+        self.x = x[0];
+        Ok(())
     }
 
     fn instantiate(_resources: Option<&Path>) -> Result<Self, ModelError> {

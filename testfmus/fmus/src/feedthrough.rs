@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
-use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
-use fmi2::{Causality, ModelDescription, VarType, Variability, Variable};
+use fmi::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
+use fmi::{Causality, ModelDescription, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 use zoo_models::Feedthrough;
 
@@ -58,14 +58,15 @@ impl Model for FeedthroughFmu {
             input("string_in", vr::IN, String, Discrete).start(""),
             output("string_out", vr::OUT, String, Discrete, "string_in"),
         ];
-        Ok(crate::description(
+        let d = crate::description(
             "feedthrough",
             "{b005f70a-67a5-4ac3-ae3b-83eb05f00f2f}",
             "Every input passed at once to its output: Real (continuous, discrete), Integer, Boolean, String",
             true,
             (2.0, 0.1),
             variables,
-        ))
+        );
+        Ok(crate::with_model_exchange(d, &[], &[]))
     }
 
     fn instantiate(_resources: Option<&Path>) -> Result<Self, ModelError> {

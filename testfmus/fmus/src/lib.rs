@@ -1,5 +1,5 @@
 //! The [`zoo_models`] as FMI 2.0 Co-Simulation FMUs: each adapter maps the model's parameters,
-//! inputs and state to FMI variables and implements [`fmi2::Model`]; a cdylib crate per FMU
+//! inputs and state to FMI variables and implements [`fmi::Model`]; a cdylib crate per FMU
 //! (`testfmus/cdylib/*`) exports it. They know nothing of the LT50m system or of this
 //! workspace's extension (no step-map derivative): a master meets them as any third-party FMU.
 //!
@@ -11,15 +11,19 @@
 //! | `feedthrough` | one of each type | the inputs | the Real outputs on their inputs |
 //! | `stair` | — | `counter` | — (ends with fmi2Discard at its final count) |
 //! | `resource` | — | `y`, `points`, `title` from a file in `resources/` | — |
+//!
+//! [`hostile`] is no member of the zoo: a Model Exchange FMU that misbehaves on request, for the
+//! master's tests (`master package` leaves it out).
 
 pub mod bouncing_ball;
 pub mod dahlquist;
 pub mod feedthrough;
+pub mod hostile;
 pub mod resource;
 pub mod stair;
 pub mod van_der_pol;
 
-use fmi2::{CoSimulationFlags, DefaultExperiment, ModelDescription, Variable};
+use fmi::{CoSimulationFlags, DefaultExperiment, ModelDescription, Variable};
 
 /// A description with this crate's conventions: model name = identifier, start 0, the given
 /// stop time and step.
@@ -42,25 +46,37 @@ fn description(
     d
 }
 
+/// `d` offering Model Exchange too, with these continuous states and event indicators.
+fn with_model_exchange(mut d: ModelDescription, states: &[(u32, u32)], event_indicators: &[u32]) -> ModelDescription {
+    let states = states.iter().map(|&(state, derivative)| fmi::ContinuousState { state, derivative }).collect();
+    d.model_exchange = Some(fmi::ModelExchange::exported(&d.model_identifier, states, event_indicators.to_vec()));
+    d
+}
+
 /// The message for a derivative with respect to a known the model does not take.
-fn not_a_known(vr: u32, known: &str) -> fmi2::export::ModelError {
+fn not_a_known(vr: u32, known: &str) -> fmi::export::ModelError {
     format!("derivatives with respect to value reference {vr} are not provided (knowns: {known})").into()
 }
 
 /// The message for an unknown the model has no derivative of.
-fn not_an_unknown(vr: u32) -> fmi2::export::ModelError {
+fn not_an_unknown(vr: u32) -> fmi::export::ModelError {
     format!("no derivative of value reference {vr} (not a Real output)").into()
 }
 
 #[cfg(test)]
 mod tests {
-    use fmi2::export::Model;
+    use fmi::export::Model;
 
     /// Every description is valid and reads back through the importer's parser as written.
     fn reads_back<M: Model>() {
-        let info = fmi2::ModelInfo::new(M::description().unwrap()).unwrap();
-        let text = fmi2::xml::model_description_xml(&info.description).unwrap();
-        assert_eq!(fmi2::xml::parse_model_description(&text).unwrap(), info.description);
+        let info = fmi::ModelInfo::new(M::description().unwrap()).unwrap();
+        let text = fmi::xml::model_description_xml(&info.description).unwrap();
+        // FMI 2.0 gives the number of event indicators, not which variables they are
+        let mut expected = info.description.clone();
+        if let Some(me) = expected.model_exchange.as_mut() {
+            me.event_indicator_variables.clear();
+        }
+        assert_eq!(fmi::xml::parse_model_description(&text).unwrap(), expected);
         assert!(!info.description.flags.provides_step_map_derivative, "the zoo knows no extension");
     }
 
@@ -72,5 +88,6 @@ mod tests {
         reads_back::<crate::feedthrough::FeedthroughFmu>();
         reads_back::<crate::stair::StairFmu>();
         reads_back::<crate::resource::ResourceFmu>();
+        reads_back::<crate::hostile::HostileFmu>();
     }
 }

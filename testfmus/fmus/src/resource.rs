@@ -8,9 +8,9 @@
 
 use std::path::Path;
 
-use fmi2::export::{Model, ModelError, Resource, StepOutcome};
-use fmi2::resources::{FileKind, FileParameter, SavedFile};
-use fmi2::{Causality, ModelDescription, VarType, Variability, Variable};
+use fmi::export::{Model, ModelError, Resource, StepOutcome};
+use fmi::resources::{FileKind, FileParameter, SavedFile};
+use fmi::{Causality, ModelDescription, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 use zoo_models::{Table, TableError};
 

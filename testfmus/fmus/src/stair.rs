@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
-use fmi2::export::{Model, ModelError, StepOutcome};
-use fmi2::{Causality, ModelDescription, VarType, Variability, Variable};
+use fmi::export::{Model, ModelError, StepOutcome};
+use fmi::{Causality, ModelDescription, VarType, Variability, Variable};
 use serde::{Deserialize, Serialize};
 use zoo_models::{Stair, StairStep};
 
@@ -45,14 +45,28 @@ impl Model for StairFmu {
             Variable::parameter("final_count", vr::FINAL_COUNT, 10, false)
                 .describe("the count at which the model ends (fmi2DoStep returns fmi2Discard)"),
         ];
-        Ok(crate::description(
+        let d = crate::description(
             "stair",
             "{70a83ecd-ae86-4363-9a81-1b8404d22948}",
             "A counter with time events that ends the simulation at its final count",
             false,
             (10.0, 0.2),
             variables,
-        ))
+        );
+        Ok(crate::with_model_exchange(d, &[], &[]))
+    }
+
+    /// At each multiple of the period (a time event) the counter goes up by one; at the final
+    /// count the model ends the simulation.
+    fn update_discrete_states(&mut self, t: f64) -> Result<fmi::export::DiscreteUpdate, ModelError> {
+        self.counter = self.model().count_at(t);
+        let mut update = fmi::export::DiscreteUpdate::default();
+        if self.counter >= self.final_count {
+            update.terminate = Some(format!("the counter reached {}", self.final_count));
+        } else {
+            update.next_event_time = Some(f64::from(self.counter) * self.period);
+        }
+        Ok(update)
     }
 
     fn instantiate(_resources: Option<&Path>) -> Result<Self, ModelError> {

@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
-use fmi2::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
-use fmi2::{ModelDescription, Variable};
+use fmi::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
+use fmi::{ModelDescription, Variable};
 use serde::{Deserialize, Serialize};
 use zoo_models::VanDerPol;
 
@@ -92,14 +92,20 @@ impl Model for VanDerPolFmu {
             Variable::parameter("max_substep", vr::MAX_SUBSTEP, 1e-3, false)
                 .describe("largest Runge-Kutta substep inside a communication step (s)"),
         ];
-        Ok(crate::description(
+        let d = crate::description(
             "van_der_pol",
             "{add1c0c0-bf34-46da-96cd-4046bb037f25}",
             "Van der Pol oscillator with a forcing input, classical Runge-Kutta in substeps",
             true,
             (20.0, 0.01),
             variables,
-        ))
+        );
+        Ok(crate::with_model_exchange(d, &[(vr::X0, vr::DER_X0), (vr::X1, vr::DER_X1)], &[]))
+    }
+
+    fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), ModelError> {
+        self.x = [x[0], x[1]];
+        Ok(())
     }
 
     fn instantiate(_resources: Option<&Path>) -> Result<Self, ModelError> {

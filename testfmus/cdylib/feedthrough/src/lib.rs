@@ -1,4 +1,4 @@
 //! The zoo model `feedthrough` exported as the FMI 2.0 and FMI 3.0 Co-Simulation FMU `feedthrough`.
 
-fmi2::export_fmu!(zoo_fmus::feedthrough::FeedthroughFmu);
-fmi2::export_fmu3!(zoo_fmus::feedthrough::FeedthroughFmu);
+fmi::export_fmu!(zoo_fmus::feedthrough::FeedthroughFmu);
+fmi::export_fmu3!(zoo_fmus::feedthrough::FeedthroughFmu);

@@ -1,4 +1,4 @@
 //! The zoo model `resource` exported as the FMI 2.0 and FMI 3.0 Co-Simulation FMU `resource`.
 
-fmi2::export_fmu!(zoo_fmus::resource::ResourceFmu);
-fmi2::export_fmu3!(zoo_fmus::resource::ResourceFmu);
+fmi::export_fmu!(zoo_fmus::resource::ResourceFmu);
+fmi::export_fmu3!(zoo_fmus::resource::ResourceFmu);
