@@ -63,7 +63,7 @@ pub(crate) struct Args {
     pub(crate) compensation: Compensation,
     /// The seed of the scene's wind record (`[wind] seed`), instead of the scene's: the same
     /// spectrum, another record.
-    #[arg(long, value_parser = studies::options::seed)]
+    #[arg(long, value_parser = studies::options::seed, allow_negative_numbers = true)]
     pub(crate) wind_seed: Option<u64>,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
