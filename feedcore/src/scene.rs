@@ -14,7 +14,9 @@ use crate::files::{ReadError, read_limited};
 use crate::rigid::MassProperties;
 use crate::{Mat3, Quat, Vec3};
 
+mod lqg;
 mod valid;
+pub use lqg::{Law, LqgDesign, MAX_DESIGN_MODES};
 pub use valid::{ControlTarget, DampingFit, ValidScene};
 
 /// A rejected scene: which file, which key, which value, and why.
@@ -525,9 +527,19 @@ pub struct Control {
     /// command filter and actuators it makes up for); default 0.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prediction_s: Option<f64>,
-    /// An inertial unit on the cabin, fused with the sampled sensor's fixes (last: a table).
+    /// How the commands are made: the filter (default) or the LQG controller of `lqg`.
+    #[serde(default, skip_serializing_if = "is_filter")]
+    pub law: Law,
+    /// An inertial unit on the cabin, fused with the sampled sensor's fixes (a table).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub imu: Option<Imu>,
+    /// With `law = "lqg"`: the design model and the cost's weights (last: a table).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lqg: Option<LqgDesign>,
+}
+
+fn is_filter(law: &Law) -> bool {
+    *law == Law::Filter
 }
 
 /// An inertial unit on the cabin (`[control.imu]`): its readings are fused with the sampled
@@ -703,6 +715,14 @@ impl Control {
             (None, 0.0, 0.0, 0.0, None, None);
         (self.imu, self.prediction_s, self.notch_hz, self.notch_q) = (None, None, None, None);
         self.filter_stages = None;
+        (self.law, self.lqg) = (Law::Filter, None);
+    }
+
+    /// With `law = "lqg"`: the fixes come every this many readings of the inertial unit (the
+    /// controller's period), and the design model.
+    pub fn lqg_design(&self) -> Option<(usize, &LqgDesign)> {
+        let (design, imu, period) = (self.lqg.as_ref()?, self.imu.as_ref()?, self.sample_period()?);
+        (self.law == Law::Lqg).then(|| ((period * imu.rate_hz).round() as usize, design))
     }
 
     /// The feed's axis as given ([`DEFAULT_FEED_AXIS`] if not), platform frame.
@@ -893,6 +913,7 @@ impl Control {
                 ));
             }
         }
+        self.validate_law(c)?;
         if let Some(p) = self.prediction_s {
             unused("prediction_s", self.imu.is_none(), "[control.imu] (the estimate it extrapolates)")?;
             c.within("control.prediction_s", p, (0.0, PREDICTION_LIMIT_S), "a horizon of 0 to 10 s")?;
@@ -918,6 +939,55 @@ impl Control {
             c.positive("control.force_limit_n", f)?;
         }
         Ok(target)
+    }
+}
+
+impl Control {
+    /// `law = "lqg"`: its design model, the inertial unit it reads, the fixes at a whole number
+    /// of the unit's periods; none of the filter's own keys.
+    fn validate_law(&self, c: &Check) -> Result<(), SceneError> {
+        let Some(design) = &self.lqg else {
+            if self.law == Law::Lqg {
+                return Err(c.err(
+                    "control.lqg",
+                    "",
+                    "law = \"lqg\" needs its design model: `master design --scene F --out DIR` writes the scene with it",
+                ));
+            }
+            return Ok(());
+        };
+        if self.law != Law::Lqg {
+            return Err(c.err("control.lqg", "", "only used with law = \"lqg\"; remove it or set the law"));
+        }
+        let Some(imu) = &self.imu else {
+            return Err(c.err(
+                "control.imu",
+                "",
+                "law = \"lqg\" runs at the inertial unit's readings: give [control.imu] (and the sampled sensor's fixes)",
+            ));
+        };
+        for (key, given) in [("notch_hz", self.notch_hz.is_some()), ("prediction_s", self.prediction_s.is_some())] {
+            if given {
+                return Err(c.err(
+                    &format!("control.{key}"),
+                    "",
+                    "not used with law = \"lqg\" (the controller's model takes its place); remove it",
+                ));
+            }
+        }
+        let period = self.sample_period().unwrap_or(f64::NAN);
+        let ratio = period * imu.rate_hz;
+        if !((ratio - ratio.round()).abs() <= 1e-9 * ratio && ratio.round() >= 1.0) {
+            return Err(c.err(
+                "control.sample_rate_hz",
+                &show(1.0 / period),
+                &format!(
+                    "with law = \"lqg\" a fix comes every whole number of the unit's readings (control.imu.rate_hz = {}): {ratio} is not whole",
+                    imu.rate_hz
+                ),
+            ));
+        }
+        design.validate(c)
     }
 }
 

@@ -74,6 +74,9 @@ enum Command {
     /// noise model) chosen on coupled (or decoupled) runs in parallel, robust to the sensor's
     /// delay ±50 % and the platform's mass ±20 %; writes the tuned scene.
     Tune(commands::tune::Args),
+    /// The second level's LQG controller designed on the linear model of the coupled system, and
+    /// its H2 cost: the bound no linear time-invariant controller beats with the instruments.
+    Design(commands::design::Args),
     /// Statics, first frequencies and short coupled runs over a grid of poses and parameters, on
     /// every core or in shards (--shard, joined by --merge).
     Sweep(commands::sweep::Args),
@@ -115,6 +118,7 @@ fn main() -> ExitCode {
         Command::Stability(args) => commands::stability::run(&args),
         Command::Compensation(args) => commands::compensation::run(&args),
         Command::Tune(args) => commands::tune::run(&args),
+        Command::Design(args) => commands::design::run(&args),
         Command::Sweep(args) => commands::sweep::run(&args),
         Command::Scaling(args) => commands::scaling::run(&args),
         Command::Stress(args) => commands::stress::run(&args),

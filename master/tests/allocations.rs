@@ -70,6 +70,23 @@ fn the_monolithic_model_steps_without_allocating() {
     assert_eq!(n, 0, "allocations in 100 monolithic steps");
 }
 
+/// The LQG law too: its readings, fixes on their way and the controller's update reuse their
+/// storage (a reading every 4 steps, a fix every 8).
+#[test]
+fn the_lqg_law_steps_without_allocating() {
+    let (scene, _) = common::scene("lt50m_C_lqg.toml", "allocations-lqg", |_| {});
+    let mut m = Monolithic::new(&scene).unwrap();
+    for _ in 0..400 {
+        m.step(0.0025).unwrap();
+    }
+    let n = allocations(|| {
+        for _ in 0..100 {
+            m.step(0.0025).unwrap();
+        }
+    });
+    assert_eq!(n, 0, "allocations in 100 monolithic steps with the LQG law");
+}
+
 #[test]
 fn the_co_simulation_steps_without_allocating() {
     let (scene, file) = common::scene("lt50m_C.toml", "allocations-cosim", |_| {});

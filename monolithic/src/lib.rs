@@ -10,11 +10,13 @@
 //!
 //! * [`model`]: what does not change during a run;
 //! * [`config`]: the configuration (cable–cabin configuration and the Stewart bodies' poses);
+//! * [`feed`]: the feed's error over a run, what the second level's figures are measured from;
 //! * [`kkt`]: the linear algebra of a Newton iteration — the cable chains condensed onto the
 //!   cabin, the rigid bodies eliminated, and the constraints' dense Schur complement;
 //! * [`schur`]: the constraints' Schur complement, factorized leg by leg onto the joints that
 //!   touch the cabin or the platform;
 //! * [`problem`]: residual and iteration matrix, as the integrator asks for them;
+//! * [`linear`]: the model linearized at rest, the second level's design model;
 //! * [`run`]: the model in time ([`Monolithic`]): stepping, samples, snapshots.
 //!
 //! The cable–cabin part is assembled by the cable crate itself ([`cable::system::System`]),
@@ -26,7 +28,9 @@
 //! abrupt start, at full speed): the same initial state as the co-simulation.
 
 pub mod config;
+pub mod feed;
 pub mod kkt;
+pub mod linear;
 pub mod model;
 pub mod problem;
 pub mod run;

@@ -214,7 +214,7 @@ impl Monolithic {
                 .command
                 .as_ref()
                 .zip(model.stewart.compensation())
-                .and_then(|(state, c)| state.estimate(c, st.time).map(|e| (Vec3::from(e.position), e.attitude()))),
+                .and_then(|(state, c)| state.estimate(c, st.time)),
             leg_lengths: strokes.map_or([f64::NAN; LEGS], |s| s.map(|s| s.length)),
         }
     }

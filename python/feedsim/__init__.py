@@ -155,7 +155,8 @@ def run(
     ``scheme``: ``monolithic``, ``jacobi``, ``gauss-seidel``, ``gauss-seidel-reversed``,
     ``iterative``, ``ijcsa``, ``iqn-ils``, ``decoupled`` or ``cable``. ``dt`` and ``t_end``
     default to the scene's ``solver.dt_s`` and ``solver.t_end_s``. ``compensation="off"``: the
-    scene with its second level switched off (its uncompensated reference). ``options``: the
+    scene with its second level switched off (its uncompensated reference); ``wind_seed=N``:
+    another record of the scene's wind (``[wind] seed``). ``options``: the
     command line's scheme options (``adaptive=True``, ``rtol``, ``atol``, ``h_min``, ``h_max``,
     ``watch=[...]``, ``estimate``, ``tol``, ``max_iter``, ``relaxation``, ``jacobian``,
     ``extrapolation``, ``iqn_reuse``, ``iqn_filter``, ``iqn_relaxation``). The co-simulation

@@ -208,9 +208,11 @@ fn run(
     let kwargs = Kwargs::new(options);
     let (scheme, dt, t_end, options) = kwargs.method()?;
     let compensation = kwargs.named::<Compensation>("compensation")?.unwrap_or_default();
+    let wind_seed = kwargs.take("wind_seed", studies::options::seed)?;
     kwargs.done()?;
     let scene = source.load().map_err(scene_error)?;
     let scene = compensation.apply(&scene).map_err(|e| option_value_error(&e))?;
+    let scene = studies::options::with_wind_seed(&scene, wind_seed).map_err(|e| option_value_error(&e))?;
     let method = options.method(scheme).map_err(|e| option_value_error(&e))?;
     check_dt(options.adaptive, dt).map_err(|e| option_value_error(&e))?;
     let dt = dt.unwrap_or(scene.solver.dt_s);

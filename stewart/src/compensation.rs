@@ -42,6 +42,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::fusion::{Estimate, Fix, Fusion, FusionState};
 use crate::imu::{Imu, ImuState};
+use crate::lqg::{LqgLaw, LqgState};
 use crate::path::PathPoint;
 use crate::wrench::CabinMotion;
 
@@ -107,6 +108,8 @@ pub struct Compensation {
     fused: Option<(Imu, Fusion)>,
     /// How far ahead of the estimate a fused command is made, s.
     prediction: f64,
+    /// The LQG law (`law = "lqg"`): its commands come from its controller at the unit's readings.
+    lqg: Option<LqgLaw>,
     /// Time between commands: the unit's period when fused, else the sensor's.
     command_period: f64,
     /// A notch on the commands (`notch_hz`).
@@ -118,8 +121,9 @@ pub struct Compensation {
 impl Compensation {
     /// The compensation of the scene's `[control]` (without one: [`Compensation::uncontrolled`])
     /// for the platform resting at `rest` (cabin frame), with `rest_legs` the leg lengths there;
-    /// the reference pose is the scene's target pose.
-    pub fn new(scene: &ValidScene, rest: Vec3, rest_legs: [f64; LEGS]) -> Compensation {
+    /// the reference pose is the scene's target pose. Fails where the scene's LQG controller
+    /// cannot be made (its Riccati equations have no stabilizing solution).
+    pub fn new(scene: &ValidScene, rest: Vec3, rest_legs: [f64; LEGS]) -> Result<Compensation, String> {
         let uncontrolled = Compensation::uncontrolled();
         let control = scene.control.as_ref().unwrap_or(&uncontrolled);
         let reference = (scene.target_position(), scene.target_orientation());
@@ -142,18 +146,23 @@ impl Compensation {
             }
         };
         let period = control.sample_period().unwrap_or(f64::INFINITY);
-        let fused = control.imu.as_ref().zip(control.fusion_model()).map(|(spec, model)| {
+        let lqg = LqgLaw::of_scene(scene)?;
+        let fused = control.imu.as_ref().zip(control.fusion_model()).filter(|_| lqg.is_none()).map(|(spec, model)| {
             let imu = Imu::new(spec, scene.gravity());
             let fusion = Fusion::new(&model, scene.gravity(), control.delay_s, reference);
             (imu, fusion)
         });
-        let command_period = fused.as_ref().map_or(period, |(imu, _)| imu.period);
+        let command_period = match (&fused, &lqg) {
+            (Some((imu, _)), _) => imu.period,
+            (None, Some(law)) => law.imu.period,
+            (None, None) => period,
+        };
         let leg_limits = match (control.stroke_m, control.min_leg_m, control.max_leg_m) {
             (Some(s), _, _) => Some(rest_legs.map(|l| (l - s, l + s))),
             (None, None, None) => None,
             (None, lo, hi) => Some([(lo.unwrap_or(0.0), hi.unwrap_or(f64::INFINITY)); LEGS]),
         };
-        Compensation {
+        Ok(Compensation {
             feed_point,
             feed_axis,
             holds_attitude: control.compensate == Compensate::Pose,
@@ -171,11 +180,12 @@ impl Compensation {
             third_stage: control.filter_stages == Some(3),
             fused,
             prediction: control.prediction_s.unwrap_or(0.0),
+            lqg,
             command_period,
             notch: control.notch_hz.map(|f| Notch::new(f, control.notch_q.unwrap_or(2.0), 1.0 / command_period)),
             leg_limits,
             force_limit: control.force_limit_n,
-        }
+        })
     }
 
     /// What a scene without `[control]` reports: no compensation, the feed point at the platform
@@ -208,6 +218,8 @@ impl Compensation {
             notch_hz: None,
             notch_q: None,
             filter_stages: None,
+            law: feedcore::scene::Law::Filter,
+            lqg: None,
         }
     }
 
@@ -230,9 +242,20 @@ impl Compensation {
         STEP_PER_PERIOD * self.step_period().0
     }
 
-    /// The inertial unit and its filter, with `[control.imu]`.
+    /// The inertial unit and its filter, with `[control.imu]` (and the filter's law).
     pub fn fused(&self) -> Option<&(Imu, Fusion)> {
         self.fused.as_ref()
+    }
+
+    /// The LQG law, with `law = "lqg"`.
+    pub fn lqg(&self) -> Option<&LqgLaw> {
+        self.lqg.as_ref()
+    }
+
+    /// Whether the commands come from an estimate of the cabin's pose (the fusion's or the LQG
+    /// controller's), which [`CommandState::estimate`] gives.
+    pub fn estimates(&self) -> bool {
+        self.fused.is_some() || self.lqg.is_some()
     }
 
     /// Leg length limits (shortest, longest) per leg, m.
@@ -310,6 +333,18 @@ impl Compensation {
         }
     }
 
+    /// [`Compensation::command`]'s first order about the reference pose, as a deviation from
+    /// the rest pose (what the LQG law's linear model holds).
+    fn linear_command(&self, position: &Vec3, orientation: &Quat) -> Pose {
+        let (p0, r0) = self.reference;
+        let (dp, dtheta) = (position - p0, (orientation * r0.inverse()).scaled_axis());
+        // the platform turns back the cabin's turn; its centre keeps the feed point in place
+        let dphi = -r0.inverse_transform_vector(&dtheta);
+        let arm = r0 * (self.rest + self.feed_point);
+        let dc = r0.inverse_transform_vector(&(-dp - dtheta.cross(&arm))) + self.feed_point.cross(&dphi);
+        Pose::new(dc.x, dc.y, dc.z, dphi.x, dphi.y, dphi.z)
+    }
+
     /// The ideal sensor's command: the platform's pose relative to the cabin with its
     /// derivatives, for the true cabin motion.
     pub fn ideal(&self, cabin: &CabinMotion, t: f64) -> PathPoint {
@@ -384,6 +419,7 @@ impl Compensation {
                 filter: fusion.start_state(),
                 next_reading: 0,
             }),
+            lqg: self.lqg.as_ref().map(LqgLaw::start),
         }
     }
 }
@@ -438,6 +474,12 @@ impl Segment {
         let [q, dq, ddq] = self.pose_at(c, t);
         pose_motion(&q, &dq, &ddq)
     }
+}
+
+/// The platform's motion relative to the cabin for a commanded pose (centre, cabin frame, m;
+/// z-y-x angles φ, θ, ψ, rad) and its first two time derivatives.
+pub fn commanded_point(pose: &[f64; 6], rate: &[f64; 6], acceleration: &[f64; 6]) -> PathPoint {
+    pose_motion(&Pose::from(*pose), &Pose::from(*rate), &Pose::from(*acceleration))
 }
 
 /// The platform's motion for a pose (centre, z-y-x angles) and its first two derivatives.
@@ -532,6 +574,8 @@ pub struct CommandState {
     notch: NotchState,
     /// With `[control.imu]`: the unit, the filter and the index of the next reading.
     fused: Option<Fused>,
+    /// With `law = "lqg"`: the unit, the controller, the fixes on their way.
+    lqg: Option<LqgState>,
 }
 
 /// The inertial unit's and the filter's state.
@@ -564,6 +608,7 @@ impl Clone for CommandState {
             rng: self.rng,
             notch: self.notch,
             fused: self.fused.clone(),
+            lqg: self.lqg.clone(),
         }
     }
 
@@ -575,6 +620,7 @@ impl Clone for CommandState {
         self.rng = source.rng;
         self.notch = source.notch;
         self.fused.clone_from(&source.fused);
+        self.lqg.clone_from(&source.lqg);
     }
 }
 
@@ -610,12 +656,13 @@ impl CommandState {
             let measured_p = cabin.position + noise() * c.noise_m;
             let measured_q = Quat::from_scaled_axis(noise() * c.noise_rad) * cabin.orientation;
             self.next_sample = ((t + SAME_INSTANT) / c.period).floor() as u64 + 1;
-            match (&mut self.fused, &c.fused) {
-                (Some(state), Some((_, fusion))) => {
+            match (&mut self.fused, &c.fused, &mut self.lqg, &c.lqg) {
+                (Some(state), Some((_, fusion)), _, _) => {
                     let q = measured_q.into_inner();
                     let fix = Fix { measured_at: t, position: measured_p.into(), attitude: [q.w, q.i, q.j, q.k] };
                     fusion.add_fix(&mut state.filter, fix);
                 }
+                (_, _, Some(state), Some(law)) => law.add_fix(state, t, law.fix(&measured_p, &measured_q)),
                 _ => {
                     let apply = t + c.delay;
                     let command = self.notch.filter(c, c.command(&measured_p, &measured_q, apply));
@@ -634,13 +681,28 @@ impl CommandState {
             self.pending.push_back((t, command.into()));
             state.next_reading = ((t + SAME_INSTANT) / imu.period).floor() as u64 + 1;
         }
+        if let (Some(state), Some(law)) = (&mut self.lqg, &c.lqg)
+            && law.reading_due(state, t)
+        {
+            let u = law.read(state, cabin, t, c.delay);
+            // what holding the feed takes beyond the first order the controller's model holds,
+            // at the estimated cabin pose
+            let (p, r) = law.estimate(state);
+            let beyond = c.command(&p, &r, t) - c.rest_pose() - c.linear_command(&p, &r);
+            let command = c.rest_pose() + Pose::from(u) + beyond;
+            self.pending.push_back((t, command.into()));
+        }
     }
 
-    /// The filter's estimate of the cabin at `t` (after the last reading), with an inertial
-    /// unit.
-    pub fn estimate(&self, c: &Compensation, t: f64) -> Option<Estimate> {
-        match (&self.fused, &c.fused) {
-            (Some(state), Some((_, fusion))) => Some(fusion.estimate(&state.filter, t)),
+    /// The estimate of the cabin's pose at `t` (after the last reading): the fusion's, or the
+    /// LQG controller's at its last reading.
+    pub fn estimate(&self, c: &Compensation, t: f64) -> Option<(Vec3, Quat)> {
+        match (&self.fused, &c.fused, &self.lqg, &c.lqg) {
+            (Some(state), Some((_, fusion)), _, _) => {
+                let e: Estimate = fusion.estimate(&state.filter, t);
+                Some((Vec3::from(e.position), e.attitude()))
+            }
+            (_, _, Some(state), Some(law)) => Some(law.estimate(state)),
             _ => None,
         }
     }
@@ -656,7 +718,7 @@ mod tests {
     }
 
     fn compensation(extra: &str) -> Compensation {
-        Compensation::new(&scene(extra), Vec3::new(0.1, 0.0, -1.8), [1.5; LEGS])
+        Compensation::new(&scene(extra), Vec3::new(0.1, 0.0, -1.8), [1.5; LEGS]).unwrap()
     }
 
     const SAMPLED: &str = "\n[control]\nfeed_point_m = [0.0, 0.0, -0.3]\ntarget = \"hold\"\nsensor = \"sampled\"\nsample_rate_hz = 20.0\n";
@@ -849,6 +911,22 @@ mod tests {
             assert!((zyx_angles(&m.orientation) - angles(t).fixed_rows::<3>(3)).norm() < 1e-13);
             assert!((m.orientation.transpose() * m.orientation - Mat3::identity()).norm() < 1e-15);
         }
+    }
+
+    /// The first order the LQG law's model holds is the command's derivative: the gap of a
+    /// cabin moved by ε shrinks as ε², for a cabin at a tilted reference too.
+    #[test]
+    fn the_linear_command_is_the_commands_first_order() {
+        let c = compensation("\n[control]\nfeed_point_m = [0.0, 0.3, -0.3]\ntarget = \"hold\"\nsensor = \"ideal\"\n");
+        let (p0, r0) = c.reference();
+        let (dir, turn) = (Vec3::new(0.3, -0.5, 0.2), Vec3::new(-0.4, 0.7, 0.3));
+        let gap = |e: f64| {
+            let (p, r) = (p0 + dir * e, Quat::from_scaled_axis(turn * e) * r0);
+            let exact = c.command(&p, &r, 0.0) - c.rest_pose();
+            (exact - c.linear_command(&p, &r)).norm() / e
+        };
+        let (a, b) = (gap(1e-3), gap(1e-4));
+        assert!(a < 1e-3 && (a / b - 10.0).abs() < 0.5, "{a:e} {b:e}");
     }
 
     #[test]

@@ -23,6 +23,9 @@ pub enum StewartError {
     /// The feed's rotation from its start attitude reaches π, where its rate is not defined.
     #[error("the feed's rotation from its start attitude reaches π at t = {time} s")]
     FeedRotationAtPi { time: f64 },
+    /// The scene's LQG controller could not be made.
+    #[error("{0}")]
+    Design(String),
     /// An input that is not a finite number (or a model set up with one).
     #[error("Stewart model: {what} = {value} is not valid")]
     Input { what: String, value: String },

@@ -12,7 +12,8 @@
 //! * [`kinematics`]: inverse and forward kinematics of the platform pose;
 //! * [`sensitivity`]: the outputs' first-order changes under a change of the cabin's motion;
 //! * [`imu`], [`fusion`]: the inertial unit on the cabin and the Kalman filter that fuses it with
-//!   the total station's delayed fixes (the compensation's estimate of the cabin's pose).
+//!   the total station's delayed fixes (the compensation's estimate of the cabin's pose);
+//! * [`lqg`]: the LQG law, its controller made from the scene's design model.
 //!
 //! Conventions: world frame Z up, gravity (0, 0, −g); cabin motion and the wrench in the world
 //! frame; the wrench is what the platform exerts on the cabin (moment about the cabin centre
@@ -25,6 +26,7 @@ mod error;
 pub mod fusion;
 pub mod imu;
 pub mod kinematics;
+pub mod lqg;
 pub mod path;
 pub mod reactions;
 pub mod relative;
@@ -118,7 +120,7 @@ impl Stewart {
         let mut stewart = Self::new(scene.stewart_geometry(), &motion, scene.gravity())?;
         let rest = stewart.path.at_rest();
         let legs = stewart.strokes_at(&rest, 0.0)?.map(|s| s.length);
-        stewart.compensation = Some(Compensation::new(scene, rest.position, legs));
+        stewart.compensation = Some(Compensation::new(scene, rest.position, legs).map_err(StewartError::Design)?);
         Ok(stewart)
     }
 

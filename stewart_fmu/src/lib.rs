@@ -407,10 +407,7 @@ impl StewartFmu {
         let command = self.data.command.take();
         let estimate = self.model().map(|model| {
             let c = model.compensation()?;
-            Some(match command.as_ref().and_then(|state| state.estimate(c, t)) {
-                Some(e) => (Vec3::from(e.position), e.attitude()),
-                None => c.reference(),
-            })
+            Some(command.as_ref().and_then(|state| state.estimate(c, t)).unwrap_or_else(|| c.reference()))
         });
         self.data.command = command;
         estimate?.ok_or_else(|| "the model has no compensation".into())

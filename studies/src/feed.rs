@@ -108,7 +108,7 @@ pub struct FeedTrace {
 
 impl FeedTrace {
     pub fn new(c: &Compensation) -> FeedTrace {
-        FeedTrace { legs: c.leg_limits(), force: c.force_limit(), fused: c.fused().is_some(), ..Default::default() }
+        FeedTrace { legs: c.leg_limits(), force: c.force_limit(), fused: c.estimates(), ..Default::default() }
     }
 
     /// CSV column names of the feed, in [`FeedTrace::write_row`] order.

@@ -338,6 +338,21 @@ impl Compensation {
     }
 }
 
+/// A wind record's seed: a whole number from 0 to 2⁶⁴ − 1.
+pub fn seed(text: &str) -> Result<u64, String> {
+    text.trim().parse().map_err(|_| format!("`{text}`: a seed is a whole number from 0 to {}", u64::MAX))
+}
+
+/// The scene with another record of its wind (`[wind] seed`, `--wind-seed`): the same spectrum;
+/// refused for a scene without `[wind]`.
+pub fn with_wind_seed(scene: &ValidScene, seed: Option<u64>) -> anyhow::Result<ValidScene> {
+    let Some(seed) = seed else { return Ok(scene.clone()) };
+    if scene.wind.is_none() {
+        bail!("--wind-seed: {} has no [wind] section, so there is no wind record to draw", scene.file());
+    }
+    Ok(scene.edited(|s| s.wind.iter_mut().for_each(|w| w.seed = seed))?)
+}
+
 /// A step given with the adaptive step is refused: the adaptive step chooses its own.
 pub fn check_dt(adaptive: bool, dt: Option<f64>) -> anyhow::Result<()> {
     if adaptive && dt.is_some() {

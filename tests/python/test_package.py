@@ -293,6 +293,7 @@ REFUSED = {
     "h_max": "nan",
     "estimate": "guess",
     "compensation": "maybe",
+    "wind_seed": "-1",
 }
 
 

@@ -14,6 +14,7 @@ pub(crate) mod bench;
 pub(crate) mod calibrate;
 pub(crate) mod compare;
 pub(crate) mod compensation;
+pub(crate) mod design;
 pub(crate) mod export_ssp;
 pub(crate) mod modes;
 pub(crate) mod output;

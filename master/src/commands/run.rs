@@ -61,6 +61,10 @@ pub(crate) struct Args {
     /// switched off, the uncompensated reference of its feed error.
     #[arg(long, default_value = "on", value_parser = named::<Compensation>())]
     pub(crate) compensation: Compensation,
+    /// The seed of the scene's wind record (`[wind] seed`), instead of the scene's: the same
+    /// spectrum, another record.
+    #[arg(long, value_parser = studies::options::seed, allow_negative_numbers = true)]
+    pub(crate) wind_seed: Option<u64>,
     #[command(flatten)]
     pub(crate) options: SchemeOptions,
     #[command(flatten)]
@@ -93,7 +97,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
     if let Some(option) = args.system_files.files().given() {
         bail!("--{option} applies to --system (an SSP archive or .ssd); a --scene names its FMUs in [system]");
     }
-    let scene = args.compensation.apply(&load_scene(scene_file)?)?;
+    let scene = studies::options::with_wind_seed(&args.compensation.apply(&load_scene(scene_file)?)?, args.wind_seed)?;
     let method = args.options.method(args.scheme)?;
     studies::options::check_dt(args.options.adaptive, args.dt)?;
     let dt = args.dt.unwrap_or(scene.solver.dt_s);

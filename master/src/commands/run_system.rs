@@ -19,6 +19,12 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
     if args.compensation != super::scheme_args::Compensation::On {
         bail!("--compensation applies to a --scene with [control]; a --system runs its FMUs as they are");
     }
+    if args.wind_seed.is_some() {
+        bail!("--wind-seed applies to a --scene with [wind]; a --system runs its FMUs as they are");
+    }
+    if args.wind_seed.is_some() {
+        bail!("--wind-seed applies to a --scene with [wind]; a --system runs its FMUs as they are");
+    }
     let method = args.options.method(args.scheme)?;
     let files = args.system_files.files();
     let system = SystemFile::prepare(file, method, args.dt, args.t_end, &files.limits(), &caps().run)?

@@ -222,12 +222,19 @@ fn a_rejected_step_restores_every_fmu_bit_for_bit() {
 }
 
 /// The same with the second level's state in the Stewart FMU's saved states (its command
-/// filter, pending commands, noise generator, inertial unit and Kalman filter): the fused scene
-/// from 100 ms on, each of eight steps undone and taken again, across readings (every 4 steps)
-/// and a fix (every 8).
+/// filter, pending commands, noise generator, inertial unit and Kalman filter; with the LQG law
+/// its controller's estimates and the fixes on their way): the fused and the LQG scene from
+/// 100 ms on, each of eight steps undone and taken again, across readings (every 4 steps) and a
+/// fix (every 8).
 #[test]
 fn a_rejected_step_restores_the_second_levels_state_bit_for_bit() {
-    let (scene, file) = common::scene("lt50m_C_compensated.toml", "undo-fused", |_| {});
+    for name in ["lt50m_C_compensated.toml", "lt50m_C_lqg.toml"] {
+        rejected_steps_restore(name);
+    }
+}
+
+fn rejected_steps_restore(name: &str) {
+    let (scene, file) = common::scene(name, "undo-fused", |_| {});
     for o in [options(Scheme::IqnIls), options(Scheme::Ijcsa)] {
         let mut c = fmu_system(&scene, &file, o);
         for _ in 0..40 {

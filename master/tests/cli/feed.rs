@@ -428,9 +428,10 @@ fn compensation_off_is_the_scene_with_its_sensor_off() {
 
 /// `master tune`: the same inputs give the same three files byte for byte; the report's choices
 /// are what the CSV's runs say (recomputed here: the coupled design the lowest coupled RMS among
-/// candidates stable in all five coupled runs, the decoupled design the lowest decoupled RMS); the
-/// tuned scene loads and carries the chosen filter. A 5 Hz filter looks best on the decoupled
-/// model and pumps the coupled one (README, "The second level").
+/// candidates stable in all five coupled runs, the decoupled design the lowest decoupled RMS among
+/// those its own run calls stable); the
+/// tuned scene loads and carries the chosen filter. (Which filters win over these 8 s depends on
+/// the wind's record.)
 #[test]
 fn tune_is_reproducible_and_its_report_is_its_runs() {
     let (_, file) = common::scene("lt50m_C_sampled.toml", "tune", |_| {});
@@ -461,13 +462,14 @@ fn tune_is_reproducible_and_its_report_is_its_runs() {
             coupled: f64::NAN,
             decoupled: f64::NAN,
             robust: true,
+            decoupled_stable: false,
         });
         // bandwidth, stages, prediction, notch frequency, notch quality, fusion scale, run, verdict, RMS, …
         assert_eq!(cells[1], "2", "{line}");
         let (run, stable, rms) = (cells[6], cells[7] == "stable", cells[8].parse::<f64>().unwrap());
         match run {
             "coupled" => e.coupled = rms,
-            "decoupled" => e.decoupled = rms,
+            "decoupled" => (e.decoupled, e.decoupled_stable) = (rms, stable),
             _ => {}
         }
         if run != "decoupled" {
@@ -476,14 +478,14 @@ fn tune_is_reproducible_and_its_report_is_its_runs() {
     }
     assert_eq!(runs.len(), 3, "{csv}");
     let coupled = lowest(&runs, |r| r.robust.then_some(r.coupled));
-    let decoupled = lowest(&runs, |r| Some(r.decoupled));
-    assert_eq!((coupled.as_str(), decoupled.as_str()), ("2", "5"), "{csv}");
+    let decoupled = lowest(&runs, |r| r.decoupled_stable.then_some(r.decoupled));
+    let hz = |b: &str| b.parse::<f64>().unwrap();
     let report = std::fs::read_to_string(dirs[0].join("tune.md")).unwrap();
     assert!(report.contains(&format!("| coupled | {coupled} Hz |")), "{report}");
     assert!(report.contains(&format!("| decoupled | {decoupled} Hz |")), "{report}");
-    assert!(report.contains("Chosen on the coupled model: **2 Hz**"), "{report}");
+    assert!(report.contains(&format!("Chosen on the coupled model: **{coupled} Hz**")), "{report}");
     let tuned = feedcore::scene::Scene::load(dirs[0].join("tuned.toml")).unwrap();
-    assert_eq!(tuned.control.as_ref().unwrap().bandwidth_hz, Some(2.0));
+    assert_eq!(tuned.control.as_ref().unwrap().bandwidth_hz, Some(hz(&coupled)));
 }
 
 /// `--filter-stages 2,3` tries each bandwidth in two and in three stages: both in the CSV (six
@@ -520,6 +522,8 @@ struct TunedRuns {
     coupled: f64,
     decoupled: f64,
     robust: bool,
+    /// Whether the decoupled run itself was judged stable.
+    decoupled_stable: bool,
 }
 
 /// The bandwidth whose figure (`key`, None: not admissible) is lowest.

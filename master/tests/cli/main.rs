@@ -28,6 +28,7 @@ mod analyses;
 mod archive_mutants;
 mod calibrate;
 mod cosim;
+mod design;
 mod feed;
 mod fmi3;
 mod misuse;

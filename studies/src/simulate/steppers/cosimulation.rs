@@ -174,7 +174,7 @@ impl CosimProbe {
         names.extend((1..=LEGS).map(|i| format!("actuator.force[{i}]")));
         names.extend((1..=4).map(|i| format!("platform.q[{i}]")));
         // the filter's estimate, with an inertial unit
-        if comp.fused().is_some() {
+        if comp.estimates() {
             names.extend((1..=3).map(|i| format!("estimate.r[{i}]")));
             names.extend((1..=4).map(|i| format!("estimate.q[{i}]")));
         }
@@ -210,7 +210,7 @@ impl CosimProbe {
                 let turn = seen.inverse() * quat(22);
                 let six = |i: usize| std::array::from_fn(|k| v[i + k]);
                 let now = c.time();
-                let estimate = comp.fused().map(|_| (Vec3::new(v[26], v[27], v[28]), quat(29)));
+                let estimate = comp.estimates().then(|| (Vec3::new(v[26], v[27], v[28]), quat(29)));
                 let cabin = (&position, &orientation);
                 Some(FeedSample::place(comp, now, cabin, (&relative, &turn), six(10), six(16), estimate))
             }
