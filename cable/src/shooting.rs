@@ -150,6 +150,19 @@ pub enum ShootingError {
     NotConverged { miss: f64 },
 }
 
+/// Backtracking: the first trial `attempt` accepts at the steps 1, ½, ¼, … down to `min_step`, or
+/// `None`.
+pub(crate) fn backtrack<T>(min_step: f64, mut attempt: impl FnMut(f64) -> Option<T>) -> Option<T> {
+    let mut step = 1.0;
+    while step >= min_step {
+        if let Some(accepted) = attempt(step) {
+            return Some(accepted);
+        }
+        step *= 0.5;
+    }
+    None
+}
+
 /// Solves the cable from `start` to `end` with unstretched length `length`.
 /// `guess` is a first-element tension vector to start Newton from (e.g. the last solution).
 pub fn solve_chain(
@@ -175,25 +188,20 @@ pub fn solve_chain(
             return Ok(ChainStatics { nodes, tension, d_last_tension_d_length: d_last });
         }
         let dt = j.lu().solve(&(-res)).ok_or(ShootingError::SingularJacobian { at_solution: false })?;
-        // Backtracking: accept the first step that reduces the miss distance and keeps |T| > 0.
-        let mut step = 1.0;
-        loop {
+        // Accept the first step that reduces the miss distance and keeps |T| > 0.
+        let accepted = backtrack(1e-12, |step| {
             let trial = t1 + dt * step;
-            if trial.norm() > 0.0 {
-                let (rt, jt, _) = walk(spec, start, length, &trial, None, None);
-                let rest = rt - end;
-                if rest.norm().is_finite() && rest.norm() < res.norm() {
-                    t1 = trial;
-                    j = jt;
-                    res = rest;
-                    break;
-                }
+            if !(trial.norm() > 0.0) {
+                return None;
             }
-            step *= 0.5;
-            if step < 1e-12 {
-                return Err(ShootingError::Stalled { miss: res.norm() });
-            }
-        }
+            let (rt, jt, _) = walk(spec, start, length, &trial, None, None);
+            let rest = rt - end;
+            (rest.norm().is_finite() && rest.norm() < res.norm()).then_some((trial, jt, rest))
+        });
+        let Some(next) = accepted else {
+            return Err(ShootingError::Stalled { miss: res.norm() });
+        };
+        (t1, j, res) = next;
     }
     Err(ShootingError::NotConverged { miss: res.norm() })
 }

@@ -13,7 +13,7 @@ use feedcore::{Quat, Vec3};
 use nalgebra::{Matrix6, Vector6};
 
 use crate::net::CableNet;
-use crate::shooting::{ChainStatics, ShootingError, solve_chain};
+use crate::shooting::{ChainStatics, ShootingError, backtrack, solve_chain};
 
 /// How a cable hangs at the equilibrium.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -258,29 +258,23 @@ fn form_find_loaded(
             detail: Detail::SingularJacobian,
         })?;
         // Backtracking on the residual norm; lengths stay positive.
-        let mut step = 1.0;
-        loop {
+        guesses = cables.iter().map(|c| Some(c.tension[0])).collect();
+        let accepted = backtrack(1e-10, |step| {
             let trial: Vec<f64> = (0..n).map(|i| lengths[i] + step * dl[i]).collect();
-            if trial.iter().all(|l| *l > 0.0) {
-                guesses = cables.iter().map(|c| Some(c.tension[0])).collect();
-                if let Ok(tc) = solve_all(&trial, &guesses) {
-                    let tr = residual_of(&tc, &trial);
-                    if tr.norm() < r.norm() {
-                        lengths = trial;
-                        cables = tc;
-                        r = tr;
-                        break;
-                    }
-                }
+            if !trial.iter().all(|l| *l > 0.0) {
+                return None;
             }
-            step *= 0.5;
-            if step < 1e-10 {
-                if r.amax() <= acceptable {
-                    return Ok(report(net, position, orientation, cables, &lengths, r.amax(), iter));
-                }
-                return Err(infeasible_or_stalled(&straight, r.amax(), iter));
+            let tc = solve_all(&trial, &guesses).ok()?;
+            let tr = residual_of(&tc, &trial);
+            (tr.norm() < r.norm()).then_some((trial, tc, tr))
+        });
+        let Some(next) = accepted else {
+            if r.amax() <= acceptable {
+                return Ok(report(net, position, orientation, cables, &lengths, r.amax(), iter));
             }
-        }
+            return Err(infeasible_or_stalled(&straight, r.amax(), iter));
+        };
+        (lengths, cables, r) = next;
     }
     Err(infeasible_or_stalled(&straight, r.amax(), max_iter))
 }

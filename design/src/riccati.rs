@@ -14,6 +14,7 @@
 //! 25 of them. Every solution is checked by its residual and by the closed loop's spectral radius
 //! before it is returned. The filter's equation is the dual (`Aᵀ`, `Cᵀ`).
 
+use crate::sampled::symmetrize;
 use nalgebra::DMatrix;
 
 /// Most doubling steps: 2⁸⁰ steps of the plain recursion.
@@ -58,17 +59,6 @@ pub enum RiccatiError {
 
 fn check(cond: bool, what: impl FnOnce() -> String) -> Result<(), RiccatiError> {
     if cond { Ok(()) } else { Err(RiccatiError::Shape(what())) }
-}
-
-fn symmetrize(m: &mut DMatrix<f64>) {
-    let n = m.nrows();
-    for i in 0..n {
-        for j in 0..i {
-            let v = 0.5 * (m[(i, j)] + m[(j, i)]);
-            m[(i, j)] = v;
-            m[(j, i)] = v;
-        }
-    }
 }
 
 /// Spectral radius of a square matrix, as `‖A^(2^k)‖^(1/2^k)` after 48 squarings (normalized at

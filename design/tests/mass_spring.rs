@@ -13,30 +13,37 @@ use design::h2::ClosedLoop;
 use design::lqg::{Measurement, Plant, synthesize};
 use nalgebra::DMatrix;
 
-const M: f64 = 2.0;
-const C: f64 = 0.4;
-const K: f64 = 8.0;
-const Q: f64 = 100.0;
-const RHO: f64 = 0.01;
-const W: f64 = 1.0;
-const V: f64 = 1e-4;
+/// The mass–spring–damper (mass, damping, stiffness), the cost's weights on the position and on
+/// the force, the intensities of the disturbance force and of the position's measurement noise.
+struct Case {
+    m: f64,
+    c: f64,
+    k: f64,
+    q: f64,
+    rho: f64,
+    w: f64,
+    v: f64,
+}
+
+const CASE: Case = Case { m: 2.0, c: 0.4, k: 8.0, q: 100.0, rho: 0.01, w: 1.0, v: 1e-4 };
 
 fn plant(t: f64) -> Plant {
-    let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -K / M, -C / M]);
-    let b = DMatrix::from_row_slice(2, 1, &[0.0, 1.0 / M]);
-    let w = DMatrix::from_row_slice(2, 2, &[0.0, 0.0, 0.0, W / (M * M)]);
-    let weight = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![Q, 0.0, RHO]));
+    let Case { m, c, k, q, rho, w, v } = CASE;
+    let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -k / m, -c / m]);
+    let b = DMatrix::from_row_slice(2, 1, &[0.0, 1.0 / m]);
+    let disturbance = DMatrix::from_row_slice(2, 2, &[0.0, 0.0, 0.0, w / (m * m)]);
+    let weight = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![q, 0.0, rho]));
     Plant {
         period: t,
         a,
         b,
-        w,
+        w: disturbance,
         f: DMatrix::zeros(0, 2),
         e: DMatrix::zeros(0, 0),
         v: DMatrix::zeros(0, 0),
         phases: vec![Measurement {
             c: DMatrix::from_row_slice(1, 2, &[1.0, 0.0]),
-            r: DMatrix::from_element(1, 1, V / t),
+            r: DMatrix::from_element(1, 1, v / t),
         }],
         weight,
     }
@@ -44,32 +51,34 @@ fn plant(t: f64) -> Plant {
 
 /// The continuous LQG's optimal cost, closed form, both ways.
 fn closed_form() -> (f64, f64) {
-    let gamma = (K * K + Q / RHO).sqrt();
-    let beta = (C * C + 2.0 * M * (gamma - K)).sqrt();
-    let (k1, k2) = (gamma - K, beta - C);
-    let (x12, x22) = (RHO * M * k1, RHO * M * k2);
-    let (a, b) = (K / M, C / M);
-    let x11 = a * x22 + b * x12 + x12 * x22 / (RHO * M * M);
-    let gf = (a * a + W / (V * M * M)).sqrt();
+    let Case { m, c, k, q, rho, w, v } = CASE;
+    let gamma = (k * k + q / rho).sqrt();
+    let beta = (c * c + 2.0 * m * (gamma - k)).sqrt();
+    let (k1, k2) = (gamma - k, beta - c);
+    let (x12, x22) = (rho * m * k1, rho * m * k2);
+    let (a, b) = (k / m, c / m);
+    let x11 = a * x22 + b * x12 + x12 * x22 / (rho * m * m);
+    let gf = (a * a + w / (v * m * m)).sqrt();
     let bf = (b * b + 2.0 * (gf - a)).sqrt();
     let l1 = bf - b;
     let l2 = gf - a - b * l1;
-    let (p11, p12) = (V * l1, V * l2);
-    let p22 = a * p11 + b * p12 + p11 * p12 / V;
+    let (p11, p12) = (v * l1, v * l2);
+    let p22 = a * p11 + b * p12 + p11 * p12 / v;
     // tr(QP) + tr(X L V Lᵀ), L = (l1, l2)
-    let one = Q * p11 + V * (x11 * l1 * l1 + 2.0 * x12 * l1 * l2 + x22 * l2 * l2);
+    let one = q * p11 + v * (x11 * l1 * l1 + 2.0 * x12 * l1 * l2 + x22 * l2 * l2);
     // tr(X G W Gᵀ) + tr(P Kᵀ ρ K)
-    let other = x22 * W / (M * M) + RHO * (p11 * k1 * k1 + 2.0 * p12 * k1 * k2 + p22 * k2 * k2);
+    let other = x22 * w / (m * m) + rho * (p11 * k1 * k1 + 2.0 * p12 * k1 * k2 + p22 * k2 * k2);
     (one, other)
 }
 
 fn sampled_cost(t: f64) -> f64 {
+    let Case { q, rho, .. } = CASE;
     let p = plant(t);
     let syn = synthesize(&p).unwrap();
     assert!(syn.regulator.residual < 1e-10 && syn.filter.residual < 1e-10);
     let cl = ClosedLoop::new(&p, &syn).unwrap();
-    let h = DMatrix::from_row_slice(2, 2, &[Q.sqrt(), 0.0, 0.0, 0.0]);
-    let d = DMatrix::from_row_slice(2, 1, &[0.0, RHO.sqrt()]);
+    let h = DMatrix::from_row_slice(2, 2, &[q.sqrt(), 0.0, 0.0, 0.0]);
+    let d = DMatrix::from_row_slice(2, 1, &[0.0, rho.sqrt()]);
     cl.mean_square(&h, &d)
 }
 

@@ -73,22 +73,12 @@ pub(crate) type fmi2FreeInstanceTYPE = unsafe extern "C" fn(fmi2Component);
 pub(crate) type fmi2SetupExperimentTYPE =
     unsafe extern "C" fn(fmi2Component, fmi2Boolean, fmi2Real, fmi2Real, fmi2Boolean, fmi2Real) -> fmi2Status;
 pub(crate) type fmi2ComponentOnlyTYPE = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
-pub(crate) type fmi2GetRealTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *mut fmi2Real) -> fmi2Status;
-pub(crate) type fmi2GetIntegerTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *mut fmi2Integer) -> fmi2Status;
-pub(crate) type fmi2GetBooleanTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *mut fmi2Boolean) -> fmi2Status;
-pub(crate) type fmi2GetStringTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *mut fmi2String) -> fmi2Status;
-pub(crate) type fmi2SetRealTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *const fmi2Real) -> fmi2Status;
-pub(crate) type fmi2SetIntegerTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *const fmi2Integer) -> fmi2Status;
-pub(crate) type fmi2SetBooleanTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *const fmi2Boolean) -> fmi2Status;
-pub(crate) type fmi2SetStringTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *const fmi2String) -> fmi2Status;
+/// `fmi2GetReal`, `fmi2GetInteger`, `fmi2GetBoolean`, `fmi2GetString`: values of C type `T`.
+pub(crate) type fmi2GetTYPE<T> =
+    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *mut T) -> fmi2Status;
+/// `fmi2SetReal`, `fmi2SetInteger`, `fmi2SetBoolean`, `fmi2SetString`: values of C type `T`.
+pub(crate) type fmi2SetTYPE<T> =
+    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *const T) -> fmi2Status;
 pub(crate) type fmi2GetFMUstateTYPE = unsafe extern "C" fn(fmi2Component, *mut fmi2FMUstate) -> fmi2Status;
 pub(crate) type fmi2SetFMUstateTYPE = unsafe extern "C" fn(fmi2Component, fmi2FMUstate) -> fmi2Status;
 pub(crate) type fmi2FreeFMUstateTYPE = unsafe extern "C" fn(fmi2Component, *mut fmi2FMUstate) -> fmi2Status;

@@ -154,13 +154,7 @@ fn leg_frames_obey_the_joints() {
 
 #[test]
 fn placed_bodies_match_finite_differences_on_a_moving_cabin() {
-    let scene = common::scene("lt50m_C")
-        .edited(|scene| {
-            scene.motion.speed_m_s = 0.3;
-        })
-        .unwrap();
-    let st = Stewart::from_scene(&scene).unwrap();
-    let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
+    let (_, st, path) = common::moving("lt50m_C", 0.3);
     for t in [0.5, 2.2, 6.1] {
         for i in 0..BODIES {
             let body = |s: f64| st.place_bodies(&path.at(s), &st.relative(s).unwrap())[i];

@@ -16,13 +16,7 @@ use stewart::{CabinMotion, Evaluation, Stewart};
 #[test]
 fn hooke_reactions_add_up_to_the_momentum_wrench() {
     for name in ["lt50m_B", "lt50m_C"] {
-        let scene = common::scene(name)
-            .edited(|scene| {
-                scene.motion.speed_m_s = 0.3;
-            })
-            .unwrap();
-        let st = Stewart::from_scene(&scene).unwrap();
-        let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
+        let (_, st, path) = common::moving(name, 0.3);
         for t in [0.0, 1.5, 7.0, 19.0, 33.0] {
             let cabin = path.at(t);
             let e = st.evaluate(&cabin, t).unwrap();
@@ -89,13 +83,7 @@ fn multipliers_solve_the_full_system_of_eq_5() {
 
 #[test]
 fn every_body_is_in_newton_euler_balance_with_its_joint_reactions() {
-    let scene = common::scene("lt50m_C")
-        .edited(|scene| {
-            scene.motion.speed_m_s = 0.3;
-        })
-        .unwrap();
-    let st = Stewart::from_scene(&scene).unwrap();
-    let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
+    let (_, st, path) = common::moving("lt50m_C", 0.3);
     let t = 5.5;
     let cabin = path.at(t);
     let e = st.evaluate(&cabin, t).unwrap();

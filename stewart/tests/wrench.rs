@@ -136,55 +136,31 @@ fn split(x: &Vector6<f64>) -> (Vec3, Vec3) {
 #[test]
 fn jacobians_match_central_differences() {
     for (name, speed) in [("lt50m_B", 0.02), ("lt50m_C", 0.02), ("lt50m_B", 0.5)] {
-        let scene = common::scene(name)
-            .edited(|scene| {
-                scene.motion.speed_m_s = speed;
-            })
-            .unwrap();
-        let st = Stewart::from_scene(&scene).unwrap();
-        let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
+        let (_, st, path) = common::moving(name, speed);
         for t in [0.0, 1.9, 8.4, 23.0] {
             let cabin = path.at(t);
             let (_, jac) = st.wrench_with_jacobians(&cabin, t).unwrap();
-            let e = |k: usize, h: f64| {
-                let mut x = Vector6::zeros();
-                x[k] = h;
-                split(&x)
+            // ∂W/∂(two 3-vectors of the motion) by central differences; `nudge` moves the motion by
+            // the first and the second part of a 6-vector
+            let fd = |nudge: fn(&mut CabinMotion, Vec3, Vec3), h: f64| {
+                let wrench = |k: usize, h: f64| {
+                    let mut x = Vector6::zeros();
+                    x[k] = h;
+                    let (p, q) = split(&x);
+                    let mut c = cabin;
+                    nudge(&mut c, p, q);
+                    st.wrench(&c, t).unwrap().to_vector()
+                };
+                finite_difference(wrench, h)
             };
-            let wr = |c: CabinMotion| st.wrench(&c, t).unwrap().to_vector();
-            let fd_acc = finite_difference(
-                |k, h| {
-                    let (a, al) = e(k, h);
-                    wr(CabinMotion {
-                        acceleration: cabin.acceleration + a,
-                        angular_acceleration: cabin.angular_acceleration + al,
-                        ..cabin
-                    })
-                },
+            let fd_acc = fd(
+                |c, a, al| (c.acceleration, c.angular_acceleration) = (c.acceleration + a, c.angular_acceleration + al),
                 1e-3,
             );
-            let fd_vel = finite_difference(
-                |k, h| {
-                    let (v, w) = e(k, h);
-                    wr(CabinMotion {
-                        velocity: cabin.velocity + v,
-                        angular_velocity: cabin.angular_velocity + w,
-                        ..cabin
-                    })
-                },
-                1e-4,
-            );
-            let fd_pose = finite_difference(
-                |k, h| {
-                    let (dr, dth) = e(k, h);
-                    wr(CabinMotion {
-                        position: cabin.position + dr,
-                        orientation: exp_so3(&dth) * cabin.orientation,
-                        ..cabin
-                    })
-                },
-                1e-5,
-            );
+            let fd_vel =
+                fd(|c, v, w| (c.velocity, c.angular_velocity) = (c.velocity + v, c.angular_velocity + w), 1e-4);
+            let fd_pose =
+                fd(|c, dr, dth| (c.position, c.orientation) = (c.position + dr, exp_so3(&dth) * c.orientation), 1e-5);
             assert_matrix_close(&format!("{name} t={t} ∂W/∂(a,α)"), &jac.acceleration, &fd_acc, 1e-6);
             assert_matrix_close(&format!("{name} t={t} ∂W/∂(v,ω)"), &jac.velocity, &fd_vel, 1e-6);
             assert_matrix_close(&format!("{name} t={t} ∂W/∂(δr,δθ)"), &jac.pose, &fd_pose, 1e-6);

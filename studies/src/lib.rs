@@ -19,7 +19,8 @@
 //!   error), [`stability`] (where each scheme is stable), [`compensation`] (the second level:
 //!   feed error, sensor sweep, error budget), [`tune`] (the second level's filter chosen),
 //!   [`stress`] (the long and hard runs), [`reproduce`] (the paper side by side, with the
-//!   modal [`hypotheses`]), [`calibrate`] (scene keys fitted to measured natural frequencies);
+//!   modal [`hypotheses`]), [`calibrate`] (scene keys fitted to measured natural frequencies),
+//!   [`lqg`] (the second level's LQG design and the bound no linear controller beats);
 //! * [`observe`]: what a caller sees of a study as it goes;
 //! * [`net`]: the system in space at one instant (cable points and tensions, cabin, platform,
 //!   feed), what runs hand to a [`net::NetSink`]; [`view3d`]: the net drawn in 3-D (statics,
@@ -42,6 +43,7 @@ pub mod compensation;
 pub mod feed;
 pub mod hypotheses;
 pub mod limits;
+pub mod lqg;
 pub mod net;
 pub mod observe;
 pub mod options;

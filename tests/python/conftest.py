@@ -9,6 +9,7 @@ from ctypes import byref
 import fmpy
 import pytest
 from fmpy import read_model_description
+from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
     fmi2CallbackAllocateMemoryTYPE,
@@ -91,3 +92,13 @@ class Slave:
 
     def free(self):
         self.fmu.freeInstance()
+
+
+def expect_error(slave, call, *fragments):
+    """`call` fails with fmi2Error, and the FMU's log of errors names every fragment."""
+    with pytest.raises(FMICallException) as e:
+        call()
+    assert e.value.status == 3, e.value
+    text = " ".join(slave.errors())
+    for f in fragments:
+        assert f in text, f"`{f}` not in the FMU log: {slave.messages}"

@@ -94,12 +94,6 @@ def CABLE_DRIVE(t):
     )
 
 
-def _cable_reference(result, start_values):
-    return rust_replay(
-        "cable_fmu", REPO / "scenes" / "lt50m_C.toml", CABLE_INPUTS, CABLE_OUTPUTS, result, start_values.get("newton_tol")
-    )
-
-
 STEWART_INPUTS = [f"cabin.{p}[{k}]" for p, n in (("r", 3), ("q", 4), ("v", 3), ("w", 3), ("a", 3), ("alpha", 3)) for k in range(1, n + 1)]
 STEWART_OUTPUTS = (
     [f"wrench.{p}[{k}]" for p in ("f", "m") for k in (1, 2, 3)]
@@ -123,8 +117,16 @@ def STEWART_DRIVE(t):
     )
 
 
-def _stewart_reference(result, start_values):
-    return rust_replay("stewart_fmu", REPO / "scenes" / "lt50m_C.toml", STEWART_INPUTS, STEWART_OUTPUTS, result)
+def _lt50m_case(name, inputs, outputs, drive, fd_delta, start_values=None):
+    """An FMU of the LT50m models: 3 s of scene C in steps of 0.01 s, against its Rust library
+    replayed in-process on the inputs fmpy applied."""
+    def reference(result, start_values):
+        scene = REPO / "scenes" / "lt50m_C.toml"
+        return rust_replay(name, scene, inputs, outputs, result, start_values.get("newton_tol"))
+
+    return FmuCase(name=name, inputs=inputs, outputs=outputs, step_size=0.01, stop_time=3.0, drive=drive,
+                   reference=reference, reference_rtol=1e-9, resource_parameter="scene", fd_delta=fd_delta,
+                   fd_rtol=1e-6, start_values=start_values or {})
 
 
 CASES = [
@@ -142,32 +144,8 @@ CASES = [
         fd_rtol=1e-8,
         start_values={"k": 50.0, "c": 1.0, "substeps": 3, "gravity": True, "x0": 0.05},
     ),
-    FmuCase(
-        name="cable_fmu",
-        inputs=CABLE_INPUTS,
-        outputs=CABLE_OUTPUTS,
-        step_size=0.01,
-        stop_time=3.0,
-        drive=CABLE_DRIVE,
-        reference=_cable_reference,
-        reference_rtol=1e-9,
-        resource_parameter="scene",
-        fd_delta=[20.0, 20.0, 20.0, 10.0, 10.0, 10.0],
-        fd_rtol=1e-6,
-        # a tight Newton tolerance: the finite differences then measure the model, not the solver
-        start_values={"newton_tol": 1e-13},
-    ),
-    FmuCase(
-        name="stewart_fmu",
-        inputs=STEWART_INPUTS,
-        outputs=STEWART_OUTPUTS,
-        step_size=0.01,
-        stop_time=3.0,
-        drive=STEWART_DRIVE,
-        reference=_stewart_reference,
-        reference_rtol=1e-9,
-        resource_parameter="scene",
-        fd_delta=[1e-5] * 19,
-        fd_rtol=1e-6,
-    ),
+    # a tight Newton tolerance: the finite differences then measure the model, not the solver
+    _lt50m_case("cable_fmu", CABLE_INPUTS, CABLE_OUTPUTS, CABLE_DRIVE, [20.0, 20.0, 20.0, 10.0, 10.0, 10.0],
+                start_values={"newton_tol": 1e-13}),
+    _lt50m_case("stewart_fmu", STEWART_INPUTS, STEWART_OUTPUTS, STEWART_DRIVE, [1e-5] * 19),
 ]

@@ -9,7 +9,7 @@ from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 
-from conftest import Slave, fmu_path
+from conftest import Slave, expect_error, fmu_path
 
 
 def drive_table(case):
@@ -156,15 +156,6 @@ def test_the_step_map_extension_matches_central_differences_with_rollback(case, 
         scale = max(np.abs(exact).max(), 1e-12)
         assert np.abs(fd - exact).max() <= case.fd_rtol * scale, f"d/d{name}: fd {fd} vs exact {exact}"
     s.free()
-
-
-def expect_error(slave, call, *fragments):
-    with pytest.raises(FMICallException) as e:
-        call()
-    assert e.value.status == 3, e.value
-    text = " ".join(slave.errors())
-    for f in fragments:
-        assert f in text, f"`{f}` not in the FMU log: {slave.messages}"
 
 
 def test_do_step_before_initialization_is_an_error(case, unpacked):

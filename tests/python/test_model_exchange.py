@@ -13,7 +13,7 @@ from fmpy.ssp.ssd import read_ssd
 
 import c_fmus
 from conftest import DIST
-from zoo import SCHEMES, ball_exact, chain_expected, pack, run
+from zoo import SCHEMES, ball_exact, chain_expected, pack, parameter_bindings, run, ssd_text
 
 TIGHT = ("--tol", "1e-13", "--max-iter", "500", "--me-rtol", "1e-10", "--me-atol", "1e-12")
 
@@ -220,26 +220,15 @@ def careless_system(tmp_path, c_built, misbehaviour):
     for n in ["hostile_me", "feedthrough"]:
         shutil.copy(c_built[n], tmp_path / f"{n}.fmu")
     ssd = tmp_path / "careless.ssd"
-    ssd.write_text(f"""<?xml version="1.0" encoding="UTF-8"?>
-<ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="careless">
-  <ssd:System name="careless">
-    <ssd:Elements>
-      <ssd:Component name="bad" source="hostile_me.fmu">
-        <ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>
-          <ssv:ParameterSet version="1.0" name="bad"><ssv:Parameters>
-            <ssv:Parameter name="misbehaviour"><ssv:Integer value="{misbehaviour}"/></ssv:Parameter>
-          </ssv:Parameters></ssv:ParameterSet>
-        </ssd:ParameterValues></ssd:ParameterBinding></ssd:ParameterBindings>
+    bindings = parameter_bindings("bad", [("misbehaviour", "Integer", misbehaviour)])
+    elements = f"""      <ssd:Component name="bad" source="hostile_me.fmu">
+{bindings}
       </ssd:Component>
-      <ssd:Component name="f" source="feedthrough.fmu"/>
-    </ssd:Elements>
-    <ssd:Connections>
-      <ssd:Connection startElement="bad" startConnector="x" endElement="f" endConnector="real_continuous_in"/>
-    </ssd:Connections>
-  </ssd:System>
-  <ssd:DefaultExperiment startTime="0" stopTime="2"/>
-</ssd:SystemStructureDescription>
-""")
+      <ssd:Component name="f" source="feedthrough.fmu"/>"""
+    connections = (
+        '      <ssd:Connection startElement="bad" startConnector="x" endElement="f" endConnector="real_continuous_in"/>'
+    )
+    ssd.write_text(ssd_text("careless", elements, connections, stop_time=2))
     return ssd
 
 

@@ -27,6 +27,7 @@ from fmpy.ssp.simulation import simulate_ssp
 
 from conftest import DIST, REPO
 from fmus import MASTER
+from zoo import parameter_bindings, ssd_text
 
 
 
@@ -71,40 +72,24 @@ def test_exported_lt50m_ssp_is_valid_for_fmpy(tmp_path):
         slave.freeInstance()
 
 
-ONE_WAY = """<?xml version="1.0" encoding="UTF-8"?>
-<ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="chain">
-  <ssd:System name="chain">
-    <ssd:Elements>
-      <ssd:Component name="a" source="oscillator.fmu">
+A_PARAMETERS = parameter_bindings("a", [("x0", "Real", 0), ("v0", "Real", 1)])
+ONE_WAY = ssd_text(
+    "chain",
+    f"""      <ssd:Component name="a" source="oscillator.fmu">
         <ssd:Connectors>
           <ssd:Connector name="x" kind="output"><ssc:Real/></ssd:Connector>
         </ssd:Connectors>
-        <ssd:ParameterBindings>
-          <ssd:ParameterBinding>
-            <ssd:ParameterValues>
-              <ssv:ParameterSet version="1.0" name="a">
-                <ssv:Parameters>
-                  <ssv:Parameter name="x0"><ssv:Real value="0"/></ssv:Parameter>
-                  <ssv:Parameter name="v0"><ssv:Real value="1"/></ssv:Parameter>
-                </ssv:Parameters>
-              </ssv:ParameterSet>
-            </ssd:ParameterValues>
-          </ssd:ParameterBinding>
-        </ssd:ParameterBindings>
+{A_PARAMETERS}
       </ssd:Component>
       <ssd:Component name="b" source="oscillator.fmu">
         <ssd:Connectors>
           <ssd:Connector name="F" kind="input"><ssc:Real/></ssd:Connector>
           <ssd:Connector name="x" kind="output"><ssc:Real/></ssd:Connector>
         </ssd:Connectors>
-      </ssd:Component>
-    </ssd:Elements>
-    <ssd:Connections>
-      <ssd:Connection startElement="a" startConnector="x" endElement="b" endConnector="F"><ssc:LinearTransformation factor="1"/></ssd:Connection>
-    </ssd:Connections>
-  </ssd:System>
-</ssd:SystemStructureDescription>
-"""
+      </ssd:Component>""",
+    '      <ssd:Connection startElement="a" startConnector="x" endElement="b" endConnector="F">'
+    '<ssc:LinearTransformation factor="1"/></ssd:Connection>',
+)
 
 
 def test_oscillator_chain_matches_fmpy(tmp_path):

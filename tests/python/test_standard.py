@@ -8,9 +8,8 @@ import subprocess
 
 import numpy as np
 import pytest
-from fmpy.fmi1 import FMICallException
 
-from conftest import Slave, fmu_path, DIST, REPO
+from conftest import Slave, expect_error, fmu_path, DIST, REPO
 import fmpy
 from fmpy import read_model_description, simulate_fmu
 from zoo import MASTER
@@ -160,15 +159,6 @@ def test_scene_b_starts_at_rest_under_a_standard_importer(tmp_path):
     assert drift <= 1e-6
     cable.free()
     stewart.free()
-
-
-def expect_error(slave, call, *fragments):
-    with pytest.raises(FMICallException) as e:
-        call()
-    assert e.value.status == 3, e.value
-    text = " ".join(slave.errors())
-    for f in fragments:
-        assert f in text, f"`{f}` not in the FMU log: {slave.messages}"
 
 
 def test_misuse_through_the_c_abi_fails_cleanly(tmp_path):

@@ -225,9 +225,8 @@ pub unsafe fn free_instance<M: Model>(c: fmi2Component) {
 
 /// # Safety
 /// As the module's contract; `categories` holds `n` strings.
-pub unsafe fn set_debug_logging_as<M: Model>(
+pub unsafe fn set_debug_logging<M: Model>(
     func: &'static str,
-
     c: fmi2Component,
     logging_on: fmi2Boolean,
     n: usize,
@@ -257,18 +256,6 @@ pub unsafe fn set_debug_logging_as<M: Model>(
             Ok(fmi2OK)
         })
     }
-}
-
-/// # Safety
-/// As [`set_debug_logging_as`].
-pub unsafe fn set_debug_logging<M: Model>(
-    c: fmi2Component,
-    logging_on: fmi2Boolean,
-    n: usize,
-    categories: *const fmi2String,
-) -> fmi2Status {
-    // SAFETY: the same contract.
-    unsafe { set_debug_logging_as::<M>("fmi2SetDebugLogging", c, logging_on, n, categories) }
 }
 
 /// # Safety
@@ -314,7 +301,7 @@ pub unsafe fn enter_initialization_mode<M: Model>(c: fmi2Component) -> fmi2Statu
 
 /// # Safety
 /// As the module's contract.
-pub unsafe fn exit_initialization_mode_as<M: Model>(func: &'static str, c: fmi2Component) -> fmi2Status {
+pub unsafe fn exit_initialization_mode<M: Model>(func: &'static str, c: fmi2Component) -> fmi2Status {
     // SAFETY: `c` as the contract says.
     unsafe {
         call::<M>(c, func, &[InitializationMode], |inst| {
@@ -334,15 +321,8 @@ pub unsafe fn exit_initialization_mode_as<M: Model>(func: &'static str, c: fmi2C
 }
 
 /// # Safety
-/// As [`exit_initialization_mode_as`].
-pub unsafe fn exit_initialization_mode<M: Model>(c: fmi2Component) -> fmi2Status {
-    // SAFETY: the same contract.
-    unsafe { exit_initialization_mode_as::<M>("fmi2ExitInitializationMode", c) }
-}
-
-/// # Safety
 /// As the module's contract.
-pub unsafe fn terminate_as<M: Model>(func: &'static str, c: fmi2Component) -> fmi2Status {
+pub unsafe fn terminate<M: Model>(func: &'static str, c: fmi2Component) -> fmi2Status {
     // SAFETY: `c` as the contract says.
     unsafe {
         call::<M>(c, func, &[StepMode, StepFailed, EventMode, ContinuousTime], |inst| {
@@ -353,15 +333,8 @@ pub unsafe fn terminate_as<M: Model>(func: &'static str, c: fmi2Component) -> fm
 }
 
 /// # Safety
-/// As [`terminate_as`].
-pub unsafe fn terminate<M: Model>(c: fmi2Component) -> fmi2Status {
-    // SAFETY: the same contract.
-    unsafe { terminate_as::<M>("fmi2Terminate", c) }
-}
-
-/// # Safety
 /// As the module's contract.
-pub unsafe fn reset_as<M: Model>(func: &'static str, c: fmi2Component) -> fmi2Status {
+pub unsafe fn reset<M: Model>(func: &'static str, c: fmi2Component) -> fmi2Status {
     // SAFETY: `c` as the contract says.
     unsafe {
         call::<M>(c, func, ALL_BUT_FATAL, |inst| {
@@ -371,13 +344,6 @@ pub unsafe fn reset_as<M: Model>(func: &'static str, c: fmi2Component) -> fmi2St
             Ok(fmi2OK)
         })
     }
-}
-
-/// # Safety
-/// As [`reset_as`].
-pub unsafe fn reset<M: Model>(c: fmi2Component) -> fmi2Status {
-    // SAFETY: the same contract.
-    unsafe { reset_as::<M>("fmi2Reset", c) }
 }
 
 /// Shared body of `fmi2Get{Real,Integer,Boolean}`; `invalid` refuses a value the model
@@ -555,7 +521,7 @@ pub unsafe fn set_string<M: Model>(c: fmi2Component, vr: *const u32, n: usize, v
 
 /// # Safety
 /// As the module's contract; `state` is writable and holds null or a state of this instance's FMU.
-pub unsafe fn get_fmu_state_as<M: Model>(func: &'static str, c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
+pub unsafe fn get_fmu_state<M: Model>(func: &'static str, c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
     // SAFETY: `c`, `state` and the state it holds as the contract says.
     unsafe {
         call::<M>(c, func, STATE_OK, |inst| {
@@ -574,15 +540,8 @@ pub unsafe fn get_fmu_state_as<M: Model>(func: &'static str, c: fmi2Component, s
 }
 
 /// # Safety
-/// As [`get_fmu_state_as`].
-pub unsafe fn get_fmu_state<M: Model>(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
-    // SAFETY: the same contract.
-    unsafe { get_fmu_state_as::<M>("fmi2GetFMUstate", c, state) }
-}
-
-/// # Safety
 /// As the module's contract; `state` is null or a state of this instance's FMU.
-pub unsafe fn set_fmu_state_as<M: Model>(func: &'static str, c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
+pub unsafe fn set_fmu_state<M: Model>(func: &'static str, c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
     // SAFETY: `c` and `state` as the contract says.
     unsafe {
         call::<M>(c, func, ALL_BUT_FATAL, |inst| {
@@ -593,19 +552,8 @@ pub unsafe fn set_fmu_state_as<M: Model>(func: &'static str, c: fmi2Component, s
 }
 
 /// # Safety
-/// As [`set_fmu_state_as`].
-pub unsafe fn set_fmu_state<M: Model>(c: fmi2Component, state: fmi2FMUstate) -> fmi2Status {
-    // SAFETY: the same contract.
-    unsafe { set_fmu_state_as::<M>("fmi2SetFMUstate", c, state) }
-}
-
-/// # Safety
 /// As [`get_fmu_state`]; the state is freed and `*state` null afterwards.
-pub unsafe fn free_fmu_state_as<M: Model>(
-    func: &'static str,
-    c: fmi2Component,
-    state: *mut fmi2FMUstate,
-) -> fmi2Status {
+pub unsafe fn free_fmu_state<M: Model>(func: &'static str, c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
     // SAFETY: `c`, `state` and the state it holds as the contract says.
     unsafe {
         call::<M>(c, func, ANY, |_| {
@@ -620,17 +568,9 @@ pub unsafe fn free_fmu_state_as<M: Model>(
 }
 
 /// # Safety
-/// As [`free_fmu_state_as`].
-pub unsafe fn free_fmu_state<M: Model>(c: fmi2Component, state: *mut fmi2FMUstate) -> fmi2Status {
-    // SAFETY: the same contract.
-    unsafe { free_fmu_state_as::<M>("fmi2FreeFMUstate", c, state) }
-}
-
-/// # Safety
 /// As [`set_fmu_state`]; `size` is writable.
-pub unsafe fn serialized_fmu_state_size_as<M: Model>(
+pub unsafe fn serialized_fmu_state_size<M: Model>(
     func: &'static str,
-
     c: fmi2Component,
     state: fmi2FMUstate,
     size: *mut usize,
@@ -645,21 +585,9 @@ pub unsafe fn serialized_fmu_state_size_as<M: Model>(
 }
 
 /// # Safety
-/// As [`serialized_fmu_state_size_as`].
-pub unsafe fn serialized_fmu_state_size<M: Model>(
-    c: fmi2Component,
-    state: fmi2FMUstate,
-    size: *mut usize,
-) -> fmi2Status {
-    // SAFETY: the same contract.
-    unsafe { serialized_fmu_state_size_as::<M>("fmi2SerializedFMUstateSize", c, state, size) }
-}
-
-/// # Safety
 /// As [`set_fmu_state`]; `bytes` holds `size` writable bytes.
-pub unsafe fn serialize_fmu_state_as<M: Model>(
+pub unsafe fn serialize_fmu_state<M: Model>(
     func: &'static str,
-
     c: fmi2Component,
     state: fmi2FMUstate,
     bytes: *mut fmi2Byte,
@@ -681,22 +609,9 @@ pub unsafe fn serialize_fmu_state_as<M: Model>(
 }
 
 /// # Safety
-/// As [`serialize_fmu_state_as`].
-pub unsafe fn serialize_fmu_state<M: Model>(
-    c: fmi2Component,
-    state: fmi2FMUstate,
-    bytes: *mut fmi2Byte,
-    size: usize,
-) -> fmi2Status {
-    // SAFETY: the same contract.
-    unsafe { serialize_fmu_state_as::<M>("fmi2SerializeFMUstate", c, state, bytes, size) }
-}
-
-/// # Safety
 /// As [`get_fmu_state`]; `bytes` holds `size` readable bytes.
-pub unsafe fn deserialize_fmu_state_as<M: Model>(
+pub unsafe fn deserialize_fmu_state<M: Model>(
     func: &'static str,
-
     c: fmi2Component,
     bytes: *const fmi2Byte,
     size: usize,
@@ -716,18 +631,6 @@ pub unsafe fn deserialize_fmu_state_as<M: Model>(
             Ok(fmi2OK)
         })
     }
-}
-
-/// # Safety
-/// As [`deserialize_fmu_state_as`].
-pub unsafe fn deserialize_fmu_state<M: Model>(
-    c: fmi2Component,
-    bytes: *const fmi2Byte,
-    size: usize,
-    state: *mut fmi2FMUstate,
-) -> fmi2Status {
-    // SAFETY: the same contract.
-    unsafe { deserialize_fmu_state_as::<M>("fmi2DeSerializeFMUstate", c, bytes, size, state) }
 }
 
 /// `fmi2GetDirectionalDerivative` ([`Derivative::Instant`]) and the extension
@@ -789,26 +692,8 @@ pub(crate) fn derivative_checked<M: Model>(
     seed: &[f64],
     out: &mut [f64],
 ) -> Result<(), String> {
-    let (mut k, mut s) = (std::mem::take(&mut inst.scratch_knowns), std::mem::take(&mut inst.scratch_seed));
-    let result = derivative_into(inst, kind, unknowns, knowns, seed, out, &mut k, &mut s);
-    (inst.scratch_knowns, inst.scratch_seed) = (k, s);
-    result
-}
-
-/// [`derivative_checked`] with the buffers `k`, `s` for the knowns kept.
-#[allow(clippy::too_many_arguments)]
-fn derivative_into<M: Model>(
-    inst: &mut Instance<M>,
-    kind: Derivative,
-    unknowns: &[u32],
-    knowns: &[u32],
-    seed: &[f64],
-    out: &mut [f64],
-    k: &mut Vec<u32>,
-    s: &mut Vec<f64>,
-) -> Result<(), String> {
-    k.clear();
-    s.clear();
+    inst.scratch_knowns.clear();
+    inst.scratch_seed.clear();
     for &r in unknowns {
         let v = inst.find(VarType::Real, r)?;
         if !matches!(v.var.causality, Causality::Output | Causality::Local | Causality::CalculatedParameter) {
@@ -827,11 +712,12 @@ fn derivative_into<M: Model>(
         // A zero seed on a parameter contributes nothing (importers such as OMSimulator pass
         // whole dependency lists).
         if !(is_param && x == 0.0) {
-            k.push(r);
-            s.push(x);
+            inst.scratch_knowns.push(r);
+            inst.scratch_seed.push(x);
         }
     }
-    inst.model.derivative(kind, Seeds { unknowns, knowns: k, seed: s }, out).msg()?;
+    let at = Seeds { unknowns, knowns: &inst.scratch_knowns, seed: &inst.scratch_seed };
+    inst.model.derivative(kind, at, out).msg()?;
     if let Some(i) = out.iter().position(|x| !x.is_finite()) {
         let v = inst.find(VarType::Real, unknowns[i])?;
         return Err(format!("the derivative of {} is {} at t = {}", describe(v), out[i], inst.time));

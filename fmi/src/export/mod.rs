@@ -280,6 +280,40 @@ pub(crate) const LOG_CATEGORIES: [(&str, &str); 4] = [
     ("logAll", "All of the above"),
 ];
 
+/// Inside [`export_fmu!`] and [`export_fmu3!`](crate::export_fmu3): each function exported under
+/// its name as an `unsafe extern "C"` function whose safety contract is the importer's duty under
+/// FMI `$version` (as the export macro `$see` says), its body the layer's function it calls.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! exports {
+    ($version:literal, $see:literal; $(
+        $(#[$doc:meta])* fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? { $($body:tt)* }
+    )*) => {$(
+        $(#[$doc])*
+        /// # Safety
+        #[doc = concat!("The importer's obligations under FMI ", $version, " (see [`", $see, "`]).")]
+        #[unsafe(no_mangle)]
+        pub unsafe extern "C" fn $name($($arg: $ty),*) $(-> $ret)? {
+            // SAFETY: the importer's obligations (see the export macro) are the callee's contract.
+            unsafe { $($body)* }
+        }
+    )*};
+}
+
+/// Inside [`export_fmu!`]: `fmi2Get*`/`fmi2Set*` of each type, forwarded to the layer's function
+/// of that type.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! fmi2_values {
+    ($($name:ident($values:ty) => $f:ident),* $(,)?) => {
+        $crate::exports! { "2.0", "fmi::export_fmu!"; $(
+            fn $name(c: fmi2Component, vr: *const u32, n: usize, v: $values) -> fmi2Status {
+                e::$f::<M>(c, vr, n, v)
+            }
+        )* }
+    };
+}
+
 /// Exports a [`Model`] as the 34 `fmi2*` C functions of an FMI 2.0 Co-Simulation FMU, and the
 /// extension `feedsimGetStepMapDerivative`. Invoke once, in a `cdylib` crate:
 /// `fmi::export_fmu!(my_crate::MyModel);`.
@@ -304,368 +338,148 @@ macro_rules! export_fmu {
             pub extern "C" fn fmi2GetVersion() -> *const ::std::ffi::c_char {
                 e::version()
             }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SetDebugLogging(
-                c: fmi2Component,
-                on: fmi2Boolean,
-                n: usize,
-                cats: *const fmi2String,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::set_debug_logging::<M>(c, on, n, cats) }
+            $crate::exports! { "2.0", "fmi::export_fmu!";
+                fn fmi2SetDebugLogging(
+                    c: fmi2Component, on: fmi2Boolean, n: usize, cats: *const fmi2String,
+                ) -> fmi2Status {
+                    e::set_debug_logging::<M>("fmi2SetDebugLogging", c, on, n, cats)
+                }
+                fn fmi2Instantiate(
+                    name: fmi2String, kind: fmi2Type, guid: fmi2String, resources: fmi2String,
+                    functions: *const fmi2CallbackFunctions, visible: fmi2Boolean, logging_on: fmi2Boolean,
+                ) -> fmi2Component {
+                    e::instantiate::<M>(&INFO, name, kind, guid, resources, functions, visible, logging_on)
+                }
+                fn fmi2FreeInstance(c: fmi2Component) {
+                    e::free_instance::<M>(c)
+                }
+                fn fmi2SetupExperiment(
+                    c: fmi2Component, tol_defined: fmi2Boolean, tol: f64, start: f64, stop_defined: fmi2Boolean,
+                    stop: f64,
+                ) -> fmi2Status {
+                    e::setup_experiment::<M>(c, tol_defined, tol, start, stop_defined, stop)
+                }
+                fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
+                    e::enter_initialization_mode::<M>(c)
+                }
+                fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
+                    e::exit_initialization_mode::<M>("fmi2ExitInitializationMode", c)
+                }
+                fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
+                    e::terminate::<M>("fmi2Terminate", c)
+                }
+                fn fmi2Reset(c: fmi2Component) -> fmi2Status {
+                    e::reset::<M>("fmi2Reset", c)
+                }
+                fn fmi2GetFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
+                    e::get_fmu_state::<M>("fmi2GetFMUstate", c, s)
+                }
+                fn fmi2SetFMUstate(c: fmi2Component, s: fmi2FMUstate) -> fmi2Status {
+                    e::set_fmu_state::<M>("fmi2SetFMUstate", c, s)
+                }
+                fn fmi2FreeFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
+                    e::free_fmu_state::<M>("fmi2FreeFMUstate", c, s)
+                }
+                fn fmi2SerializedFMUstateSize(c: fmi2Component, s: fmi2FMUstate, size: *mut usize) -> fmi2Status {
+                    e::serialized_fmu_state_size::<M>("fmi2SerializedFMUstateSize", c, s, size)
+                }
+                fn fmi2SerializeFMUstate(
+                    c: fmi2Component, s: fmi2FMUstate, bytes: *mut fmi2Byte, size: usize,
+                ) -> fmi2Status {
+                    e::serialize_fmu_state::<M>("fmi2SerializeFMUstate", c, s, bytes, size)
+                }
+                fn fmi2DeSerializeFMUstate(
+                    c: fmi2Component, bytes: *const fmi2Byte, size: usize, s: *mut fmi2FMUstate,
+                ) -> fmi2Status {
+                    e::deserialize_fmu_state::<M>("fmi2DeSerializeFMUstate", c, bytes, size, s)
+                }
+                fn fmi2GetDirectionalDerivative(
+                    c: fmi2Component, vu: *const u32, nu: usize, vk: *const u32, nk: usize, dvk: *const f64,
+                    dvu: *mut f64,
+                ) -> fmi2Status {
+                    e::derivative::<M>(c, $crate::export::Derivative::Instant, vu, nu, vk, nk, dvk, dvu)
+                }
+                /// The opt-in extension of this workspace (see `fmi::export::Derivative::StepMap`);
+                /// exported always, announced in modelDescription.xml only when the model provides it.
+                fn feedsimGetStepMapDerivative(
+                    c: fmi2Component, vu: *const u32, nu: usize, vk: *const u32, nk: usize, dvk: *const f64,
+                    dvu: *mut f64,
+                ) -> fmi2Status {
+                    e::derivative::<M>(c, $crate::export::Derivative::StepMap, vu, nu, vk, nk, dvk, dvu)
+                }
+                fn fmi2SetRealInputDerivatives(
+                    c: fmi2Component, vr: *const u32, n: usize, order: *const i32, v: *const f64,
+                ) -> fmi2Status {
+                    e::set_real_input_derivatives::<M>(c, vr, n, order, v)
+                }
+                fn fmi2GetRealOutputDerivatives(
+                    c: fmi2Component, vr: *const u32, n: usize, order: *const i32, v: *mut f64,
+                ) -> fmi2Status {
+                    e::get_real_output_derivatives::<M>(c, vr, n, order, v)
+                }
+                fn fmi2DoStep(c: fmi2Component, t: f64, h: f64, no_prior: fmi2Boolean) -> fmi2Status {
+                    e::do_step::<M>(c, t, h, no_prior)
+                }
+                fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
+                    e::cancel_step::<M>(c)
+                }
+                fn fmi2GetStatus(c: fmi2Component, s: fmi2StatusKind, v: *mut fmi2Status) -> fmi2Status {
+                    e::get_status::<M>(c, s, v)
+                }
+                fn fmi2GetRealStatus(c: fmi2Component, s: fmi2StatusKind, v: *mut f64) -> fmi2Status {
+                    e::get_real_status::<M>(c, s, v)
+                }
+                fn fmi2GetIntegerStatus(c: fmi2Component, s: fmi2StatusKind, v: *mut i32) -> fmi2Status {
+                    e::get_integer_status::<M>(c, s, v)
+                }
+                fn fmi2GetBooleanStatus(c: fmi2Component, s: fmi2StatusKind, v: *mut i32) -> fmi2Status {
+                    e::get_boolean_status::<M>(c, s, v)
+                }
+                fn fmi2GetStringStatus(c: fmi2Component, s: fmi2StatusKind, v: *mut fmi2String) -> fmi2Status {
+                    e::get_string_status::<M>(c, s, v)
+                }
+                // Model Exchange (refused unless the description offers it and the instance is of it)
+                fn fmi2EnterEventMode(c: fmi2Component) -> fmi2Status {
+                    $crate::export::me::enter_event_mode::<M>(c, "fmi2EnterEventMode")
+                }
+                fn fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status {
+                    $crate::export::me::enter_continuous_time_mode::<M>(c, "fmi2EnterContinuousTimeMode")
+                }
+                fn fmi2CompletedIntegratorStep(
+                    c: fmi2Component, _no_prior: fmi2Boolean, enter_event_mode: *mut fmi2Boolean,
+                    terminate: *mut fmi2Boolean,
+                ) -> fmi2Status {
+                    let (name, event) = ("fmi2CompletedIntegratorStep", enter_event_mode);
+                    $crate::export::me::completed_integrator_step::<M, fmi2Boolean>(c, name, event, terminate)
+                }
+                fn fmi2SetTime(c: fmi2Component, t: f64) -> fmi2Status {
+                    $crate::export::me::set_time::<M>(c, "fmi2SetTime", t)
+                }
+                fn fmi2SetContinuousStates(c: fmi2Component, x: *const f64, n: usize) -> fmi2Status {
+                    $crate::export::me::set_continuous_states::<M>(c, "fmi2SetContinuousStates", x, n)
+                }
+                fn fmi2GetDerivatives(c: fmi2Component, x: *mut f64, n: usize) -> fmi2Status {
+                    let which = $crate::export::me::Which::Derivatives;
+                    $crate::export::me::get_reals::<M>(c, "fmi2GetDerivatives", which, x, n)
+                }
+                fn fmi2GetEventIndicators(c: fmi2Component, z: *mut f64, n: usize) -> fmi2Status {
+                    $crate::export::me::event_indicators::<M>(c, "fmi2GetEventIndicators", z, n)
+                }
+                fn fmi2GetContinuousStates(c: fmi2Component, x: *mut f64, n: usize) -> fmi2Status {
+                    let which = $crate::export::me::Which::States;
+                    $crate::export::me::get_reals::<M>(c, "fmi2GetContinuousStates", which, x, n)
+                }
+                fn fmi2GetNominalsOfContinuousStates(c: fmi2Component, x: *mut f64, n: usize) -> fmi2Status {
+                    $crate::export::me::nominals::<M>(c, "fmi2GetNominalsOfContinuousStates", x, n)
+                }
             }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2Instantiate(
-                name: fmi2String,
-                kind: fmi2Type,
-                guid: fmi2String,
-                resources: fmi2String,
-                functions: *const fmi2CallbackFunctions,
-                visible: fmi2Boolean,
-                logging_on: fmi2Boolean,
-            ) -> fmi2Component {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::instantiate::<M>(&INFO, name, kind, guid, resources, functions, visible, logging_on) }
+            $crate::fmi2_values! {
+                fmi2GetReal(*mut f64) => get_real, fmi2GetInteger(*mut i32) => get_integer,
+                fmi2GetBoolean(*mut i32) => get_boolean, fmi2GetString(*mut fmi2String) => get_string,
+                fmi2SetReal(*const f64) => set_real, fmi2SetInteger(*const i32) => set_integer,
+                fmi2SetBoolean(*const i32) => set_boolean, fmi2SetString(*const fmi2String) => set_string,
             }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::free_instance::<M>(c) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SetupExperiment(
-                c: fmi2Component,
-                tol_defined: fmi2Boolean,
-                tol: f64,
-                start: f64,
-                stop_defined: fmi2Boolean,
-                stop: f64,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::setup_experiment::<M>(c, tol_defined, tol, start, stop_defined, stop) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::enter_initialization_mode::<M>(c) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::exit_initialization_mode::<M>(c) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::terminate::<M>(c) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::reset::<M>(c) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetReal(
-                c: fmi2Component,
-                vr: *const u32,
-                n: usize,
-                v: *mut f64,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_real::<M>(c, vr, n, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetInteger(
-                c: fmi2Component,
-                vr: *const u32,
-                n: usize,
-                v: *mut i32,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_integer::<M>(c, vr, n, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetBoolean(
-                c: fmi2Component,
-                vr: *const u32,
-                n: usize,
-                v: *mut i32,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_boolean::<M>(c, vr, n, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetString(
-                c: fmi2Component,
-                vr: *const u32,
-                n: usize,
-                v: *mut fmi2String,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_string::<M>(c, vr, n, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SetReal(
-                c: fmi2Component,
-                vr: *const u32,
-                n: usize,
-                v: *const f64,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::set_real::<M>(c, vr, n, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SetInteger(
-                c: fmi2Component,
-                vr: *const u32,
-                n: usize,
-                v: *const i32,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::set_integer::<M>(c, vr, n, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SetBoolean(
-                c: fmi2Component,
-                vr: *const u32,
-                n: usize,
-                v: *const i32,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::set_boolean::<M>(c, vr, n, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SetString(
-                c: fmi2Component,
-                vr: *const u32,
-                n: usize,
-                v: *const fmi2String,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::set_string::<M>(c, vr, n, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_fmu_state::<M>(c, s) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, s: fmi2FMUstate) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::set_fmu_state::<M>(c, s) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::free_fmu_state::<M>(c, s) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
-                c: fmi2Component,
-                s: fmi2FMUstate,
-                size: *mut usize,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::serialized_fmu_state_size::<M>(c, s, size) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SerializeFMUstate(
-                c: fmi2Component,
-                s: fmi2FMUstate,
-                bytes: *mut fmi2Byte,
-                size: usize,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::serialize_fmu_state::<M>(c, s, bytes, size) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
-                c: fmi2Component,
-                bytes: *const fmi2Byte,
-                size: usize,
-                s: *mut fmi2FMUstate,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::deserialize_fmu_state::<M>(c, bytes, size, s) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
-                c: fmi2Component,
-                vu: *const u32,
-                nu: usize,
-                vk: *const u32,
-                nk: usize,
-                dvk: *const f64,
-                dvu: *mut f64,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::derivative::<M>(c, $crate::export::Derivative::Instant, vu, nu, vk, nk, dvk, dvu) }
-            }
-            /// The opt-in extension of this workspace (see `fmi::export::Derivative::StepMap`);
-            /// exported always, announced in modelDescription.xml only when the model provides it.
-            ///
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn feedsimGetStepMapDerivative(
-                c: fmi2Component,
-                vu: *const u32,
-                nu: usize,
-                vk: *const u32,
-                nk: usize,
-                dvk: *const f64,
-                dvu: *mut f64,
-            ) -> fmi2Status {
-                // SAFETY: the importer's obligations are those of fmi2GetDirectionalDerivative,
-                // the callee's contract.
-                unsafe { e::derivative::<M>(c, $crate::export::Derivative::StepMap, vu, nu, vk, nk, dvk, dvu) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
-                c: fmi2Component,
-                vr: *const u32,
-                n: usize,
-                order: *const i32,
-                v: *const f64,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::set_real_input_derivatives::<M>(c, vr, n, order, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
-                c: fmi2Component,
-                vr: *const u32,
-                n: usize,
-                order: *const i32,
-                v: *mut f64,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_real_output_derivatives::<M>(c, vr, n, order, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2DoStep(c: fmi2Component, t: f64, h: f64, no_prior: fmi2Boolean) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::do_step::<M>(c, t, h, no_prior) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::cancel_step::<M>(c) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetStatus(
-                c: fmi2Component,
-                s: fmi2StatusKind,
-                v: *mut fmi2Status,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_status::<M>(c, s, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, s: fmi2StatusKind, v: *mut f64) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_real_status::<M>(c, s, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetIntegerStatus(
-                c: fmi2Component,
-                s: fmi2StatusKind,
-                v: *mut i32,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_integer_status::<M>(c, s, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetBooleanStatus(
-                c: fmi2Component,
-                s: fmi2StatusKind,
-                v: *mut i32,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_boolean_status::<M>(c, s, v) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetStringStatus(
-                c: fmi2Component,
-                s: fmi2StatusKind,
-                v: *mut fmi2String,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_string_status::<M>(c, s, v) }
-            }
-
-            // Model Exchange (refused unless the description offers it and the instance is of it)
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2EnterEventMode(c: fmi2Component) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::enter_event_mode::<M>(c, "fmi2EnterEventMode") }
-            }
+            // Not in `exports!`: the closure holds an unsafe block of its own.
             /// # Safety
             /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
             #[unsafe(no_mangle)]
@@ -689,80 +503,6 @@ macro_rules! export_fmu {
                 };
                 // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::update_discrete_states::<M>(c, "fmi2NewDiscreteStates", report) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::enter_continuous_time_mode::<M>(c, "fmi2EnterContinuousTimeMode") }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2CompletedIntegratorStep(
-                c: fmi2Component,
-                _no_prior: fmi2Boolean,
-                enter_event_mode: *mut fmi2Boolean,
-                terminate: *mut fmi2Boolean,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe {
-                    $crate::export::me::completed_integrator_step::<M, fmi2Boolean>(
-                        c,
-                        "fmi2CompletedIntegratorStep",
-                        enter_event_mode,
-                        terminate,
-                    )
-                }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SetTime(c: fmi2Component, t: f64) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::set_time::<M>(c, "fmi2SetTime", t) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2SetContinuousStates(c: fmi2Component, x: *const f64, n: usize) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::set_continuous_states::<M>(c, "fmi2SetContinuousStates", x, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetDerivatives(c: fmi2Component, x: *mut f64, n: usize) -> fmi2Status {
-                let which = $crate::export::me::Which::Derivatives;
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::get_reals::<M>(c, "fmi2GetDerivatives", which, x, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetEventIndicators(c: fmi2Component, z: *mut f64, n: usize) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::event_indicators::<M>(c, "fmi2GetEventIndicators", z, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetContinuousStates(c: fmi2Component, x: *mut f64, n: usize) -> fmi2Status {
-                let which = $crate::export::me::Which::States;
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::get_reals::<M>(c, "fmi2GetContinuousStates", which, x, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 2.0 (see [`fmi::export_fmu!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(
-                c: fmi2Component,
-                x: *mut f64,
-                n: usize,
-            ) -> fmi2Status {
-                // SAFETY: the importer's FMI 2.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::nominals::<M>(c, "fmi2GetNominalsOfContinuousStates", x, n) }
             }
         };
     };

@@ -163,15 +163,15 @@ impl Harness {
     }
     fn exit(&self) -> fmi2Status {
         // SAFETY: the harness's invariant.
-        unsafe { e::exit_initialization_mode::<Toy>(self.c) }
+        unsafe { e::exit_initialization_mode::<Toy>("fmi2ExitInitializationMode", self.c) }
     }
     fn terminate(&self) -> fmi2Status {
         // SAFETY: the harness's invariant.
-        unsafe { e::terminate::<Toy>(self.c) }
+        unsafe { e::terminate::<Toy>("fmi2Terminate", self.c) }
     }
     fn reset(&self) -> fmi2Status {
         // SAFETY: the harness's invariant.
-        unsafe { e::reset::<Toy>(self.c) }
+        unsafe { e::reset::<Toy>("fmi2Reset", self.c) }
     }
     fn init(&self) {
         assert_eq!((self.setup(None), self.enter(), self.exit()), (fmi2OK, fmi2OK, fmi2OK));
@@ -216,33 +216,45 @@ impl Harness {
     /// fmi2GetFMUstate into `state` (null: a new state; else overwritten in place).
     fn get_state(&self, state: &mut fmi2FMUstate) -> fmi2Status {
         // SAFETY: the harness's invariant; `state` holds null or a state of this harness's FMU.
-        unsafe { e::get_fmu_state::<Toy>(self.c, state) }
+        unsafe { e::get_fmu_state::<Toy>("fmi2GetFMUstate", self.c, state) }
     }
     fn get_state_null(&self) -> fmi2Status {
         // SAFETY: the harness's invariant; a null `FMUstate*` is refused by the layer.
-        unsafe { e::get_fmu_state::<Toy>(self.c, std::ptr::null_mut()) }
+        unsafe { e::get_fmu_state::<Toy>("fmi2GetFMUstate", self.c, std::ptr::null_mut()) }
     }
     fn set_state(&self, state: fmi2FMUstate) -> fmi2Status {
         // SAFETY: the harness's invariant; `state` is a live state of Toy (the tests keep them so).
-        unsafe { e::set_fmu_state::<Toy>(self.c, state) }
+        unsafe { e::set_fmu_state::<Toy>("fmi2SetFMUstate", self.c, state) }
     }
     fn free_state(&self, state: &mut fmi2FMUstate) -> fmi2Status {
         // SAFETY: the harness's invariant; `state` is null or a live state of Toy.
-        unsafe { e::free_fmu_state::<Toy>(self.c, state) }
+        unsafe { e::free_fmu_state::<Toy>("fmi2FreeFMUstate", self.c, state) }
     }
     fn serialize(&self, state: fmi2FMUstate) -> Vec<u8> {
         let mut size = 0;
         // SAFETY: the harness's invariant; `state` is a live state of Toy; `size` a local.
-        assert_eq!(unsafe { e::serialized_fmu_state_size::<Toy>(self.c, state, &mut size) }, fmi2OK);
+        let status =
+            unsafe { e::serialized_fmu_state_size::<Toy>("fmi2SerializedFMUstateSize", self.c, state, &mut size) };
+        assert_eq!(status, fmi2OK);
         let mut bytes = vec![0u8; size];
         // SAFETY: as above; `bytes` holds `size` bytes.
-        let status = unsafe { e::serialize_fmu_state::<Toy>(self.c, state, bytes.as_mut_ptr().cast(), size) };
+        let status = unsafe {
+            e::serialize_fmu_state::<Toy>("fmi2SerializeFMUstate", self.c, state, bytes.as_mut_ptr().cast(), size)
+        };
         assert_eq!(status, fmi2OK);
         bytes
     }
     fn deserialize(&self, bytes: &[u8], state: &mut fmi2FMUstate) -> fmi2Status {
         // SAFETY: the harness's invariant; `bytes` holds its length; `state` holds null or a live state.
-        unsafe { e::deserialize_fmu_state::<Toy>(self.c, bytes.as_ptr().cast(), bytes.len(), state) }
+        unsafe {
+            e::deserialize_fmu_state::<Toy>(
+                "fmi2DeSerializeFMUstate",
+                self.c,
+                bytes.as_ptr().cast(),
+                bytes.len(),
+                state,
+            )
+        }
     }
     fn derivative(&self, kind: Derivative, u: u32, k: &[u32], s: &[f64], out: &mut f64) -> fmi2Status {
         assert_eq!(k.len(), s.len());
@@ -261,7 +273,7 @@ impl Harness {
     fn debug_logging(&self, on: bool, categories: &[&CStr]) -> fmi2Status {
         let ptrs: Vec<*const c_char> = categories.iter().map(|c| c.as_ptr()).collect();
         // SAFETY: the harness's invariant; `ptrs` holds its length of NUL-terminated strings.
-        unsafe { e::set_debug_logging::<Toy>(self.c, on.into(), ptrs.len(), ptrs.as_ptr()) }
+        unsafe { e::set_debug_logging::<Toy>("fmi2SetDebugLogging", self.c, on.into(), ptrs.len(), ptrs.as_ptr()) }
     }
     fn last_successful_time(&self) -> (fmi2Status, f64) {
         let mut t = f64::NAN;

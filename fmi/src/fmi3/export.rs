@@ -28,7 +28,7 @@ use crate::export::exported::{
 };
 use crate::export::instance::{Instance, Logger, Msg, Phase, V3, describe, log_to};
 use crate::export::{Derivative, Model};
-use crate::ffi::{fmi2Discard, fmi2Error, fmi2OK};
+use crate::ffi::{fmi2Discard, fmi2Error, fmi2OK, fmi2Status};
 
 /// Where the macro keeps a model's validated description and FMI 3.0 layout for the life of
 /// the process (built by the first instantiation, inside its panic guard).
@@ -56,45 +56,10 @@ fn resource_path(path: Option<&str>) -> Result<Option<PathBuf>, String> {
     }
 }
 
-/// # Safety
-/// Strings as in the module's contract; `log` callable with `env` while the instance lives.
-#[allow(clippy::too_many_arguments)]
-pub unsafe fn instantiate_co_simulation<M: Model>(
-    cell: &'static InfoCell3,
-    instance_name: fmi3String,
-    token: fmi3String,
-    resource_path_text: fmi3String,
-    logging_on: fmi3Boolean,
-    event_mode_used: fmi3Boolean,
-    early_return_allowed: fmi3Boolean,
-    env: fmi3InstanceEnvironment,
-    log: fmi3LogMessageCallback,
-) -> fmi3Instance {
-    let interface = Instance3::CoSimulation { event_mode_used, early_return_allowed };
-    // SAFETY: the same contract.
-    unsafe { instantiate::<M>(cell, interface, instance_name, token, resource_path_text, logging_on, env, log) }
-}
-
-/// # Safety
-/// Strings as in the module's contract; `log` callable with `env` while the instance lives.
-pub unsafe fn instantiate_model_exchange<M: Model>(
-    cell: &'static InfoCell3,
-    instance_name: fmi3String,
-    token: fmi3String,
-    resource_path_text: fmi3String,
-    logging_on: fmi3Boolean,
-    env: fmi3InstanceEnvironment,
-    log: fmi3LogMessageCallback,
-) -> fmi3Instance {
-    // SAFETY: the same contract.
-    unsafe {
-        instantiate::<M>(cell, Instance3::ModelExchange, instance_name, token, resource_path_text, logging_on, env, log)
-    }
-}
-
-/// Which interface an instance is made for.
+/// Which interface an instance is made for: `fmi3InstantiateCoSimulation` (with its flags) or
+/// `fmi3InstantiateModelExchange`.
 #[derive(Clone, Copy)]
-enum Instance3 {
+pub enum Instance3 {
     CoSimulation { event_mode_used: fmi3Boolean, early_return_allowed: fmi3Boolean },
     ModelExchange,
 }
@@ -102,7 +67,7 @@ enum Instance3 {
 /// # Safety
 /// Strings as in the module's contract; `log` callable with `env` while the instance lives.
 #[allow(clippy::too_many_arguments)]
-unsafe fn instantiate<M: Model>(
+pub unsafe fn instantiate<M: Model>(
     cell: &'static InfoCell3,
     interface: Instance3,
     instance_name: fmi3String,
@@ -189,7 +154,7 @@ pub unsafe fn set_debug_logging<M: Model>(
 ) -> fmi3Status {
     let on = c_int::from(logging_on != fmi3False);
     // SAFETY: the same contract.
-    unsafe { crate::export::exported::set_debug_logging_as::<M>("fmi3SetDebugLogging", c, on, n, categories) }
+    unsafe { crate::export::exported::set_debug_logging::<M>("fmi3SetDebugLogging", c, on, n, categories) }
 }
 
 /// # Safety
@@ -284,6 +249,21 @@ fn expand(
     Ok(())
 }
 
+/// `body` on the scalars `vrs` (of type `t`, holding `n_values` values) stand for, expanded into
+/// the instance's reused buffer.
+fn on_scalars<M: Model>(
+    inst: &mut Instance<M>,
+    t: VarType,
+    vrs: &[u32],
+    n_values: usize,
+    body: impl FnOnce(&mut Instance<M>, &[u32]) -> Result<fmi2Status, String>,
+) -> Result<fmi2Status, String> {
+    let mut scalars = std::mem::take(&mut v3_of(inst)?.scalars);
+    let result = expand(v3_of(inst)?.layout, t, vrs, n_values, &mut scalars).and_then(|()| body(inst, &scalars));
+    v3_of(inst)?.scalars = scalars;
+    result
+}
+
 /// The instance's FMI 3.0 part.
 fn v3_of<M: Model>(inst: &mut Instance<M>) -> Result<&mut V3, String> {
     inst.v3.as_mut().ok_or_else(|| "an FMI 2.0 instance called through FMI 3.0".to_owned())
@@ -346,16 +326,13 @@ unsafe fn get_each<M: Model, T>(
         call::<M>(c, func, GETTABLE, |inst| {
             let (vrs, out) = (slice(vr, n, "valueReferences")?, slice_mut(value, n_values, "values")?);
             let info = inst.info;
-            let mut scalars = std::mem::take(&mut v3_of(inst)?.scalars);
-            let result = expand(v3_of(inst)?.layout, t, vrs, n_values, &mut scalars).and_then(|()| {
+            on_scalars(inst, t, vrs, n_values, |inst, scalars| {
                 for (&s, o) in scalars.iter().zip(out.iter_mut()) {
                     let v = info.lookup(t, s).ok_or("unknown element")?;
                     *o = read(&mut inst.model, s).msg().map_err(|e| format!("{}: {e}", describe(v)))?;
                 }
                 Ok(fmi2OK)
-            });
-            v3_of(inst)?.scalars = scalars;
-            result
+            })
         })
     }
 }
@@ -401,10 +378,9 @@ pub unsafe fn get_string<M: Model>(
         call::<M>(c, "fmi3GetString", GETTABLE, |inst| {
             let (vrs, out) = (slice(vr, n, "valueReferences")?, slice_mut(value, n_values, "values")?);
             let info = inst.info;
-            let mut scalars = std::mem::take(&mut v3_of(inst)?.scalars);
-            let result = expand(v3_of(inst)?.layout, VarType::String, vrs, n_values, &mut scalars).and_then(|()| {
+            on_scalars(inst, VarType::String, vrs, n_values, |inst, scalars| {
                 inst.strings.clear();
-                for &s in &scalars {
+                for &s in scalars {
                     let v = info.lookup(VarType::String, s).ok_or("unknown element")?;
                     let text = inst.model.get_string(s).msg().map_err(|e| format!("{}: {e}", describe(v)))?;
                     inst.strings.push(CString::new(text.replace('\0', "")).unwrap_or_default());
@@ -413,9 +389,7 @@ pub unsafe fn get_string<M: Model>(
                     *o = s.as_ptr();
                 }
                 Ok(fmi2OK)
-            });
-            v3_of(inst)?.scalars = scalars;
-            result
+            })
         })
     }
 }
@@ -441,8 +415,7 @@ unsafe fn set_each<M: Model, T: Copy>(
         call::<M>(c, func, SETTABLE, |inst| {
             let (vrs, vals) = (slice(vr, n, "valueReferences")?, slice(value, n_values, "values")?);
             let (info, phase, phase_name) = (inst.info, inst.phase.set_phase(), inst.phase.name());
-            let mut scalars = std::mem::take(&mut v3_of(inst)?.scalars);
-            let result = expand(v3_of(inst)?.layout, t, vrs, n_values, &mut scalars).and_then(|()| {
+            on_scalars(inst, t, vrs, n_values, |inst, scalars| {
                 for (&s, &x) in scalars.iter().zip(vals) {
                     if s == TIME_SCALAR {
                         return Err("`time` (independent) cannot be set".into());
@@ -460,9 +433,7 @@ unsafe fn set_each<M: Model, T: Copy>(
                     apply(&mut inst.model, s, x).msg().map_err(|e| format!("{}: {e}", describe(v)))?;
                 }
                 Ok(fmi2OK)
-            });
-            v3_of(inst)?.scalars = scalars;
-            result
+            })
         })
     }
 }

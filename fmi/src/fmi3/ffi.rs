@@ -46,11 +46,12 @@ pub type fmi3IntermediateUpdateCallback = Option<
     ),
 >;
 
-// Function pointer types of the functions the importer calls.
-pub(crate) type fmi3GetVersionTYPE = unsafe extern "C" fn() -> *const c_char;
-pub(crate) type fmi3SetDebugLoggingTYPE =
+// Function pointer types of the functions the importer calls (public for tests that call an FMU
+// binary directly).
+pub type fmi3GetVersionTYPE = unsafe extern "C" fn() -> *const c_char;
+pub type fmi3SetDebugLoggingTYPE =
     unsafe extern "C" fn(fmi3Instance, fmi3Boolean, usize, *const fmi3String) -> fmi3Status;
-pub(crate) type fmi3InstantiateCoSimulationTYPE = unsafe extern "C" fn(
+pub type fmi3InstantiateCoSimulationTYPE = unsafe extern "C" fn(
     fmi3String,
     fmi3String,
     fmi3String,
@@ -64,23 +65,22 @@ pub(crate) type fmi3InstantiateCoSimulationTYPE = unsafe extern "C" fn(
     fmi3LogMessageCallback,
     fmi3IntermediateUpdateCallback,
 ) -> fmi3Instance;
-pub(crate) type fmi3FreeInstanceTYPE = unsafe extern "C" fn(fmi3Instance);
-pub(crate) type fmi3EnterInitializationModeTYPE =
+pub type fmi3FreeInstanceTYPE = unsafe extern "C" fn(fmi3Instance);
+pub type fmi3EnterInitializationModeTYPE =
     unsafe extern "C" fn(fmi3Instance, fmi3Boolean, fmi3Float64, fmi3Float64, fmi3Boolean, fmi3Float64) -> fmi3Status;
-pub(crate) type fmi3InstanceOnlyTYPE = unsafe extern "C" fn(fmi3Instance) -> fmi3Status;
-pub(crate) type fmi3GetTYPE<T> =
+pub type fmi3InstanceOnlyTYPE = unsafe extern "C" fn(fmi3Instance) -> fmi3Status;
+pub type fmi3GetTYPE<T> =
     unsafe extern "C" fn(fmi3Instance, *const fmi3ValueReference, usize, *mut T, usize) -> fmi3Status;
-pub(crate) type fmi3SetTYPE<T> =
+pub type fmi3SetTYPE<T> =
     unsafe extern "C" fn(fmi3Instance, *const fmi3ValueReference, usize, *const T, usize) -> fmi3Status;
-pub(crate) type fmi3GetFMUStateTYPE = unsafe extern "C" fn(fmi3Instance, *mut fmi3FMUState) -> fmi3Status;
-pub(crate) type fmi3SetFMUStateTYPE = unsafe extern "C" fn(fmi3Instance, fmi3FMUState) -> fmi3Status;
-pub(crate) type fmi3SerializedFMUStateSizeTYPE =
-    unsafe extern "C" fn(fmi3Instance, fmi3FMUState, *mut usize) -> fmi3Status;
-pub(crate) type fmi3SerializeFMUStateTYPE =
+pub type fmi3GetFMUStateTYPE = unsafe extern "C" fn(fmi3Instance, *mut fmi3FMUState) -> fmi3Status;
+pub type fmi3SetFMUStateTYPE = unsafe extern "C" fn(fmi3Instance, fmi3FMUState) -> fmi3Status;
+pub type fmi3SerializedFMUStateSizeTYPE = unsafe extern "C" fn(fmi3Instance, fmi3FMUState, *mut usize) -> fmi3Status;
+pub type fmi3SerializeFMUStateTYPE =
     unsafe extern "C" fn(fmi3Instance, fmi3FMUState, *mut fmi3Byte, usize) -> fmi3Status;
-pub(crate) type fmi3DeserializeFMUStateTYPE =
+pub type fmi3DeserializeFMUStateTYPE =
     unsafe extern "C" fn(fmi3Instance, *const fmi3Byte, usize, *mut fmi3FMUState) -> fmi3Status;
-pub(crate) type fmi3GetDirectionalDerivativeTYPE = unsafe extern "C" fn(
+pub type fmi3GetDirectionalDerivativeTYPE = unsafe extern "C" fn(
     fmi3Instance,
     *const fmi3ValueReference,
     usize,
@@ -91,7 +91,7 @@ pub(crate) type fmi3GetDirectionalDerivativeTYPE = unsafe extern "C" fn(
     *mut fmi3Float64,
     usize,
 ) -> fmi3Status;
-pub(crate) type fmi3DoStepTYPE = unsafe extern "C" fn(
+pub type fmi3DoStepTYPE = unsafe extern "C" fn(
     fmi3Instance,
     fmi3Float64,
     fmi3Float64,
@@ -102,7 +102,7 @@ pub(crate) type fmi3DoStepTYPE = unsafe extern "C" fn(
     *mut fmi3Float64,
 ) -> fmi3Status;
 
-pub(crate) type fmi3InstantiateModelExchangeTYPE = unsafe extern "C" fn(
+pub type fmi3InstantiateModelExchangeTYPE = unsafe extern "C" fn(
     fmi3String,
     fmi3String,
     fmi3String,
@@ -114,7 +114,7 @@ pub(crate) type fmi3InstantiateModelExchangeTYPE = unsafe extern "C" fn(
 /// `fmi3UpdateDiscreteStates(instance, &discreteStatesNeedUpdate, &terminateSimulation,
 /// &nominalsOfContinuousStatesChanged, &valuesOfContinuousStatesChanged, &nextEventTimeDefined,
 /// &nextEventTime)`.
-pub(crate) type fmi3UpdateDiscreteStatesTYPE = unsafe extern "C" fn(
+pub type fmi3UpdateDiscreteStatesTYPE = unsafe extern "C" fn(
     fmi3Instance,
     *mut fmi3Boolean,
     *mut fmi3Boolean,
@@ -123,16 +123,15 @@ pub(crate) type fmi3UpdateDiscreteStatesTYPE = unsafe extern "C" fn(
     *mut fmi3Boolean,
     *mut fmi3Float64,
 ) -> fmi3Status;
-pub(crate) type fmi3CompletedIntegratorStepTYPE =
+pub type fmi3CompletedIntegratorStepTYPE =
     unsafe extern "C" fn(fmi3Instance, fmi3Boolean, *mut fmi3Boolean, *mut fmi3Boolean) -> fmi3Status;
-pub(crate) type fmi3SetTimeTYPE = unsafe extern "C" fn(fmi3Instance, fmi3Float64) -> fmi3Status;
-pub(crate) type fmi3SetContinuousStatesTYPE =
-    unsafe extern "C" fn(fmi3Instance, *const fmi3Float64, usize) -> fmi3Status;
+pub type fmi3SetTimeTYPE = unsafe extern "C" fn(fmi3Instance, fmi3Float64) -> fmi3Status;
+pub type fmi3SetContinuousStatesTYPE = unsafe extern "C" fn(fmi3Instance, *const fmi3Float64, usize) -> fmi3Status;
 /// `fmi3GetContinuousStateDerivatives`, `fmi3GetEventIndicators`, `fmi3GetContinuousStates`,
 /// `fmi3GetNominalsOfContinuousStates`.
-pub(crate) type fmi3GetRealArrayTYPE = unsafe extern "C" fn(fmi3Instance, *mut fmi3Float64, usize) -> fmi3Status;
+pub type fmi3GetRealArrayTYPE = unsafe extern "C" fn(fmi3Instance, *mut fmi3Float64, usize) -> fmi3Status;
 /// `fmi3GetNumberOfEventIndicators`, `fmi3GetNumberOfContinuousStates`.
-pub(crate) type fmi3GetCountTYPE = unsafe extern "C" fn(fmi3Instance, *mut usize) -> fmi3Status;
+pub type fmi3GetCountTYPE = unsafe extern "C" fn(fmi3Instance, *mut usize) -> fmi3Status;
 
 /// The standard's spelling of a status, e.g. `fmi3Discard`.
 pub fn status_name(status: fmi3Status) -> String {

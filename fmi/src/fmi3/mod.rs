@@ -102,37 +102,137 @@ macro_rules! export_fmu3 {
             pub extern "C" fn fmi3GetVersion() -> *const c_char {
                 e3::version()
             }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SetDebugLogging(c: I, on: fmi3Boolean, n: usize, cats: *const fmi3String) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::set_debug_logging::<M>(c, on, n, cats) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3InstantiateModelExchange(
-                name: fmi3String, token: fmi3String, resources: fmi3String, _visible: fmi3Boolean,
-                logging_on: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback,
-            ) -> I {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::instantiate_model_exchange::<M>(&INFO, name, token, resources, logging_on, env, log) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
-                name: fmi3String, token: fmi3String, resources: fmi3String, _visible: fmi3Boolean,
-                logging_on: fmi3Boolean, event_mode_used: fmi3Boolean, early_return_allowed: fmi3Boolean,
-                _required: VR, _n_required: usize, env: fmi3InstanceEnvironment,
-                log: fmi3LogMessageCallback, _intermediate: fmi3IntermediateUpdateCallback,
-            ) -> I {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe {
-                    e3::instantiate_co_simulation::<M>(
-                        &INFO, name, token, resources, logging_on, event_mode_used, early_return_allowed, env, log,
+            $crate::exports! { "3.0", "fmi::export_fmu3!";
+                fn fmi3SetDebugLogging(c: I, on: fmi3Boolean, n: usize, cats: *const fmi3String) -> fmi3Status {
+                    e3::set_debug_logging::<M>(c, on, n, cats)
+                }
+                fn fmi3InstantiateModelExchange(
+                    name: fmi3String, token: fmi3String, resources: fmi3String, _visible: fmi3Boolean,
+                    logging_on: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback,
+                ) -> I {
+                    let interface = e3::Instance3::ModelExchange;
+                    e3::instantiate::<M>(&INFO, interface, name, token, resources, logging_on, env, log)
+                }
+                fn fmi3InstantiateCoSimulation(
+                    name: fmi3String, token: fmi3String, resources: fmi3String, _visible: fmi3Boolean,
+                    logging_on: fmi3Boolean, event_mode_used: fmi3Boolean, early_return_allowed: fmi3Boolean,
+                    _required: VR, _n_required: usize, env: fmi3InstanceEnvironment,
+                    log: fmi3LogMessageCallback, _intermediate: fmi3IntermediateUpdateCallback,
+                ) -> I {
+                    let interface = e3::Instance3::CoSimulation { event_mode_used, early_return_allowed };
+                    e3::instantiate::<M>(&INFO, interface, name, token, resources, logging_on, env, log)
+                }
+                fn fmi3FreeInstance(c: I) {
+                    e::free_instance::<M>(c)
+                }
+                fn fmi3EnterInitializationMode(
+                    c: I, tol_defined: fmi3Boolean, tol: f64, start: f64, stop_defined: fmi3Boolean, stop: f64,
+                ) -> fmi3Status {
+                    e3::enter_initialization_mode::<M>(c, tol_defined, tol, start, stop_defined, stop)
+                }
+                fn fmi3ExitInitializationMode(c: I) -> fmi3Status {
+                    e::exit_initialization_mode::<M>("fmi3ExitInitializationMode", c)
+                }
+                fn fmi3Terminate(c: I) -> fmi3Status {
+                    e::terminate::<M>("fmi3Terminate", c)
+                }
+                fn fmi3Reset(c: I) -> fmi3Status {
+                    e::reset::<M>("fmi3Reset", c)
+                }
+                fn fmi3GetBinary(
+                    c: I, vr: VR, n: usize, _sizes: *mut usize, _v: *mut *const u8, _nv: usize,
+                ) -> fmi3Status {
+                    e3::no_variables::<M>(c, "fmi3GetBinary", vr, n)
+                }
+                fn fmi3SetBinary(
+                    c: I, vr: VR, n: usize, _sizes: *const usize, _v: *const *const u8, _nv: usize,
+                ) -> fmi3Status {
+                    e3::no_variables::<M>(c, "fmi3SetBinary", vr, n)
+                }
+                fn fmi3GetClock(c: I, vr: VR, n: usize, _v: *mut fmi3Boolean) -> fmi3Status {
+                    e3::no_variables::<M>(c, "fmi3GetClock", vr, n)
+                }
+                fn fmi3SetClock(c: I, vr: VR, n: usize, _v: *const fmi3Boolean) -> fmi3Status {
+                    e3::no_variables::<M>(c, "fmi3SetClock", vr, n)
+                }
+                fn fmi3GetFMUState(c: I, s: *mut fmi3FMUState) -> fmi3Status {
+                    e::get_fmu_state::<M>("fmi3GetFMUState", c, s)
+                }
+                fn fmi3SetFMUState(c: I, s: fmi3FMUState) -> fmi3Status {
+                    e::set_fmu_state::<M>("fmi3SetFMUState", c, s)
+                }
+                fn fmi3FreeFMUState(c: I, s: *mut fmi3FMUState) -> fmi3Status {
+                    e::free_fmu_state::<M>("fmi3FreeFMUState", c, s)
+                }
+                fn fmi3SerializedFMUStateSize(c: I, s: fmi3FMUState, size: *mut usize) -> fmi3Status {
+                    e::serialized_fmu_state_size::<M>("fmi3SerializedFMUStateSize", c, s, size)
+                }
+                fn fmi3SerializeFMUState(c: I, s: fmi3FMUState, bytes: *mut fmi3Byte, size: usize) -> fmi3Status {
+                    e::serialize_fmu_state::<M>("fmi3SerializeFMUState", c, s, bytes.cast(), size)
+                }
+                fn fmi3DeserializeFMUState(
+                    c: I, bytes: *const fmi3Byte, size: usize, s: *mut fmi3FMUState,
+                ) -> fmi3Status {
+                    e::deserialize_fmu_state::<M>("fmi3DeserializeFMUState", c, bytes.cast(), size, s)
+                }
+                fn fmi3GetDirectionalDerivative(
+                    c: I, u: VR, nu: usize, k: VR, nk: usize, seed: *const f64, ns: usize, out: *mut f64, no: usize,
+                ) -> fmi3Status {
+                    e3::derivative::<M>(c, $crate::export::Derivative::Instant, u, nu, k, nk, seed, ns, out, no)
+                }
+                /// The opt-in extension of this workspace (the step map's derivative, see
+                /// `fmi::export::Derivative::StepMap`) with the signature of
+                /// fmi3GetDirectionalDerivative; exported always, announced in modelDescription.xml
+                /// only when the model provides it.
+                fn feedsim3GetStepMapDerivative(
+                    c: I, u: VR, nu: usize, k: VR, nk: usize, seed: *const f64, ns: usize, out: *mut f64, no: usize,
+                ) -> fmi3Status {
+                    e3::derivative::<M>(c, $crate::export::Derivative::StepMap, u, nu, k, nk, seed, ns, out, no)
+                }
+                fn fmi3DoStep(
+                    c: I, t: f64, h: f64, no_prior: fmi3Boolean, event: *mut fmi3Boolean, terminate: *mut fmi3Boolean,
+                    early: *mut fmi3Boolean, last: *mut f64,
+                ) -> fmi3Status {
+                    e3::do_step::<M>(c, t, h, no_prior, event, terminate, early, last)
+                }
+                fn fmi3EnterEventMode(c: I) -> fmi3Status {
+                    $crate::export::me::enter_event_mode::<M>(c, "fmi3EnterEventMode")
+                }
+                fn fmi3EnterContinuousTimeMode(c: I) -> fmi3Status {
+                    $crate::export::me::enter_continuous_time_mode::<M>(c, "fmi3EnterContinuousTimeMode")
+                }
+                fn fmi3CompletedIntegratorStep(
+                    c: I, _no_prior: fmi3Boolean, event: *mut fmi3Boolean, terminate: *mut fmi3Boolean,
+                ) -> fmi3Status {
+                    $crate::export::me::completed_integrator_step::<M, fmi3Boolean>(
+                        c, "fmi3CompletedIntegratorStep", event, terminate,
                     )
+                }
+                fn fmi3SetTime(c: I, t: f64) -> fmi3Status {
+                    $crate::export::me::set_time::<M>(c, "fmi3SetTime", t)
+                }
+                fn fmi3SetContinuousStates(c: I, x: *const f64, n: usize) -> fmi3Status {
+                    $crate::export::me::set_continuous_states::<M>(c, "fmi3SetContinuousStates", x, n)
+                }
+                fn fmi3GetContinuousStateDerivatives(c: I, x: *mut f64, n: usize) -> fmi3Status {
+                    let which = $crate::export::me::Which::Derivatives;
+                    $crate::export::me::get_reals::<M>(c, "fmi3GetContinuousStateDerivatives", which, x, n)
+                }
+                fn fmi3GetEventIndicators(c: I, z: *mut f64, n: usize) -> fmi3Status {
+                    $crate::export::me::event_indicators::<M>(c, "fmi3GetEventIndicators", z, n)
+                }
+                fn fmi3GetContinuousStates(c: I, x: *mut f64, n: usize) -> fmi3Status {
+                    let which = $crate::export::me::Which::States;
+                    $crate::export::me::get_reals::<M>(c, "fmi3GetContinuousStates", which, x, n)
+                }
+                fn fmi3GetNominalsOfContinuousStates(c: I, x: *mut f64, n: usize) -> fmi3Status {
+                    $crate::export::me::nominals::<M>(c, "fmi3GetNominalsOfContinuousStates", x, n)
+                }
+                fn fmi3GetNumberOfEventIndicators(c: I, n: *mut usize) -> fmi3Status {
+                    $crate::export::me::number_of_event_indicators::<M>(c, "fmi3GetNumberOfEventIndicators", n)
+                }
+                fn fmi3GetNumberOfContinuousStates(c: I, n: *mut usize) -> fmi3Status {
+                    $crate::export::me::number_of_states::<M>(c, "fmi3GetNumberOfContinuousStates", n)
                 }
             }
             #[unsafe(no_mangle)]
@@ -144,214 +244,17 @@ macro_rules! export_fmu3 {
             ) -> I {
                 e3::instantiate_other("fmi3InstantiateScheduledExecution", env, log)
             }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3FreeInstance(c: I) {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::free_instance::<M>(c) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3EnterInitializationMode(
-                c: I, tol_defined: fmi3Boolean, tol: f64, start: f64, stop_defined: fmi3Boolean, stop: f64,
-            ) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::enter_initialization_mode::<M>(c, tol_defined, tol, start, stop_defined, stop) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3ExitInitializationMode(c: I) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::exit_initialization_mode_as::<M>("fmi3ExitInitializationMode", c) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3Terminate(c: I) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::terminate_as::<M>("fmi3Terminate", c) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3Reset(c: I) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::reset_as::<M>("fmi3Reset", c) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetFloat64(c: I, vr: VR, n: usize, v: *mut f64, nv: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::get_float64::<M>(c, vr, n, v, nv) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetInt32(c: I, vr: VR, n: usize, v: *mut i32, nv: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::get_int32::<M>(c, vr, n, v, nv) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetBoolean(c: I, vr: VR, n: usize, v: *mut fmi3Boolean, nv: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::get_boolean::<M>(c, vr, n, v, nv) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetString(c: I, vr: VR, n: usize, v: *mut fmi3String, nv: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::get_string::<M>(c, vr, n, v, nv) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SetFloat64(c: I, vr: VR, n: usize, v: *const f64, nv: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::set_float64::<M>(c, vr, n, v, nv) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SetInt32(c: I, vr: VR, n: usize, v: *const i32, nv: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::set_int32::<M>(c, vr, n, v, nv) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SetBoolean(c: I, vr: VR, n: usize, v: *const fmi3Boolean, nv: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::set_boolean::<M>(c, vr, n, v, nv) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SetString(c: I, vr: VR, n: usize, v: *const fmi3String, nv: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::set_string::<M>(c, vr, n, v, nv) }
+            $crate::fmi3_values! {
+                fmi3GetFloat64(*mut f64) => get_float64, fmi3GetInt32(*mut i32) => get_int32,
+                fmi3GetBoolean(*mut fmi3Boolean) => get_boolean, fmi3GetString(*mut fmi3String) => get_string,
+                fmi3SetFloat64(*const f64) => set_float64, fmi3SetInt32(*const i32) => set_int32,
+                fmi3SetBoolean(*const fmi3Boolean) => set_boolean, fmi3SetString(*const fmi3String) => set_string,
             }
             $crate::fmi3_no_variables! {
                 fmi3GetFloat32(*mut f32), fmi3GetInt8(*mut i8), fmi3GetUInt8(*mut u8), fmi3GetInt16(*mut i16),
                 fmi3GetUInt16(*mut u16), fmi3GetUInt32(*mut u32), fmi3GetInt64(*mut i64), fmi3GetUInt64(*mut u64),
                 fmi3SetFloat32(*const f32), fmi3SetInt8(*const i8), fmi3SetUInt8(*const u8), fmi3SetInt16(*const i16),
                 fmi3SetUInt16(*const u16), fmi3SetUInt32(*const u32), fmi3SetInt64(*const i64), fmi3SetUInt64(*const u64),
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetBinary(c: I, vr: VR, n: usize, _sizes: *mut usize, _v: *mut *const u8, _nv: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::no_variables::<M>(c, "fmi3GetBinary", vr, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SetBinary(c: I, vr: VR, n: usize, _sizes: *const usize, _v: *const *const u8, _nv: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::no_variables::<M>(c, "fmi3SetBinary", vr, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetClock(c: I, vr: VR, n: usize, _v: *mut fmi3Boolean) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::no_variables::<M>(c, "fmi3GetClock", vr, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SetClock(c: I, vr: VR, n: usize, _v: *const fmi3Boolean) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::no_variables::<M>(c, "fmi3SetClock", vr, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetFMUState(c: I, s: *mut fmi3FMUState) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::get_fmu_state_as::<M>("fmi3GetFMUState", c, s) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SetFMUState(c: I, s: fmi3FMUState) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::set_fmu_state_as::<M>("fmi3SetFMUState", c, s) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3FreeFMUState(c: I, s: *mut fmi3FMUState) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::free_fmu_state_as::<M>("fmi3FreeFMUState", c, s) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SerializedFMUStateSize(c: I, s: fmi3FMUState, size: *mut usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::serialized_fmu_state_size_as::<M>("fmi3SerializedFMUStateSize", c, s, size) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SerializeFMUState(c: I, s: fmi3FMUState, bytes: *mut fmi3Byte, size: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::serialize_fmu_state_as::<M>("fmi3SerializeFMUState", c, s, bytes.cast(), size) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3DeserializeFMUState(c: I, bytes: *const fmi3Byte, size: usize, s: *mut fmi3FMUState) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e::deserialize_fmu_state_as::<M>("fmi3DeserializeFMUState", c, bytes.cast(), size, s) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
-                c: I, u: VR, nu: usize, k: VR, nk: usize, seed: *const f64, ns: usize, out: *mut f64, no: usize,
-            ) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::derivative::<M>(c, $crate::export::Derivative::Instant, u, nu, k, nk, seed, ns, out, no) }
-            }
-            /// The opt-in extension of this workspace (the step map's derivative, see
-            /// `fmi::export::Derivative::StepMap`) with the signature of
-            /// fmi3GetDirectionalDerivative; exported always, announced in modelDescription.xml
-            /// only when the model provides it.
-            ///
-            /// # Safety
-            /// The importer's obligations are those of fmi3GetDirectionalDerivative.
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn feedsim3GetStepMapDerivative(
-                c: I, u: VR, nu: usize, k: VR, nk: usize, seed: *const f64, ns: usize, out: *mut f64, no: usize,
-            ) -> fmi3Status {
-                // SAFETY: the importer's obligations (see above) are the callee's contract.
-                unsafe { e3::derivative::<M>(c, $crate::export::Derivative::StepMap, u, nu, k, nk, seed, ns, out, no) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3DoStep(
-                c: I, t: f64, h: f64, no_prior: fmi3Boolean, event: *mut fmi3Boolean, terminate: *mut fmi3Boolean,
-                early: *mut fmi3Boolean, last: *mut f64,
-            ) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { e3::do_step::<M>(c, t, h, no_prior, event, terminate, early, last) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3EnterEventMode(c: I) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::enter_event_mode::<M>(c, "fmi3EnterEventMode") }
             }
             /// # Safety
             /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
@@ -376,84 +279,6 @@ macro_rules! export_fmu3 {
                 };
                 // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
                 unsafe { $crate::export::me::update_discrete_states::<M>(c, "fmi3UpdateDiscreteStates", report) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3EnterContinuousTimeMode(c: I) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::enter_continuous_time_mode::<M>(c, "fmi3EnterContinuousTimeMode") }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3CompletedIntegratorStep(
-                c: I, _no_prior: fmi3Boolean, event: *mut fmi3Boolean, terminate: *mut fmi3Boolean,
-            ) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe {
-                    $crate::export::me::completed_integrator_step::<M, fmi3Boolean>(
-                        c, "fmi3CompletedIntegratorStep", event, terminate,
-                    )
-                }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SetTime(c: I, t: f64) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::set_time::<M>(c, "fmi3SetTime", t) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3SetContinuousStates(c: I, x: *const f64, n: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::set_continuous_states::<M>(c, "fmi3SetContinuousStates", x, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetContinuousStateDerivatives(c: I, x: *mut f64, n: usize) -> fmi3Status {
-                let which = $crate::export::me::Which::Derivatives;
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::get_reals::<M>(c, "fmi3GetContinuousStateDerivatives", which, x, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetEventIndicators(c: I, z: *mut f64, n: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::event_indicators::<M>(c, "fmi3GetEventIndicators", z, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetContinuousStates(c: I, x: *mut f64, n: usize) -> fmi3Status {
-                let which = $crate::export::me::Which::States;
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::get_reals::<M>(c, "fmi3GetContinuousStates", which, x, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetNominalsOfContinuousStates(c: I, x: *mut f64, n: usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::nominals::<M>(c, "fmi3GetNominalsOfContinuousStates", x, n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetNumberOfEventIndicators(c: I, n: *mut usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::number_of_event_indicators::<M>(c, "fmi3GetNumberOfEventIndicators", n) }
-            }
-            /// # Safety
-            /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-            #[unsafe(no_mangle)]
-            pub unsafe extern "C" fn fmi3GetNumberOfContinuousStates(c: I, n: *mut usize) -> fmi3Status {
-                // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-                unsafe { $crate::export::me::number_of_states::<M>(c, "fmi3GetNumberOfContinuousStates", n) }
             }
             $crate::fmi3_unsupported! {
                 "this FMU has no event mode in Co-Simulation (hasEventMode = false)" => {
@@ -492,19 +317,31 @@ macro_rules! export_fmu3 {
     };
 }
 
+/// Inside [`export_fmu3!`]: `fmi3Get`/`fmi3Set` of the types the FMU has variables of, each
+/// forwarded to the layer's function of its type.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! fmi3_values {
+    ($($name:ident($values:ty) => $f:ident),* $(,)?) => {
+        $crate::exports! { "3.0", "fmi::export_fmu3!"; $(
+            fn $name(c: I, vr: VR, n: usize, v: $values, nv: usize) -> fmi3Status {
+                e3::$f::<M>(c, vr, n, v, nv)
+            }
+        )* }
+    };
+}
+
 /// Inside [`export_fmu3!`]: `fmi3Get`/`fmi3Set` of types the FMU has no variables of.
 #[doc(hidden)]
 #[macro_export]
 macro_rules! fmi3_no_variables {
-    ($($name:ident($values:ty)),* $(,)?) => {$(
-        /// # Safety
-        /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-        #[unsafe(no_mangle)]
-        pub unsafe extern "C" fn $name(c: I, vr: VR, n: usize, _v: $values, _nv: usize) -> fmi3Status {
-            // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-            unsafe { e3::no_variables::<M>(c, stringify!($name), vr, n) }
-        }
-    )*};
+    ($($name:ident($values:ty)),* $(,)?) => {
+        $crate::exports! { "3.0", "fmi::export_fmu3!"; $(
+            fn $name(c: I, vr: VR, n: usize, _v: $values, _nv: usize) -> fmi3Status {
+                e3::no_variables::<M>(c, stringify!($name), vr, n)
+            }
+        )* }
+    };
 }
 
 /// Inside [`export_fmu3!`]: functions of interface types and capabilities the FMU does not
@@ -512,13 +349,11 @@ macro_rules! fmi3_no_variables {
 #[doc(hidden)]
 #[macro_export]
 macro_rules! fmi3_unsupported {
-    ($($why:literal => { $($name:ident($($arg:ident: $ty:ty),* $(,)?)),* $(,)? })*) => {$($(
-        /// # Safety
-        /// The importer's obligations under FMI 3.0 (see [`fmi::export_fmu3!`]).
-        #[unsafe(no_mangle)]
-        pub unsafe extern "C" fn $name(c: I, $($arg: $ty),*) -> fmi3Status {
-            // SAFETY: the importer's FMI 3.0 obligations (see the macro) are the callee's contract.
-            unsafe { e3::unsupported::<M>(c, stringify!($name), $why) }
-        }
-    )*)*};
+    ($($why:literal => { $($name:ident($($arg:ident: $ty:ty),* $(,)?)),* $(,)? })*) => {
+        $crate::exports! { "3.0", "fmi::export_fmu3!"; $($(
+            fn $name(c: I, $($arg: $ty),*) -> fmi3Status {
+                e3::unsupported::<M>(c, stringify!($name), $why)
+            }
+        )*)* }
+    };
 }

@@ -11,9 +11,7 @@ use crate::description::{
     Causality, CoSimulationFlags, ContinuousState, Initial, ModelDescription, ModelExchange, Value, VarType,
     Variability, Variable,
 };
-use crate::xml::read::{
-    ReadError, at, attr, boolean, fail, parse_default_experiment, parse_document, parse_units, real, required,
-};
+use crate::xml::read::{ReadError, at, attr, boolean, fail, flag, parse_document, read_common, real, required};
 use crate::xml::write::{bool_attr, default_experiment, escape, log_categories, units};
 use crate::xml::{STEP_MAP_ANNOTATION, VENDOR_TOOL};
 
@@ -201,23 +199,10 @@ pub fn parse_model_description3(text: &str) -> Result<Description3, ReadError> {
 
 /// Reads an FMI 3.0 description from its parsed document.
 pub(crate) fn read_model_description3(doc: &Document<'_>) -> Result<Description3, ReadError> {
-    let root = doc.root_element();
-    if root.tag_name().name() != "fmiModelDescription" {
-        return fail(format!("root element is <{}>, expected <fmiModelDescription>", root.tag_name().name()));
-    }
-    let fmi_version = root.attribute("fmiVersion").unwrap_or("").to_owned();
-    if !fmi_version.starts_with("3.") {
-        return fail(format!("fmiVersion is `{fmi_version}`, expected 3.x"));
-    }
-    let model_name = required(root, "modelName")?;
-    let guid = required(root, "instantiationToken")?;
-    let child = |name: &str| root.children().find(|c| c.has_tag_name(name));
-    let (cs_node, me_node) = (child("CoSimulation"), child("ModelExchange"));
-    let Some(cs) = cs_node.or(me_node) else {
-        return fail("neither <CoSimulation> nor <ModelExchange>: the FMU offers no interface".into());
+    let version = |v: &str| match v.starts_with("3.") {
+        true => Ok(()),
+        false => Err(format!("fmiVersion is `{v}`, expected 3.x")),
     };
-    let model_identifier = required(cs, "modelIdentifier")?;
-    let flag = |name: &str| attr(cs, name, "a boolean", boolean).map(|b| b.unwrap_or(false));
     let annotated = |n: Node| {
         n.children().filter(|a| a.has_tag_name("Annotations")).flat_map(|a| a.children()).any(|a| {
             a.has_tag_name("Annotation")
@@ -225,28 +210,23 @@ pub(crate) fn read_model_description3(doc: &Document<'_>) -> Result<Description3
                 && a.children().any(|c| c.has_tag_name(STEP_MAP_ANNOTATION))
         })
     };
-    let flags = if cs_node.is_none() {
-        CoSimulationFlags::default()
-    } else {
-        CoSimulationFlags {
-            needs_execution_tool: flag("needsExecutionTool")?,
-            can_handle_variable_communication_step_size: flag("canHandleVariableCommunicationStepSize")?,
+    let common = read_common(doc, version, "instantiationToken", |root, cs| {
+        Ok(CoSimulationFlags {
+            needs_execution_tool: flag(cs, "needsExecutionTool")?,
+            can_handle_variable_communication_step_size: flag(cs, "canHandleVariableCommunicationStepSize")?,
             can_interpolate_inputs: false,
             max_output_derivative_order: attr(cs, "maxOutputDerivativeOrder", "an integer", |v| v.parse().ok())?
                 .unwrap_or(0),
             can_run_asynchronuously: false,
-            can_be_instantiated_only_once_per_process: flag("canBeInstantiatedOnlyOncePerProcess")?,
+            can_be_instantiated_only_once_per_process: flag(cs, "canBeInstantiatedOnlyOncePerProcess")?,
             can_not_use_memory_management_functions: true,
-            can_get_and_set_fmu_state: flag("canGetAndSetFMUState")?,
-            can_serialize_fmu_state: flag("canSerializeFMUState")?,
-            provides_directional_derivative: flag("providesDirectionalDerivatives")?,
+            can_get_and_set_fmu_state: flag(cs, "canGetAndSetFMUState")?,
+            can_serialize_fmu_state: flag(cs, "canSerializeFMUState")?,
+            provides_directional_derivative: flag(cs, "providesDirectionalDerivatives")?,
             provides_step_map_derivative: annotated(root) || annotated(cs),
-        }
-    };
-    let (units, default_experiment) = (parse_units(root)?, parse_default_experiment(root)?);
-    let Some(mv) = child("ModelVariables") else {
-        return fail("no <ModelVariables> element".into());
-    };
+        })
+    })?;
+    let mv = common.model_variables;
     let (mut variables, mut elements, mut skipped) = (Vec::new(), Vec::new(), Vec::new());
     // each FMI 3.0 variable's scalars in the view: value reference → (first, count)
     let mut scalars: std::collections::HashMap<u32, (usize, usize)> = std::collections::HashMap::new();
@@ -265,7 +245,7 @@ pub(crate) fn read_model_description3(doc: &Document<'_>) -> Result<Description3
         }
     }
     let (mut states, mut indicators) = (Vec::new(), Vec::new());
-    if let Some(ms) = child("ModelStructure") {
+    if let Some(ms) = common.child("ModelStructure") {
         for u in ms.children().filter(Node::is_element) {
             let initial = match u.tag_name().name() {
                 "Output" => false,
@@ -335,36 +315,20 @@ pub(crate) fn read_model_description3(doc: &Document<'_>) -> Result<Description3
             }
         }
     }
-    let model_exchange = match me_node {
+    let model_exchange = match common.me_node {
         None => None,
-        Some(me) => {
-            let flag = |name: &str| attr(me, name, "a boolean", boolean).map(|b| b.unwrap_or(false));
-            Some(ModelExchange {
-                model_identifier: required(me, "modelIdentifier")?,
-                needs_completed_integrator_step: flag("needsCompletedIntegratorStep")?,
-                can_get_and_set_fmu_state: flag("canGetAndSetFMUState")?,
-                can_serialize_fmu_state: flag("canSerializeFMUState")?,
-                provides_directional_derivative: flag("providesDirectionalDerivatives")?,
-                states,
-                event_indicators: indicators.len(),
-                event_indicator_variables: indicators.iter().map(|&i| i as u32).collect(),
-            })
-        }
+        Some(me) => Some(ModelExchange {
+            model_identifier: required(me, "modelIdentifier")?,
+            needs_completed_integrator_step: flag(me, "needsCompletedIntegratorStep")?,
+            can_get_and_set_fmu_state: flag(me, "canGetAndSetFMUState")?,
+            can_serialize_fmu_state: flag(me, "canSerializeFMUState")?,
+            provides_directional_derivative: flag(me, "providesDirectionalDerivatives")?,
+            states,
+            event_indicators: indicators.len(),
+            event_indicator_variables: indicators.iter().map(|&i| i as u32).collect(),
+        }),
     };
-    let view = ModelDescription {
-        fmi_version,
-        model_name,
-        guid,
-        description: root.attribute("description").unwrap_or("").to_owned(),
-        version: root.attribute("version").unwrap_or("").to_owned(),
-        model_identifier,
-        flags,
-        co_simulation: cs_node.is_some(),
-        model_exchange,
-        units,
-        default_experiment,
-        variables,
-    };
+    let view = common.description(variables, model_exchange);
     Ok(Description3 { view, elements, skipped })
 }
 

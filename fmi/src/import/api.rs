@@ -9,6 +9,14 @@ use super::Interface;
 use crate::ffi::*;
 
 /// A table of functions resolved from a library by name.
+pub(super) trait Table: Sized {
+    /// # Safety
+    /// Each symbol of the table that `lib` exports has the standard's signature, and the
+    /// pointers are used only while `lib` is loaded.
+    unsafe fn resolve(lib: &Library) -> Result<Self, String>;
+}
+
+/// Declares a [`Table`]: each field a function, resolved by the symbol named after it.
 macro_rules! table {
     ($(#[$doc:meta])* $name:ident { $($field:ident: $ty:ty = $sym:literal,)* }) => {
         $(#[$doc])*
@@ -16,11 +24,8 @@ macro_rules! table {
             $(pub(super) $field: $ty,)*
         }
 
-        impl $name {
-            /// # Safety
-            /// Each symbol of the table that `lib` exports has the standard's signature, and
-            /// the pointers are used only while `lib` is loaded.
-            pub(super) unsafe fn resolve(lib: &Library) -> Result<$name, String> {
+        impl super::api::Table for $name {
+            unsafe fn resolve(lib: &Library) -> Result<$name, String> {
                 $(
                     // SAFETY: the caller's promise on the symbol's type and the library's life.
                     let $field = *unsafe { lib.get::<$ty>($sym) }
@@ -46,14 +51,14 @@ table!(
         exit_initialization_mode: fmi2ComponentOnlyTYPE = "fmi2ExitInitializationMode",
         terminate: fmi2ComponentOnlyTYPE = "fmi2Terminate",
         reset: fmi2ComponentOnlyTYPE = "fmi2Reset",
-        get_real: fmi2GetRealTYPE = "fmi2GetReal",
-        get_integer: fmi2GetIntegerTYPE = "fmi2GetInteger",
-        get_boolean: fmi2GetBooleanTYPE = "fmi2GetBoolean",
-        get_string: fmi2GetStringTYPE = "fmi2GetString",
-        set_real: fmi2SetRealTYPE = "fmi2SetReal",
-        set_integer: fmi2SetIntegerTYPE = "fmi2SetInteger",
-        set_boolean: fmi2SetBooleanTYPE = "fmi2SetBoolean",
-        set_string: fmi2SetStringTYPE = "fmi2SetString",
+        get_real: fmi2GetTYPE<fmi2Real> = "fmi2GetReal",
+        get_integer: fmi2GetTYPE<fmi2Integer> = "fmi2GetInteger",
+        get_boolean: fmi2GetTYPE<fmi2Boolean> = "fmi2GetBoolean",
+        get_string: fmi2GetTYPE<fmi2String> = "fmi2GetString",
+        set_real: fmi2SetTYPE<fmi2Real> = "fmi2SetReal",
+        set_integer: fmi2SetTYPE<fmi2Integer> = "fmi2SetInteger",
+        set_boolean: fmi2SetTYPE<fmi2Boolean> = "fmi2SetBoolean",
+        set_string: fmi2SetTYPE<fmi2String> = "fmi2SetString",
         get_fmu_state: fmi2GetFMUstateTYPE = "fmi2GetFMUstate",
         set_fmu_state: fmi2SetFMUstateTYPE = "fmi2SetFMUstate",
         free_fmu_state: fmi2FreeFMUstateTYPE = "fmi2FreeFMUstate",
@@ -97,45 +102,50 @@ table!(
     }
 );
 
-/// The resolved functions. They stay valid while `_lib` is loaded: an `Api` is dropped (and the
-/// library unloaded) only with the last handle to its FMU, which every instance holds.
-pub(super) struct Api {
-    pub(super) common: Common,
+/// The FMI 2.0 functions, and the extension `feedsimGetStepMapDerivative` (with the signature of
+/// `fmi2GetDirectionalDerivative`) if the binary exports it.
+pub(super) type Api = Loaded<Common, Cs, Me, fmi2GetDirectionalDerivativeTYPE>;
+
+/// The resolved functions of a binary, of either version: the tables `C` (common), `Cs`, `Me`
+/// and the extension's function `X`. They stay valid while `_lib` is loaded: a `Loaded` is
+/// dropped (and the library unloaded) only with the last handle to its FMU, which every instance
+/// holds.
+pub(super) struct Loaded<C, Cs, Me, X> {
+    pub(super) common: C,
     /// The interface's own functions: exactly one is `Some`.
     pub(super) cs: Option<Cs>,
     pub(super) me: Option<Me>,
     /// This workspace's extension, if the binary exports it.
-    pub(super) step_map_derivative: Option<fmi2GetDirectionalDerivativeTYPE>,
+    pub(super) step_map_derivative: Option<X>,
     _lib: Library,
 }
 
-impl std::ops::Deref for Api {
-    type Target = Common;
-    fn deref(&self) -> &Common {
+impl<C, Cs, Me, X> std::ops::Deref for Loaded<C, Cs, Me, X> {
+    type Target = C;
+    fn deref(&self) -> &C {
         &self.common
     }
 }
 
-impl Api {
+impl<C: Table, Cs: Table, Me: Table, X: Copy> Loaded<C, Cs, Me, X> {
     /// # Safety
-    /// `path` is an FMI 2.0 binary of the interface for this platform: loading runs its
-    /// initializers, and each symbol must have the standard's signature
-    /// (`feedsimGetStepMapDerivative` that of `fmi2GetDirectionalDerivative`), which nothing in
-    /// the file can prove.
-    pub(super) unsafe fn load(path: &Path, interface: Interface) -> Result<Api, String> {
+    /// `path` is a binary of the tables' FMI version and of the interface for this platform:
+    /// loading runs its initializers, and each symbol must have the standard's signature
+    /// (`extension`, the name of this workspace's extension, that of `X`), which nothing in the
+    /// file can prove.
+    pub(super) unsafe fn load(path: &Path, interface: Interface, extension: &[u8]) -> Result<Self, String> {
         // SAFETY: running the initializers of an FMU binary is what the caller accepts.
         let lib = unsafe { super::host::load(path) }?;
-        // SAFETY: the caller's promise; the tables are kept beside `lib` in the same `Api`.
-        let common = unsafe { Common::resolve(&lib) }?;
+        // SAFETY: the caller's promise; the tables are kept beside `lib` in the same `Loaded`.
+        let common = unsafe { C::resolve(&lib) }?;
         let (cs, me) = match interface {
             // SAFETY: as above.
             Interface::CoSimulation => (Some(unsafe { Cs::resolve(&lib) }?), None),
             // SAFETY: as above.
             Interface::ModelExchange => (None, Some(unsafe { Me::resolve(&lib) }?)),
         };
-        let step_map_derivative =
-            // SAFETY: as above; the extension has the signature of fmi2GetDirectionalDerivative.
-            unsafe { lib.get::<fmi2GetDirectionalDerivativeTYPE>(b"feedsimGetStepMapDerivative") }.ok().map(|f| *f);
-        Ok(Api { common, cs, me, step_map_derivative, _lib: lib })
+        // SAFETY: as above; the caller's promise on the extension's type.
+        let step_map_derivative = unsafe { lib.get::<X>(extension) }.ok().map(|f| *f);
+        Ok(Loaded { common, cs, me, step_map_derivative, _lib: lib })
     }
 }

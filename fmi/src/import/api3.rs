@@ -1,12 +1,9 @@
 //! The functions of an FMI 3.0 binary this importer calls (and this workspace's extension),
 //! resolved by name: those both interfaces share, and those of the interface the FMU is loaded as.
 
-use std::path::Path;
-
 use libloading::Library;
 
-use super::Interface;
-use super::api::table;
+use super::api::{Loaded, table};
 use crate::fmi3::ffi::*;
 
 table!(
@@ -64,45 +61,6 @@ table!(
     }
 );
 
-/// The resolved functions, valid while `_lib` is loaded (an `Api3` is dropped, and the library
-/// unloaded, only with the last handle to its FMU, which every instance holds).
-pub(super) struct Api3 {
-    pub(super) common: Common3,
-    /// The interface's own functions: exactly one is `Some`.
-    pub(super) cs: Option<Cs3>,
-    pub(super) me: Option<Me3>,
-    /// This workspace's extension `feedsim3GetStepMapDerivative`, if the binary exports it.
-    pub(super) step_map_derivative: Option<fmi3GetDirectionalDerivativeTYPE>,
-    _lib: Library,
-}
-
-impl std::ops::Deref for Api3 {
-    type Target = Common3;
-    fn deref(&self) -> &Common3 {
-        &self.common
-    }
-}
-
-impl Api3 {
-    /// # Safety
-    /// `path` is an FMI 3.0 binary of the interface for this platform: loading runs its
-    /// initializers, and each symbol must have the standard's signature
-    /// (`feedsim3GetStepMapDerivative` that of `fmi3GetDirectionalDerivative`), which nothing in
-    /// the file can prove.
-    pub(super) unsafe fn load(path: &Path, interface: Interface) -> Result<Api3, String> {
-        // SAFETY: running the initializers of an FMU binary is what the caller accepts.
-        let lib = unsafe { super::host::load(path) }?;
-        // SAFETY: the caller's promise; the tables are kept beside `lib` in the same `Api3`.
-        let common = unsafe { Common3::resolve(&lib) }?;
-        let (cs, me) = match interface {
-            // SAFETY: as above.
-            Interface::CoSimulation => (Some(unsafe { Cs3::resolve(&lib) }?), None),
-            // SAFETY: as above.
-            Interface::ModelExchange => (None, Some(unsafe { Me3::resolve(&lib) }?)),
-        };
-        let step_map_derivative =
-            // SAFETY: as above; the extension has the signature of fmi3GetDirectionalDerivative.
-            unsafe { lib.get::<fmi3GetDirectionalDerivativeTYPE>(b"feedsim3GetStepMapDerivative") }.ok().map(|f| *f);
-        Ok(Api3 { common, cs, me, step_map_derivative, _lib: lib })
-    }
-}
+/// The FMI 3.0 functions, and the extension `feedsim3GetStepMapDerivative` (with the signature
+/// of `fmi3GetDirectionalDerivative`) if the binary exports it.
+pub(super) type Api3 = Loaded<Common3, Cs3, Me3, fmi3GetDirectionalDerivativeTYPE>;

@@ -180,10 +180,7 @@ impl Instance {
         if self.v3.is_some() {
             return self.get_real3(vrs, out);
         }
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
-        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
-        let s = unsafe { (self.api().get_real)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
-        self.check("fmi2GetReal", s)
+        self.get2(self.api().get_real, "fmi2GetReal", vrs, out)
     }
 
     pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Result<(), Error> {
@@ -191,10 +188,7 @@ impl Instance {
         if self.v3.is_some() {
             return self.get_integer3(vrs, out);
         }
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
-        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
-        let s = unsafe { (self.api().get_integer)(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
-        self.check("fmi2GetInteger", s)
+        self.get2(self.api().get_integer, "fmi2GetInteger", vrs, out)
     }
 
     pub fn get_boolean(&mut self, vrs: &[u32], out: &mut [bool]) -> Result<(), Error> {
@@ -203,10 +197,7 @@ impl Instance {
             return self.get_boolean3(vrs, out);
         }
         let mut raw = vec![0 as fmi2Boolean; vrs.len()];
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
-        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
-        let s = unsafe { (self.api().get_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) };
-        self.check("fmi2GetBoolean", s)?;
+        self.get2(self.api().get_boolean, "fmi2GetBoolean", vrs, &mut raw)?;
         for (o, r) in out.iter_mut().zip(raw) {
             *o = r != fmi2False;
         }
@@ -218,10 +209,7 @@ impl Instance {
             return self.get_string3(vrs);
         }
         let mut raw = vec![std::ptr::null::<c_char>(); vrs.len()];
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
-        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
-        let s = unsafe { (self.api().get_string)(self.component, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) };
-        self.check("fmi2GetString", s)?;
+        self.get2(self.api().get_string, "fmi2GetString", vrs, &mut raw)?;
         // Copy at once: the FMU's strings are valid only until its next call.
         let copy = |p: fmi2String| {
             // SAFETY: fmi2GetString succeeded, so each non-null pointer is a NUL-terminated string
@@ -236,10 +224,7 @@ impl Instance {
         if self.v3.is_some() {
             return self.set_real3(vrs, values);
         }
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
-        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
-        let s = unsafe { (self.api().set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
-        self.check("fmi2SetReal", s)
+        self.set2(self.api().set_real, "fmi2SetReal", vrs, values)
     }
 
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<(), Error> {
@@ -247,10 +232,7 @@ impl Instance {
         if self.v3.is_some() {
             return self.set_integer3(vrs, values);
         }
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
-        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
-        let s = unsafe { (self.api().set_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
-        self.check("fmi2SetInteger", s)
+        self.set2(self.api().set_integer, "fmi2SetInteger", vrs, values)
     }
 
     pub fn set_boolean(&mut self, vrs: &[u32], values: &[bool]) -> Result<(), Error> {
@@ -259,10 +241,7 @@ impl Instance {
             return self.set_boolean3(vrs, values);
         }
         let raw: Vec<fmi2Boolean> = values.iter().map(|&b| c_int::from(b)).collect();
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
-        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
-        let s = unsafe { (self.api().set_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw.as_ptr()) };
-        self.check("fmi2SetBoolean", s)
+        self.set2(self.api().set_boolean, "fmi2SetBoolean", vrs, &raw)
     }
 
     pub fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Result<(), Error> {
@@ -275,10 +254,24 @@ impl Instance {
             .map(|v| CString::new(*v).map_err(|_| Error::Usage(format!("string `{v}` contains a NUL byte"))))
             .collect::<Result<_, _>>()?;
         let ptrs: Vec<fmi2String> = owned.iter().map(|c| c.as_ptr()).collect();
-        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the arrays hold
-        // `vrs.len()` elements (checked, or built from `vrs`) and outlive the call.
-        let s = unsafe { (self.api().set_string)(self.component, vrs.as_ptr(), vrs.len(), ptrs.as_ptr()) };
-        self.check("fmi2SetString", s)
+        self.set2(self.api().set_string, "fmi2SetString", vrs, &ptrs)
+    }
+
+    /// An `fmi2Get*` function of C type `T`: the values of `vrs` into `out`.
+    fn get2<T>(&self, f: fmi2GetTYPE<T>, function: &'static str, vrs: &[u32], out: &mut [T]) -> Result<(), Error> {
+        assert_eq!(vrs.len(), out.len(), "one value per value reference");
+        // SAFETY: a live component and its loaded function (the invariants of `Instance`); the
+        // arrays hold `vrs.len()` elements (asserted) and outlive the call.
+        let s = unsafe { f(self.component, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
+        self.check(function, s)
+    }
+
+    /// An `fmi2Set*` function of C type `T`: `vrs` set to `values`.
+    fn set2<T>(&self, f: fmi2SetTYPE<T>, function: &'static str, vrs: &[u32], values: &[T]) -> Result<(), Error> {
+        assert_eq!(vrs.len(), values.len(), "one value per value reference");
+        // SAFETY: as in `get2`.
+        let s = unsafe { f(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        self.check(function, s)
     }
 
     /// `fmi2DoStep(t, h, noSetFMUStatePriorToCurrentPoint = false)`.
@@ -453,7 +446,8 @@ impl Instance {
         if self.v3.is_some() {
             same_len("directional_derivative", knowns.len(), seed.len())?;
             same_len("directional_derivative", unknowns.len(), out.len())?;
-            return self.directional_derivative3(unknowns, knowns, seed, out);
+            let f = self.api3().get_directional_derivative;
+            return self.derivative3("fmi3GetDirectionalDerivative", f, unknowns, knowns, seed, out);
         }
         let f = self.api().get_directional_derivative;
         self.derivative("fmi2GetDirectionalDerivative", f, unknowns, knowns, seed, out)
@@ -473,13 +467,16 @@ impl Instance {
         if self.v3.is_some() {
             same_len("step_map_derivative", knowns.len(), seed.len())?;
             same_len("step_map_derivative", unknowns.len(), out.len())?;
-            return self.step_map_derivative3(unknowns, knowns, seed, out);
+            let f = self.api3().step_map_derivative.ok_or_else(|| self.no_step_map_derivative())?;
+            return self.derivative3("feedsim3GetStepMapDerivative", f, unknowns, knowns, seed, out);
         }
-        let f = self.api().step_map_derivative.ok_or_else(|| Error::Capability {
-            fmu: self.fmu.name().to_owned(),
-            capability: Capability::StepMapDerivative,
-        })?;
+        let f = self.api().step_map_derivative.ok_or_else(|| self.no_step_map_derivative())?;
         self.derivative("feedsimGetStepMapDerivative", f, unknowns, knowns, seed, out)
+    }
+
+    /// The error for a binary without the step map's derivative (announced by the description).
+    fn no_step_map_derivative(&self) -> Error {
+        Error::Capability { fmu: self.fmu.name().to_owned(), capability: Capability::StepMapDerivative }
     }
 
     /// Calls a function with the signature of `fmi2GetDirectionalDerivative` (`name` in errors).

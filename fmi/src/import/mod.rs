@@ -386,7 +386,8 @@ impl Fmu {
             // importer accepts when it loads an FMU, code of that FMU with the standard's
             // functions; running its initializers and trusting its signatures is what loading
             // an FMU means.
-            let api = unsafe { Api3::load(&binary, interface) }.map_err(|m| err(&binary, m))?;
+            let api = unsafe { Api3::load(&binary, interface, b"feedsim3GetStepMapDerivative") }
+                .map_err(|m| err(&binary, m))?;
             // SAFETY: a loaded function of the standard's type without arguments.
             let version = text(unsafe { (api.get_version)() });
             if !version.starts_with("3.") {
@@ -396,7 +397,8 @@ impl Fmu {
             Binary::V3(api)
         } else {
             // SAFETY: as above, under the FMI 2.0 contract.
-            let api = unsafe { Api::load(&binary, interface) }.map_err(|m| err(&binary, m))?;
+            let api = unsafe { Api::load(&binary, interface, b"feedsimGetStepMapDerivative") }
+                .map_err(|m| err(&binary, m))?;
             // SAFETY: loaded functions of the standard's types without arguments.
             let (version, platform) = unsafe { (text((api.get_version)()), text((api.get_types_platform)())) };
             if !version.starts_with("2.") {

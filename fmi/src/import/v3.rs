@@ -427,29 +427,4 @@ impl Instance {
         }
         self.check(name, s)
     }
-
-    pub(super) fn directional_derivative3(
-        &mut self,
-        u: &[u32],
-        k: &[u32],
-        seed: &[f64],
-        out: &mut [f64],
-    ) -> Result<(), Error> {
-        let f = self.api3().get_directional_derivative;
-        self.derivative3("fmi3GetDirectionalDerivative", f, u, k, seed, out)
-    }
-
-    pub(super) fn step_map_derivative3(
-        &mut self,
-        u: &[u32],
-        k: &[u32],
-        seed: &[f64],
-        out: &mut [f64],
-    ) -> Result<(), Error> {
-        let f = self.api3().step_map_derivative.ok_or_else(|| Error::Capability {
-            fmu: self.fmu.name().to_owned(),
-            capability: super::Capability::StepMapDerivative,
-        })?;
-        self.derivative3("feedsim3GetStepMapDerivative", f, u, k, seed, out)
-    }
 }

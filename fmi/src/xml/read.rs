@@ -72,58 +72,122 @@ pub(crate) fn parse_document(text: &str) -> Result<Document<'_>, ReadError> {
     Document::parse(text).map_err(|e| ReadError { message: format!("not well-formed XML: {e}") })
 }
 
-/// Reads an FMI 2.0 description from its parsed document.
-pub(crate) fn read_model_description(doc: &Document<'_>) -> Result<ModelDescription, ReadError> {
+/// What FMI 2.0 and 3.0 descriptions hold alike, read in the same order: the root element and its
+/// attributes, the interfaces (the Co-Simulation flags read by the version's `flags`), units, the
+/// default experiment and where `<ModelVariables>` is.
+pub(crate) struct Common<'a, 'input> {
+    pub(crate) root: Node<'a, 'input>,
+    pub(crate) me_node: Option<Node<'a, 'input>>,
+    pub(crate) model_variables: Node<'a, 'input>,
+    /// Without variables and Model Exchange part.
+    description: ModelDescription,
+}
+
+/// Reads the [`Common`] part of a description: `version` refuses an `fmiVersion` of another
+/// version (with the message why), `guid` names the GUID's attribute, `flags` reads the
+/// Co-Simulation flags from the root and `<CoSimulation>` (if the FMU offers it).
+pub(crate) fn read_common<'a, 'input>(
+    doc: &'a Document<'input>,
+    version: impl Fn(&str) -> Result<(), String>,
+    guid: &str,
+    flags: impl FnOnce(Node, Node) -> Result<CoSimulationFlags, ReadError>,
+) -> Result<Common<'a, 'input>, ReadError> {
     let root = doc.root_element();
     if root.tag_name().name() != "fmiModelDescription" {
         return fail(format!("root element is <{}>, expected <fmiModelDescription>", root.tag_name().name()));
     }
     let fmi_version = root.attribute("fmiVersion").unwrap_or("").to_owned();
-    if !(fmi_version == "2.0" || fmi_version.starts_with("2.0.")) {
-        return fail(format!("fmiVersion is `{fmi_version}`; only FMI 2.0 is supported"));
-    }
+    version(&fmi_version).map_err(|message| ReadError { message })?;
     let model_name = required(root, "modelName")?;
-    let guid = required(root, "guid")?;
+    let guid = required(root, guid)?;
     let child = |name: &str| root.children().find(|c| c.has_tag_name(name));
-    let me_node = child("ModelExchange");
-    let cs_node = child("CoSimulation");
+    let (cs_node, me_node) = (child("CoSimulation"), child("ModelExchange"));
     let Some(interface) = cs_node.or(me_node) else {
         return fail("neither <CoSimulation> nor <ModelExchange>: the FMU offers no interface".into());
     };
-    let cs = interface;
-    let model_identifier = required(cs, "modelIdentifier")?;
-    let flag = |name: &str| attr(cs, name, "a boolean", boolean).map(|b| b.unwrap_or(false));
-    let flags = if cs_node.is_none() {
-        CoSimulationFlags::default()
-    } else {
-        CoSimulationFlags {
-            needs_execution_tool: flag("needsExecutionTool")?,
-            can_handle_variable_communication_step_size: flag("canHandleVariableCommunicationStepSize")?,
-            can_interpolate_inputs: flag("canInterpolateInputs")?,
-            max_output_derivative_order: attr(cs, "maxOutputDerivativeOrder", "an integer", |v| v.parse().ok())?
-                .unwrap_or(0),
-            can_run_asynchronuously: flag("canRunAsynchronuously")?,
-            can_be_instantiated_only_once_per_process: flag("canBeInstantiatedOnlyOncePerProcess")?,
-            can_not_use_memory_management_functions: flag("canNotUseMemoryManagementFunctions")?,
-            can_get_and_set_fmu_state: flag("canGetAndSetFMUstate")?,
-            can_serialize_fmu_state: flag("canSerializeFMUstate")?,
-            provides_directional_derivative: flag("providesDirectionalDerivative")?,
-            provides_step_map_derivative: child("VendorAnnotations").is_some_and(|va| {
-                va.children()
-                    .filter(|t| t.has_tag_name("Tool") && t.attribute("name") == Some(VENDOR_TOOL))
-                    .any(|t| t.children().any(|c| c.has_tag_name(STEP_MAP_ANNOTATION)))
-            }),
-        }
+    let model_identifier = required(interface, "modelIdentifier")?;
+    let flags = match cs_node {
+        None => CoSimulationFlags::default(),
+        Some(cs) => flags(root, cs)?,
     };
     let (units, default_experiment) = (parse_units(root)?, parse_default_experiment(root)?);
-    let Some(mv) = child("ModelVariables") else {
+    let Some(model_variables) = child("ModelVariables") else {
         return fail("no <ModelVariables> element".into());
     };
+    let description = ModelDescription {
+        fmi_version,
+        model_name,
+        guid,
+        description: root.attribute("description").unwrap_or("").to_owned(),
+        version: root.attribute("version").unwrap_or("").to_owned(),
+        model_identifier,
+        flags,
+        co_simulation: cs_node.is_some(),
+        model_exchange: None,
+        units,
+        default_experiment,
+        variables: Vec::new(),
+    };
+    Ok(Common { root, me_node, model_variables, description })
+}
+
+impl<'a, 'input> Common<'a, 'input> {
+    /// The root's child element of this name.
+    pub(crate) fn child(&self, name: &str) -> Option<Node<'a, 'input>> {
+        self.root.children().find(|c| c.has_tag_name(name))
+    }
+
+    /// The description: these parts, and the variables and Model Exchange part the version read.
+    pub(crate) fn description(
+        self,
+        variables: Vec<Variable>,
+        model_exchange: Option<ModelExchange>,
+    ) -> ModelDescription {
+        ModelDescription { variables, model_exchange, ..self.description }
+    }
+}
+
+/// A boolean attribute, false where absent.
+pub(crate) fn flag(n: Node, name: &str) -> Result<bool, ReadError> {
+    attr(n, name, "a boolean", boolean).map(|b| b.unwrap_or(false))
+}
+
+/// Reads an FMI 2.0 description from its parsed document.
+pub(crate) fn read_model_description(doc: &Document<'_>) -> Result<ModelDescription, ReadError> {
+    let version = |v: &str| match v == "2.0" || v.starts_with("2.0.") {
+        true => Ok(()),
+        false => Err(format!("fmiVersion is `{v}`; only FMI 2.0 is supported")),
+    };
+    let common = read_common(doc, version, "guid", |root, cs| {
+        let annotated = |va: Node| {
+            va.children()
+                .filter(|t| t.has_tag_name("Tool") && t.attribute("name") == Some(VENDOR_TOOL))
+                .any(|t| t.children().any(|c| c.has_tag_name(STEP_MAP_ANNOTATION)))
+        };
+        Ok(CoSimulationFlags {
+            needs_execution_tool: flag(cs, "needsExecutionTool")?,
+            can_handle_variable_communication_step_size: flag(cs, "canHandleVariableCommunicationStepSize")?,
+            can_interpolate_inputs: flag(cs, "canInterpolateInputs")?,
+            max_output_derivative_order: attr(cs, "maxOutputDerivativeOrder", "an integer", |v| v.parse().ok())?
+                .unwrap_or(0),
+            can_run_asynchronuously: flag(cs, "canRunAsynchronuously")?,
+            can_be_instantiated_only_once_per_process: flag(cs, "canBeInstantiatedOnlyOncePerProcess")?,
+            can_not_use_memory_management_functions: flag(cs, "canNotUseMemoryManagementFunctions")?,
+            can_get_and_set_fmu_state: flag(cs, "canGetAndSetFMUstate")?,
+            can_serialize_fmu_state: flag(cs, "canSerializeFMUstate")?,
+            provides_directional_derivative: flag(cs, "providesDirectionalDerivative")?,
+            provides_step_map_derivative: root
+                .children()
+                .find(|c| c.has_tag_name("VendorAnnotations"))
+                .is_some_and(annotated),
+        })
+    })?;
+    let (root, mv) = (common.root, common.model_variables);
     let mut variables = Vec::new();
     for sv in mv.children().filter(|c| c.has_tag_name("ScalarVariable")) {
         variables.push(parse_variable(sv)?);
     }
-    if let Some(ms) = child("ModelStructure") {
+    if let Some(ms) = common.child("ModelStructure") {
         for (list, initial) in [("Outputs", false), ("InitialUnknowns", true)] {
             for u in ms.children().filter(|c| c.has_tag_name(list)).flat_map(|l| l.children()) {
                 if !u.has_tag_name("Unknown") {
@@ -143,31 +207,17 @@ pub(crate) fn read_model_description(doc: &Document<'_>) -> Result<ModelDescript
             }
         }
     }
-    let model_exchange = match me_node {
+    let model_exchange = match common.me_node {
         None => None,
         Some(me) => Some(read_model_exchange(root, me, &variables)?),
     };
-    Ok(ModelDescription {
-        fmi_version,
-        model_name,
-        guid,
-        description: root.attribute("description").unwrap_or("").to_owned(),
-        version: root.attribute("version").unwrap_or("").to_owned(),
-        model_identifier,
-        flags,
-        co_simulation: cs_node.is_some(),
-        model_exchange,
-        units,
-        default_experiment,
-        variables,
-    })
+    Ok(common.description(variables, model_exchange))
 }
 
 /// `<ModelExchange>` of an FMI 2.0 description: its capabilities, the number of event
 /// indicators, and the continuous states — the variables whose derivatives `<Derivatives>`
 /// lists (each derivative's `derivative` attribute: the 1-based index of its state).
 fn read_model_exchange(root: Node, me: Node, variables: &[Variable]) -> Result<ModelExchange, ReadError> {
-    let flag = |name: &str| attr(me, name, "a boolean", boolean).map(|b| b.unwrap_or(false));
     let event_indicators =
         attr(root, "numberOfEventIndicators", "an unsigned integer", |v| v.parse::<usize>().ok())?.unwrap_or(0);
     if event_indicators > crate::fmi3::xml::MAX_VIEW_SCALARS {
@@ -201,10 +251,10 @@ fn read_model_exchange(root: Node, me: Node, variables: &[Variable]) -> Result<M
     }
     Ok(ModelExchange {
         model_identifier: required(me, "modelIdentifier")?,
-        needs_completed_integrator_step: !flag("completedIntegratorStepNotNeeded")?,
-        can_get_and_set_fmu_state: flag("canGetAndSetFMUstate")?,
-        can_serialize_fmu_state: flag("canSerializeFMUstate")?,
-        provides_directional_derivative: flag("providesDirectionalDerivative")?,
+        needs_completed_integrator_step: !flag(me, "completedIntegratorStepNotNeeded")?,
+        can_get_and_set_fmu_state: flag(me, "canGetAndSetFMUstate")?,
+        can_serialize_fmu_state: flag(me, "canSerializeFMUstate")?,
+        provides_directional_derivative: flag(me, "providesDirectionalDerivative")?,
         states,
         event_indicators,
         event_indicator_variables: Vec::new(),

@@ -118,95 +118,47 @@ fn the_c_functions_refuse_what_fmi3_does_not_allow() {
     // SAFETY: the FMU's own binary; each symbol below has the FMI 3.0 signature it is read as.
     unsafe {
         let lib = libloading::Library::new(&lib_path).unwrap();
-        type Instantiate = unsafe extern "C" fn(
-            fmi3String,
-            fmi3String,
-            fmi3String,
-            fmi3Boolean,
-            fmi3Boolean,
-            fmi3Boolean,
-            fmi3Boolean,
-            *const u32,
-            usize,
-            *mut c_void,
-            fmi3LogMessageCallback,
-            fmi3IntermediateUpdateCallback,
-        ) -> *mut c_void;
-        type Get = unsafe extern "C" fn(*mut c_void, *const u32, usize, *mut f64, usize) -> fmi3Status;
-        type Set = unsafe extern "C" fn(*mut c_void, *const u32, usize, *const f64, usize) -> fmi3Status;
-        type Plain = unsafe extern "C" fn(*mut c_void) -> fmi3Status;
-        type Enter = unsafe extern "C" fn(*mut c_void, fmi3Boolean, f64, f64, fmi3Boolean, f64) -> fmi3Status;
-        type Me = unsafe extern "C" fn(
-            fmi3String,
-            fmi3String,
-            fmi3String,
-            fmi3Boolean,
-            fmi3Boolean,
-            *mut c_void,
-            fmi3LogMessageCallback,
-        ) -> *mut c_void;
-        let instantiate = *lib.get::<Instantiate>(b"fmi3InstantiateCoSimulation").unwrap();
-        let me = *lib.get::<Me>(b"fmi3InstantiateModelExchange").unwrap();
-        let enter = *lib.get::<Enter>(b"fmi3EnterInitializationMode").unwrap();
-        let exit = *lib.get::<Plain>(b"fmi3ExitInitializationMode").unwrap();
-        let get = *lib.get::<Get>(b"fmi3GetFloat64").unwrap();
-        let set = *lib.get::<Set>(b"fmi3SetFloat64").unwrap();
-        let event = *lib.get::<Plain>(b"fmi3EnterEventMode").unwrap();
-        let free = *lib.get::<unsafe extern "C" fn(*mut c_void)>(b"fmi3FreeInstance").unwrap();
+        let instantiate = *lib.get::<fmi3InstantiateCoSimulationTYPE>(b"fmi3InstantiateCoSimulation").unwrap();
+        let me = *lib.get::<fmi3InstantiateModelExchangeTYPE>(b"fmi3InstantiateModelExchange").unwrap();
+        let enter = *lib.get::<fmi3EnterInitializationModeTYPE>(b"fmi3EnterInitializationMode").unwrap();
+        let exit = *lib.get::<fmi3InstanceOnlyTYPE>(b"fmi3ExitInitializationMode").unwrap();
+        let get = *lib.get::<fmi3GetTYPE<f64>>(b"fmi3GetFloat64").unwrap();
+        let set = *lib.get::<fmi3SetTYPE<f64>>(b"fmi3SetFloat64").unwrap();
+        let event = *lib.get::<fmi3InstanceOnlyTYPE>(b"fmi3EnterEventMode").unwrap();
+        let free = *lib.get::<fmi3FreeInstanceTYPE>(b"fmi3FreeInstance").unwrap();
         let token = CString::new(f.description().guid.as_str()).unwrap();
         let resources = CString::new(format!("{}/", f.root().join("resources").display())).unwrap();
         let null = std::ptr::null_mut();
 
         let c = c"m";
-        assert!(me(c.as_ptr(), token.as_ptr(), resources.as_ptr(), 0, 0, null, Some(keep)).is_null());
-        assert!(last_message().contains("Co-Simulation only"), "{}", last_message());
-        let wrong = c"{not-this-one}";
-        let inst = instantiate(
-            c.as_ptr(),
-            wrong.as_ptr(),
-            resources.as_ptr(),
-            0,
-            0,
-            0,
-            0,
-            std::ptr::null(),
-            0,
-            null,
-            Some(keep),
-            None,
-        );
-        assert!(inst.is_null() && last_message().contains("instantiationToken `{not-this-one}`"), "{}", last_message());
-        let inst = instantiate(
-            c.as_ptr(),
-            token.as_ptr(),
-            resources.as_ptr(),
-            0,
-            0,
-            1,
-            0,
-            std::ptr::null(),
-            0,
-            null,
-            Some(keep),
-            None,
-        );
-        assert!(inst.is_null() && last_message().contains("eventModeUsed"), "{}", last_message());
-
-        let fresh = || {
-            let i = instantiate(
+        // instance `m` of these resources, logging to `keep`: of the token, eventModeUsed and
+        // earlyReturnAllowed given
+        let instantiate = |token: &CStr, event_mode_used, early_return_allowed| {
+            instantiate(
                 c.as_ptr(),
                 token.as_ptr(),
                 resources.as_ptr(),
                 0,
                 0,
-                0,
-                1,
+                event_mode_used,
+                early_return_allowed,
                 std::ptr::null(),
                 0,
                 null,
                 Some(keep),
                 None,
-            );
+            )
+        };
+        assert!(me(c.as_ptr(), token.as_ptr(), resources.as_ptr(), 0, 0, null, Some(keep)).is_null());
+        assert!(last_message().contains("Co-Simulation only"), "{}", last_message());
+        let wrong = c"{not-this-one}";
+        let inst = instantiate(wrong, 0, 0);
+        assert!(inst.is_null() && last_message().contains("instantiationToken `{not-this-one}`"), "{}", last_message());
+        let inst = instantiate(&token, 1, 0);
+        assert!(inst.is_null() && last_message().contains("eventModeUsed"), "{}", last_message());
+
+        let fresh = || {
+            let i = instantiate(&token, 0, 1);
             assert!(!i.is_null());
             assert_eq!(enter(i, 0, 0.0, 0.0, 0, 0.0), fmi3OK);
             assert_eq!(exit(i), fmi3OK);

@@ -24,35 +24,18 @@ fn hostile_system(tag: &str, version: u8, misbehaviour: i32, x0: f64) -> PathBuf
     for name in ["hostile_me", "feedthrough"] {
         std::fs::copy(zoo.join(format!("{name}.fmu")), dir.join(format!("{name}.fmu"))).unwrap();
     }
-    let ssd = format!(
-        r#"<?xml version="1.0" encoding="UTF-8"?>
-<ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="hostile">
-  <ssd:System name="hostile">
-    <ssd:Elements>
-      <ssd:Component name="bad" source="hostile_me.fmu">
-        <ssd:ParameterBindings>
-          <ssd:ParameterBinding>
-            <ssd:ParameterValues>
-              <ssv:ParameterSet version="1.0" name="bad">
-                <ssv:Parameters>
-                  <ssv:Parameter name="misbehaviour"><ssv:Integer value="{misbehaviour}"/></ssv:Parameter>
-                  <ssv:Parameter name="x0"><ssv:Real value="{x0}"/></ssv:Parameter>
-                </ssv:Parameters>
-              </ssv:ParameterSet>
-            </ssd:ParameterValues>
-          </ssd:ParameterBinding>
-        </ssd:ParameterBindings>
-      </ssd:Component>
-      <ssd:Component name="f" source="feedthrough.fmu"/>
-    </ssd:Elements>
-    <ssd:Connections>
-      <ssd:Connection startElement="bad" startConnector="x" endElement="f" endConnector="real_continuous_in"/>
-    </ssd:Connections>
-  </ssd:System>
-  <ssd:DefaultExperiment startTime="0" stopTime="2"/>
-</ssd:SystemStructureDescription>
-"#
+    let bindings = common::parameter_bindings(
+        "bad",
+        &[("misbehaviour", "Integer", misbehaviour.to_string()), ("x0", "Real", x0.to_string())],
     );
+    let elements = format!(
+        r#"      <ssd:Component name="bad" source="hostile_me.fmu">
+{bindings}
+      </ssd:Component>
+      <ssd:Component name="f" source="feedthrough.fmu"/>"#
+    );
+    let connections = r#"      <ssd:Connection startElement="bad" startConnector="x" endElement="f" endConnector="real_continuous_in"/>"#;
+    let ssd = common::ssd_text("hostile", &elements, connections, "2");
     let path = dir.join("hostile.ssd");
     std::fs::write(&path, ssd).unwrap();
     path

@@ -7,6 +7,8 @@ use std::sync::OnceLock;
 
 use studies::cosim::{Coupled, FmuSystem, Needs, Options, Scheme, SetupError};
 
+use crate::common;
+
 /// The oscillator FMU, packaged once per test binary.
 fn oscillator() -> &'static Path {
     static FMU: OnceLock<PathBuf> = OnceLock::new();
@@ -22,11 +24,6 @@ fn oscillator() -> &'static Path {
         fmi::package::package_model::<fmi_testmodel::Oscillator>(&dir, &lib).unwrap()
     })
 }
-
-const SSD_HEAD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
-<ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="pair">
-  <ssd:System name="pair">
-    <ssd:Elements>"#;
 
 /// Two oscillators pulling on each other: `a.F = KC · b.x`, `b.F = KC · a.x` (linear
 /// transformations convert the position into a force); b's parameters from an `.ssv` file,
@@ -46,44 +43,35 @@ fn pair_ssd(dir: &Path, extra_connection: &str) -> PathBuf {
 "#,
     )
     .unwrap();
-    let ssd = format!(
-        r#"{SSD_HEAD}
-      <ssd:Component name="a" source="oscillator.fmu">
+    let a = common::parameter_bindings(
+        "a",
+        &[
+            ("x0", "Real", "0.2".into()),
+            ("substeps", "Integer", "3".into()),
+            ("gravity", "Boolean", "false".into()),
+            ("config", "String", "oscillator.txt".into()),
+        ],
+    );
+    let elements = format!(
+        r#"      <ssd:Component name="a" source="oscillator.fmu">
         <ssd:Connectors>
           <ssd:Connector name="F" kind="input"><ssc:Real unit="N"/></ssd:Connector>
           <ssd:Connector name="x" kind="output"><ssc:Real unit="m"/></ssd:Connector>
         </ssd:Connectors>
-        <ssd:ParameterBindings>
-          <ssd:ParameterBinding>
-            <ssd:ParameterValues>
-              <ssv:ParameterSet version="1.0" name="a">
-                <ssv:Parameters>
-                  <ssv:Parameter name="x0"><ssv:Real value="0.2"/></ssv:Parameter>
-                  <ssv:Parameter name="substeps"><ssv:Integer value="3"/></ssv:Parameter>
-                  <ssv:Parameter name="gravity"><ssv:Boolean value="false"/></ssv:Parameter>
-                  <ssv:Parameter name="config"><ssv:String value="oscillator.txt"/></ssv:Parameter>
-                </ssv:Parameters>
-              </ssv:ParameterSet>
-            </ssd:ParameterValues>
-          </ssd:ParameterBinding>
-        </ssd:ParameterBindings>
+{a}
       </ssd:Component>
       <ssd:Component name="b" source="oscillator.fmu">
         <ssd:ParameterBindings>
           <ssd:ParameterBinding source="b.ssv"/>
         </ssd:ParameterBindings>
-      </ssd:Component>
-    </ssd:Elements>
-    <ssd:Connections>
-      <ssd:Connection startElement="b" startConnector="x" endElement="a" endConnector="F"><ssc:LinearTransformation factor="15" offset="0"/></ssd:Connection>
-      <ssd:Connection startElement="a" startConnector="x" endElement="b" endConnector="F"><ssc:LinearTransformation factor="15"/></ssd:Connection>
-      {extra_connection}
-    </ssd:Connections>
-  </ssd:System>
-  <ssd:DefaultExperiment startTime="0" stopTime="2"/>
-</ssd:SystemStructureDescription>
-"#
+      </ssd:Component>"#
     );
+    let connections = format!(
+        r#"      <ssd:Connection startElement="b" startConnector="x" endElement="a" endConnector="F"><ssc:LinearTransformation factor="15" offset="0"/></ssd:Connection>
+      <ssd:Connection startElement="a" startConnector="x" endElement="b" endConnector="F"><ssc:LinearTransformation factor="15"/></ssd:Connection>
+      {extra_connection}"#
+    );
+    let ssd = common::ssd_text("pair", &elements, &connections, "2");
     let path = dir.join("pair.ssd");
     std::fs::write(&path, ssd).unwrap();
     path

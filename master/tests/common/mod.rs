@@ -130,6 +130,51 @@ pub(crate) fn me_system(which: &str, version: u8) -> SystemSpec {
     }
 }
 
+/// The `.ssd` text of SSP 1.0 system `name`: these elements and connections (SSD text, a line
+/// each) and a default experiment from 0 to `stop_time`.
+pub(crate) fn ssd_text(name: &str, elements: &str, connections: &str, stop_time: &str) -> String {
+    format!(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="{name}">
+  <ssd:System name="{name}">
+    <ssd:Elements>
+{elements}
+    </ssd:Elements>
+    <ssd:Connections>
+{connections}
+    </ssd:Connections>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="0" stopTime="{stop_time}"/>
+</ssd:SystemStructureDescription>
+"#
+    )
+}
+
+/// A component's `<ssd:ParameterBindings>` of one inline parameter set `name`: each parameter as
+/// (name, SSV type, value).
+pub(crate) fn parameter_bindings(name: &str, parameters: &[(&str, &str, String)]) -> String {
+    let parameters: Vec<String> = parameters
+        .iter()
+        .map(|(p, t, v)| {
+            format!(r#"                  <ssv:Parameter name="{p}"><ssv:{t} value="{v}"/></ssv:Parameter>"#)
+        })
+        .collect();
+    format!(
+        r#"        <ssd:ParameterBindings>
+          <ssd:ParameterBinding>
+            <ssd:ParameterValues>
+              <ssv:ParameterSet version="1.0" name="{name}">
+                <ssv:Parameters>
+{}
+                </ssv:Parameters>
+              </ssv:ParameterSet>
+            </ssd:ParameterValues>
+          </ssd:ParameterBinding>
+        </ssd:ParameterBindings>"#,
+        parameters.join("\n")
+    )
+}
+
 pub(crate) fn scene_path(name: &str) -> PathBuf {
     PathBuf::from(format!("{}/../scenes/{name}", env!("CARGO_MANIFEST_DIR")))
 }

@@ -15,6 +15,19 @@ pub(crate) fn stewart(name: &str) -> Stewart {
     Stewart::from_scene(&scene(name)).unwrap()
 }
 
+/// Scene `name` with its platform circling at `speed` (m/s), its Stewart platform, and a lively
+/// cabin path about the scene's target pose.
+pub(crate) fn moving(name: &str, speed: f64) -> (ValidScene, Stewart, CabinPath) {
+    let scene = scene(name)
+        .edited(|scene| {
+            scene.motion.speed_m_s = speed;
+        })
+        .unwrap();
+    let st = Stewart::from_scene(&scene).unwrap();
+    let path = CabinPath::lively(scene.target_position(), scene.target_orientation());
+    (scene, st, path)
+}
+
 /// The cabin at the scene's target pose, at rest.
 pub(crate) fn cabin_at_target(scene: &ValidScene) -> CabinMotion {
     CabinMotion::at_rest(scene.target_position(), scene.target_orientation())

@@ -53,6 +53,21 @@ fn with_model_exchange(mut d: ModelDescription, states: &[(u32, u32)], event_ind
     d
 }
 
+/// `out = J · seed`, `J` of the partial derivatives `partial(unknown, known)`.
+fn from_partials(
+    at: fmi::export::Seeds<'_>,
+    out: &mut [f64],
+    partial: impl Fn(u32, u32) -> Result<f64, fmi::export::ModelError>,
+) -> Result<(), fmi::export::ModelError> {
+    for (o, &unknown) in out.iter_mut().zip(at.unknowns) {
+        *o = 0.0;
+        for (&known, &seed) in at.knowns.iter().zip(at.seed) {
+            *o += partial(unknown, known)? * seed;
+        }
+    }
+    Ok(())
+}
+
 /// The message for a derivative with respect to a known the model does not take.
 fn not_a_known(vr: u32, known: &str) -> fmi::export::ModelError {
     format!("derivatives with respect to value reference {vr} are not provided (knowns: {known})").into()

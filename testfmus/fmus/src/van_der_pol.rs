@@ -157,13 +157,7 @@ impl Model for VanDerPolFmu {
     }
 
     fn derivative(&mut self, _kind: Derivative, at: Seeds<'_>, out: &mut [f64]) -> Result<(), ModelError> {
-        for (o, &unknown) in out.iter_mut().zip(at.unknowns) {
-            *o = 0.0;
-            for (&known, &seed) in at.knowns.iter().zip(at.seed) {
-                *o += self.partial(unknown, known)? * seed;
-            }
-        }
-        Ok(())
+        crate::from_partials(at, out, |unknown, known| self.partial(unknown, known))
     }
 
     fn save(&mut self) -> Result<VanDerPolFmu, ModelError> {
