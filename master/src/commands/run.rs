@@ -167,7 +167,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
             feed.summary.events.len(),
             feed.summary.events[0].leg,
             feed.summary.events[0].limit,
-            feed.summary.events[0].time_s
+            instant(feed.summary.events[0].time_s)
         );
     }
     if let Some(u) = utilisation.as_ref().filter(|u| u.iter().any(|&x| x > 1.0)) {
@@ -203,7 +203,7 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         out,
         "peak cabin-centre displacement {:.4} mm at t = {} s; |X| {:.4} mm, |Y| {:.4} mm, |Z| {:.4} mm",
         trace.peak_mm(),
-        trace.summary.peak_time_s,
+        instant(trace.summary.peak_time_s),
         m[0],
         m[1],
         m[2]
@@ -228,13 +228,21 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         writeln!(
             out,
             "feed error: RMS {:.4} mm, peak {:.4} mm at t = {} s; tilt RMS {:.4} mrad, peak {:.4} mrad",
-            f.rms_mm, f.peak_mm, f.peak_time_s, f.tilt_rms_mrad, f.tilt_peak_mrad
+            f.rms_mm,
+            f.peak_mm,
+            instant(f.peak_time_s),
+            f.tilt_rms_mrad,
+            f.tilt_peak_mrad
         )?;
         for e in &f.events {
             writeln!(
                 out,
                 "LIMIT REACHED: leg {} {} at t = {} s: {:.6} (limit {}) — not clipped",
-                e.leg, e.limit, e.time_s, e.value, e.bound
+                e.leg,
+                e.limit,
+                instant(e.time_s),
+                e.value,
+                e.bound
             )?;
         }
     }
@@ -248,4 +256,26 @@ pub(crate) fn run(args: &Args) -> CmdResult {
         writeln!(out, "net for ParaView: {} ({files} files)", index.display())?;
     }
     Ok(())
+}
+
+/// An instant of the run as printed: to the nanosecond, without the noise of the sum of steps
+/// that made it (32.23, not 32.230000000000004).
+pub(crate) fn instant(t: f64) -> String {
+    let fixed = format!("{t:.9}");
+    if fixed.contains('.') { fixed.trim_end_matches('0').trim_end_matches('.').to_owned() } else { fixed }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn instants_print_without_the_sums_noise() {
+        let printed = super::instant;
+        assert_eq!(printed(32.230000000000004), "32.23");
+        assert_eq!(printed(78.25), "78.25");
+        assert_eq!(printed(100.0), "100");
+        assert_eq!(printed(0.0), "0");
+        assert_eq!(printed(0.0025), "0.0025");
+        assert_eq!(printed(1e-10), "0");
+        assert_eq!(printed(f64::NAN), "NaN");
+    }
 }

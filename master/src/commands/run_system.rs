@@ -40,7 +40,7 @@ pub(crate) fn run(args: &Args, file: &Path) -> CmdResult {
         outputs.finish(id, w)?;
     }
     if let Some((t, why)) = &outcome.stopped_early {
-        eprintln!("note: the run ended early at t = {t} s: {why}");
+        eprintln!("note: the run ended early at t = {} s: {why}", super::run::instant(*t));
     }
     let steps = match adaptive {
         Some(a) => format!("the adaptive step (rtol {:e})", a.tolerances.rtol),
