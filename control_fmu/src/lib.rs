@@ -24,7 +24,7 @@ use feedcore::scene::{Scene, SceneError, SensorKind, ValidScene};
 use feedcore::{Quat, Vec3};
 use fmi::description::Causality;
 use fmi::export::{Model, ModelError, StepOutcome};
-use fmi::resources::{FileKind, FileParameter, KeptFile, SavedFile};
+use fmi::resources::{FileKind, FileParameter, KeptState, SavedFile};
 use fmi::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use serde::{Deserialize, Serialize};
 use stewart::{CommandState, Compensation, Stewart};
@@ -45,14 +45,13 @@ pub mod vr {
     const WXYZ: &[&str] = &["w", "x", "y", "z"];
 
     fmi::variable_table! {
-        /// Real inputs, the cabin's true motion.
-        R = Block::input("cabin.r", 3, "m", "position of the cabin centre point, world frame").range(-1e4, 1e4),
-        Q = Block::input("cabin.q", 4, "",
-            "orientation of the cabin, quaternion (w, x, y, z) body to world (normalized)").range(-1.5, 1.5),
-        V = Block::input("cabin.v", 3, "m/s", "velocity of the cabin centre point, world frame").range(-1e3, 1e3),
-        W = Block::input("cabin.w", 3, "rad/s", "angular velocity of the cabin, world frame").range(-1e3, 1e3),
-        A = Block::input("cabin.a", 3, "m/s2", "acceleration of the cabin centre point, world frame").range(-1e5, 1e5),
-        ALPHA = Block::input("cabin.alpha", 3, "rad/s2", "angular acceleration of the cabin, world frame").range(-1e5, 1e5),
+        /// Real inputs, the cabin's true motion (the Stewart FMU's cabin inputs).
+        R = stewart_fmu::cabin::R,
+        Q = stewart_fmu::cabin::Q,
+        V = stewart_fmu::cabin::V,
+        W = stewart_fmu::cabin::W,
+        A = stewart_fmu::cabin::A,
+        ALPHA = stewart_fmu::cabin::ALPHA,
         /// Real outputs: the command, and the controller's estimate of the cabin pose.
         COMMAND_R = Block::output("command.r", 3, "m",
             "commanded displacement of the moving platform's centre from its home position, cabin frame"),
@@ -102,13 +101,6 @@ pub struct SavedControl<'a> {
     #[serde(borrow)]
     scene: SavedFile<'a>,
     data: Data,
-}
-
-/// A state kept in memory, copied into storage the next save reuses.
-#[derive(Default)]
-struct InMemory {
-    scene: KeptFile,
-    data: Option<Data>,
 }
 
 pub struct ControlFmu {
@@ -318,23 +310,11 @@ impl Model for ControlFmu {
     }
 
     fn save_in_memory(&mut self, saved: &mut Option<Box<dyn Any + Send>>) -> Result<bool, ModelError> {
-        if !saved.as_ref().is_some_and(|b| b.is::<InMemory>()) {
-            *saved = Some(Box::new(InMemory::default()));
-        }
-        let Some(kept) = saved.as_mut().and_then(|b| b.downcast_mut::<InMemory>()) else {
-            return Ok(false);
-        };
-        kept.scene.keep(self.scene.saved());
-        match &mut kept.data {
-            Some(data) => data.clone_from(&self.data),
-            empty => *empty = Some(self.data.clone()),
-        }
-        Ok(true)
+        Ok(KeptState::save_into(saved, self.scene.saved(), &self.data))
     }
 
     fn restore_in_memory(&mut self, saved: &(dyn Any + Send)) -> Result<(), ModelError> {
-        let kept = saved.downcast_ref::<InMemory>().ok_or("not a state of the control FMU")?;
-        let data = kept.data.as_ref().ok_or("an empty state of the control FMU")?;
-        self.restore_parts(kept.scene.saved(), data)
+        let (scene, data) = KeptState::<Data>::kept(saved, "the control FMU")?;
+        self.restore_parts(scene, data)
     }
 }

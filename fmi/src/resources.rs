@@ -200,6 +200,40 @@ impl KeptFile {
     }
 }
 
+/// A model's state kept in memory (`save_in_memory`): its file parameter and its own data `D`,
+/// the storage reused from one save to the next.
+pub struct KeptState<D> {
+    file: KeptFile,
+    data: Option<D>,
+}
+
+impl<D: Clone + Send + 'static> KeptState<D> {
+    /// Keeps `file` and `data` in `slot`, reusing what it holds if it holds such a state; true
+    /// once kept.
+    pub fn save_into(slot: &mut Option<Box<dyn std::any::Any + Send>>, file: SavedFile<'_>, data: &D) -> bool {
+        if !slot.as_ref().is_some_and(|b| b.is::<KeptState<D>>()) {
+            *slot = Some(Box::new(KeptState::<D> { file: KeptFile::default(), data: None }));
+        }
+        let Some(kept) = slot.as_mut().and_then(|b| b.downcast_mut::<KeptState<D>>()) else {
+            return false;
+        };
+        kept.file.keep(file);
+        match &mut kept.data {
+            Some(held) => held.clone_from(data),
+            empty => *empty = Some(data.clone()),
+        }
+        true
+    }
+
+    /// The file and the data `save_into` kept in `slot`; `model` names the model in the error
+    /// for a slot that holds another model's state.
+    pub fn kept<'a>(slot: &'a (dyn std::any::Any + Send), model: &str) -> Result<(SavedFile<'a>, &'a D), String> {
+        let kept = slot.downcast_ref::<KeptState<D>>().ok_or_else(|| format!("not a state of {model}"))?;
+        let data = kept.data.as_ref().ok_or_else(|| format!("an empty state of {model}"))?;
+        Ok((kept.file.saved(), data))
+    }
+}
+
 /// A String parameter naming a file, and the file as parsed: a model keeps one per such
 /// parameter, and the name in its saved state.
 pub struct FileParameter<T: 'static, E: 'static> {

@@ -32,7 +32,7 @@ use feedcore::scene::{Scene, SceneError, Start, ValidScene};
 use feedcore::{Quat, Vec3};
 use fmi::description::Causality;
 use fmi::export::{Derivative, Model, ModelError, Seeds, StepOutcome};
-use fmi::resources::{FileKind, FileParameter, KeptFile, SavedFile};
+use fmi::resources::{FileKind, FileParameter, KeptState, SavedFile};
 use fmi::{CoSimulationFlags, ModelDescription, Resource, Variable};
 use nalgebra::Vector6;
 use serde::{Deserialize, Serialize};
@@ -55,6 +55,30 @@ pub const COMMAND_INPUTS: usize = (vr::RADIUS - vr::COMMAND_R) as usize;
 /// Scene files: shipped in `resources/` and compiled in; at most 1 MiB.
 static SCENES: FileKind<ValidScene, SceneError> = FileKind::new(&feedcore::shipped::SCENES, 1 << 20, Scene::from_toml);
 
+/// The cabin's motion as Real inputs, in this order: the Stewart FMU's first inputs and the
+/// control FMU's (the cable FMU's outputs of the same names feed both).
+///
+/// The ranges lie far beyond any cabin on cables (FAST's reflector is 500 m across), so that
+/// only a mistaken or hostile value is refused: positions within 10 km, speeds 1 km/s, 1e5 in
+/// the accelerations' units; quaternion components within ±1.5 (normalized).
+pub mod cabin {
+    use fmi::table::Block;
+
+    pub const R: Block =
+        Block::input("cabin.r", 3, "m", "position of the cabin centre point, world frame").range(-1e4, 1e4);
+    pub const Q: Block =
+        Block::input("cabin.q", 4, "", "orientation of the cabin, quaternion (w, x, y, z) body to world (normalized)")
+            .range(-1.5, 1.5);
+    pub const V: Block =
+        Block::input("cabin.v", 3, "m/s", "velocity of the cabin centre point, world frame").range(-1e3, 1e3);
+    pub const W: Block =
+        Block::input("cabin.w", 3, "rad/s", "angular velocity of the cabin, world frame").range(-1e3, 1e3);
+    pub const A: Block =
+        Block::input("cabin.a", 3, "m/s2", "acceleration of the cabin centre point, world frame").range(-1e5, 1e5);
+    pub const ALPHA: Block =
+        Block::input("cabin.alpha", 3, "rad/s2", "angular acceleration of the cabin, world frame").range(-1e5, 1e5);
+}
+
 /// The variables: value references (separate spaces per type) and, for the Real ones, the table
 /// the description and the names come from.
 pub mod vr {
@@ -63,18 +87,14 @@ pub mod vr {
 
     const WXYZ: &[&str] = &["w", "x", "y", "z"];
 
-    // The inputs' ranges lie far beyond any cabin on cables (FAST's reflector is 500 m across),
-    // so that only a mistaken or hostile value is refused: positions within 10 km, speeds
-    // 1 km/s, 1e5 in the accelerations' units; quaternion components within ±1.5 (normalized).
     fmi::variable_table! {
         /// Real inputs, the cabin's motion.
-        R = Block::input("cabin.r", 3, "m", "position of the cabin centre point, world frame").range(-1e4, 1e4),
-        Q = Block::input("cabin.q", 4, "",
-            "orientation of the cabin, quaternion (w, x, y, z) body to world (normalized)").range(-1.5, 1.5),
-        V = Block::input("cabin.v", 3, "m/s", "velocity of the cabin centre point, world frame").range(-1e3, 1e3),
-        W = Block::input("cabin.w", 3, "rad/s", "angular velocity of the cabin, world frame").range(-1e3, 1e3),
-        A = Block::input("cabin.a", 3, "m/s2", "acceleration of the cabin centre point, world frame").range(-1e5, 1e5),
-        ALPHA = Block::input("cabin.alpha", 3, "rad/s2", "angular acceleration of the cabin, world frame").range(-1e5, 1e5),
+        R = super::cabin::R,
+        Q = super::cabin::Q,
+        V = super::cabin::V,
+        W = super::cabin::W,
+        A = super::cabin::A,
+        ALPHA = super::cabin::ALPHA,
         /// Real outputs: the wrench on the cabin (force, moment), the actuator forces, the
         /// moving platform's position and orientation.
         FORCE = Block::output("wrench.f", 3, "N", "force the platform exerts on the cabin, world frame"),
@@ -206,14 +226,6 @@ pub struct SavedStewart<'a> {
     #[serde(borrow)]
     scene: SavedFile<'a>,
     data: Data,
-}
-
-/// A state kept in memory ([`Model::save_in_memory`]): the same parts, copied into storage that
-/// the next save into the same FMU state reuses, serialized only when an importer asks.
-#[derive(Default)]
-struct InMemory {
-    scene: KeptFile,
-    data: Option<Data>,
 }
 
 /// The scene's static pose at rest, as input values.
@@ -896,23 +908,11 @@ impl Model for StewartFmu {
     }
 
     fn save_in_memory(&mut self, saved: &mut Option<Box<dyn Any + Send>>) -> Result<bool, ModelError> {
-        if !saved.as_ref().is_some_and(|b| b.is::<InMemory>()) {
-            *saved = Some(Box::new(InMemory::default()));
-        }
-        let Some(kept) = saved.as_mut().and_then(|b| b.downcast_mut::<InMemory>()) else {
-            return Ok(false);
-        };
-        kept.scene.keep(self.scene.saved());
-        match &mut kept.data {
-            Some(data) => data.clone_from(&self.data),
-            empty => *empty = Some(self.data.clone()),
-        }
-        Ok(true)
+        Ok(KeptState::save_into(saved, self.scene.saved(), &self.data))
     }
 
     fn restore_in_memory(&mut self, saved: &(dyn Any + Send)) -> Result<(), ModelError> {
-        let kept = saved.downcast_ref::<InMemory>().ok_or("not a state of the Stewart FMU")?;
-        let data = kept.data.as_ref().ok_or("an empty state of the Stewart FMU")?;
-        self.restore_parts(kept.scene.saved(), data)
+        let (scene, data) = KeptState::<Data>::kept(saved, "the Stewart FMU")?;
+        self.restore_parts(scene, data)
     }
 }

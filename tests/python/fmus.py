@@ -103,18 +103,23 @@ STEWART_OUTPUTS = (
 )
 
 
-def STEWART_DRIVE(t):
-    """The cabin at scene C's pose, swaying and turning a little (consistent kinematics)."""
-    a, w = 2e-3, 0.8
-    x = a * np.sin(w * t)
-    th = 1e-3 * np.sin(0.5 * t)  # small rotation about the world x axis
+def swaying_cabin(t, a, w, tilt, rate):
+    """The cabin at scene C's pose (9.8 m above the origin), swaying by `a` (m) at `w` (rad/s) and
+    turning by `tilt` (rad) at `rate` (rad/s) about the world x axis: its 19 inputs (position,
+    quaternion, velocity, angular velocity, acceleration, angular acceleration), consistent
+    kinematics."""
+    x, v, acc = a * np.sin(w * t), a * w * np.cos(w * t), -a * w * w * np.sin(w * t)
+    th = tilt * np.sin(rate * t)
     return np.array(
         [x, 0.5 * x, 9.8 - 0.2 * x, np.cos(th / 2), np.sin(th / 2), 0.0, 0.0,
-         a * w * np.cos(w * t), 0.5 * a * w * np.cos(w * t), -0.2 * a * w * np.cos(w * t),
-         0.5e-3 * np.cos(0.5 * t), 0.0, 0.0,
-         -a * w * w * np.sin(w * t), -0.5 * a * w * w * np.sin(w * t), 0.2 * a * w * w * np.sin(w * t),
-         -0.25e-3 * np.sin(0.5 * t), 0.0, 0.0]
+         v, 0.5 * v, -0.2 * v, tilt * rate * np.cos(rate * t), 0.0, 0.0,
+         acc, 0.5 * acc, -0.2 * acc, -tilt * rate * rate * np.sin(rate * t), 0.0, 0.0]
     )
+
+
+def STEWART_DRIVE(t):
+    """The cabin at scene C's pose, swaying and turning a little."""
+    return swaying_cabin(t, 2e-3, 0.8, 1e-3, 0.5)
 
 
 def _lt50m_case(name, inputs, outputs, drive, fd_delta, start_values=None):

@@ -9,7 +9,7 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
 from conftest import DIST
-from fmus import STEWART_INPUTS
+from fmus import STEWART_INPUTS, swaying_cabin
 from test_fmi3 import Driven, fmi3_file
 
 H = 0.0025  # the plant's step (the scene's)
@@ -20,18 +20,8 @@ PLATFORM = [f"platform.r[{k}]" for k in (1, 2, 3)] + [f"platform.q[{k}]" for k i
 
 
 def cabin(t):
-    """lt50m_C_compensated's cabin at rest (9.8 m above the origin), swaying and turning a
-    little (consistent kinematics)."""
-    a, w = 4e-3, 2.1
-    x = a * np.sin(w * t)
-    th = 2e-3 * np.sin(1.3 * t)
-    return np.array(
-        [x, 0.5 * x, 9.8 - 0.2 * x, np.cos(th / 2), np.sin(th / 2), 0.0, 0.0,
-         a * w * np.cos(w * t), 0.5 * a * w * np.cos(w * t), -0.2 * a * w * np.cos(w * t),
-         1.3e-3 * np.cos(1.3 * t), 0.0, 0.0,
-         -a * w * w * np.sin(w * t), -0.5 * a * w * w * np.sin(w * t), 0.2 * a * w * w * np.sin(w * t),
-         -1.69e-3 * np.sin(1.3 * t), 0.0, 0.0]
-    )
+    """lt50m_C_compensated's cabin at rest, swaying and turning a little."""
+    return swaying_cabin(t, 4e-3, 2.1, 2e-3, 1.3)
 
 
 @pytest.mark.parametrize("version", ["2", "3"])
