@@ -132,15 +132,61 @@ fn main() -> ExitCode {
         // The reader of our output went away (`master statics | head -1`): nothing to report.
         Err(e) if broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
-            for cause in e.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
+            for line in error_lines(&e) {
+                eprintln!("{line}");
             }
             if studies::cancel::requested() { ExitCode::from(crate::interrupt::EXIT_CODE) } else { ExitCode::FAILURE }
         }
     }
 }
 
+/// An error as printed: its message, then each cause the message before it does not already
+/// end with (an error that quotes its cause, `component `x`: <cause>`, is not followed by it
+/// again).
+fn error_lines(e: &anyhow::Error) -> Vec<String> {
+    let mut shown = e.to_string();
+    let mut lines = vec![format!("error: {shown}")];
+    for cause in e.chain().skip(1) {
+        let text = cause.to_string();
+        if !shown.ends_with(&text) {
+            lines.push(format!("  caused by: {text}"));
+            shown = text;
+        }
+    }
+    lines
+}
+
 fn broken_pipe(e: &anyhow::Error) -> bool {
     e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
+}
+
+#[cfg(test)]
+mod tests {
+    /// An error whose message quotes its cause, as `thiserror`'s `{source}` does.
+    #[derive(Debug)]
+    struct Quoting(std::io::Error);
+
+    impl std::fmt::Display for Quoting {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "component `control`: {}", self.0)
+        }
+    }
+
+    impl std::error::Error for Quoting {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
+
+    #[test]
+    fn a_cause_the_message_quotes_is_printed_once() {
+        let io = || std::io::Error::other("undefined symbol: _Py_NoneStruct");
+        let quoted = anyhow::Error::new(Quoting(io())).context("the system");
+        assert_eq!(
+            super::error_lines(&quoted),
+            ["error: the system", "  caused by: component `control`: undefined symbol: _Py_NoneStruct"]
+        );
+        let plain = anyhow::Error::new(io()).context("the system");
+        assert_eq!(super::error_lines(&plain), ["error: the system", "  caused by: undefined symbol: _Py_NoneStruct"]);
+    }
 }

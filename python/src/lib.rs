@@ -61,12 +61,16 @@ fn scene_error(e: InvalidScene) -> PyErr {
     SceneError::new_err(e.to_string())
 }
 
-/// An error with its whole chain of causes, as the command line prints it.
+/// An error with its whole chain of causes, as the command line prints it: a cause the text
+/// already ends with (an error that quotes its cause) is not repeated.
 fn chain(e: &(dyn std::error::Error + 'static)) -> String {
     let mut text = e.to_string();
     let mut source = e.source();
     while let Some(s) = source {
-        text += &format!(": {s}");
+        let cause = s.to_string();
+        if !text.ends_with(&cause) {
+            text += &format!(": {cause}");
+        }
         source = s.source();
     }
     text
