@@ -20,7 +20,7 @@ pub const START_ANNOTATION: &str = "org.feedsim.start";
 /// a component should run as, in the `<ssd:Component>`'s `<ssd:Annotations>`: `<Interface
 /// implementation="ModelExchange"/>` (or `CoSimulation`). Unlike SSP's own `implementation`
 /// attribute, which every importer must obey (and one without Model Exchange must refuse), it
-/// is a preference the tools that do not know it skip: the system still runs in those.
+/// is a preference: a tool that does not know it skips it and runs the system as it would.
 pub const INTERFACE_ANNOTATION: &str = "org.feedsim.interface";
 
 /// The annotation type of a component's communication step, as libcosim (the Open Simulation
